@@ -1,0 +1,101 @@
+"""Leg control: the paper's PD servo and the sinusoidal gaits of Table II.
+
+A *leg-target source* is any object with a method ``leg_targets(t)`` that returns
+three pairs ``(angles, rates, accels)``: the target angle (rad), rate (rad/s) and
+acceleration (rad/s^2) of leg 1 and leg 2 at time t (s). Each item is a float (the
+same for every robot) or an array of shape (N,) (one value a robot). The servo
+uses angles and rates; the kinematic-legs mode uses all three.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .params import _require_finite
+
+
+@dataclass(frozen=True)
+class Gait:
+    """phi_k(t) = amplitude sin(frequency t + phase_k) + offset_k (paper Section III)."""
+
+    amplitude: float = 0.3  # rad
+    frequency: float = 8.0  # rad/s
+    phase: tuple = (0.0, 0.5 * math.pi)  # rad, (leg 1, leg 2)
+    offset: tuple = (0.5 * math.pi, 0.5 * math.pi)  # rad, (leg 1, leg 2)
+    name: str = "gait"
+
+    def __post_init__(self):
+        _require_finite(self, ("amplitude", "frequency"))
+        for field in ("phase", "offset"):
+            value = tuple(float(v) for v in np.asarray(getattr(self, field), dtype=float).ravel())
+            if len(value) != 2:
+                raise ValueError(f"Gait.{field} must have 2 entries (leg 1, leg 2), got {len(value)}")
+            if not all(math.isfinite(v) for v in value):
+                raise ValueError(f"Gait.{field} must be finite, got {value}")
+            object.__setattr__(self, field, value)
+
+    @property
+    def period(self) -> float:
+        """s, one cycle of the legs; inf for a gait that does not oscillate."""
+        return 2.0 * math.pi / abs(self.frequency) if self.frequency else math.inf
+
+    def swapped(self) -> "Gait":
+        """The same gait with the legs' phases exchanged: the paper's reversed motion."""
+        name = self.name[: -len("-swapped")] if self.name.endswith("-swapped") else self.name + "-swapped"
+        return Gait(self.amplitude, self.frequency, self.phase[::-1], self.offset, name)
+
+    def leg_targets(self, t):
+        a, w = self.amplitude, self.frequency
+        angles, rates, accels = [], [], []
+        for k in range(2):
+            arg = w * t + self.phase[k]
+            s, c = math.sin(arg), math.cos(arg)
+            angles.append(a * s + self.offset[k])
+            rates.append(a * w * c)
+            accels.append(-a * w * w * s)
+        return tuple(angles), tuple(rates), tuple(accels)
+
+    def angles(self, times):
+        """Target leg angles at an array of times, shape (T, 2), rad."""
+        times = np.asarray(times, dtype=float)[..., None]
+        return self.amplitude * np.sin(self.frequency * times + np.asarray(self.phase)) + np.asarray(self.offset)
+
+
+GAIT_OFFSETS = {1: 0.5 * math.pi, 2: 0.0, 3: 0.25 * math.pi}
+"""rad, the offset gamma of each Table II gait (legs about vertical, horizontal, pi/4)."""
+
+
+def table2_gait(number: int, swapped: bool = False) -> Gait:
+    """Gait 1, 2 or 3 of the paper's Table II, optionally with the legs' phases swapped."""
+    if number not in GAIT_OFFSETS:
+        raise ValueError(f"unknown gait {number!r}: Table II has gaits 1, 2 and 3")
+    gamma = GAIT_OFFSETS[number]
+    gait = Gait(offset=(gamma, gamma), name=f"gait{number}")
+    return gait.swapped() if swapped else gait
+
+
+class HeldTargets:
+    """Leg targets held constant (an RL action over a control step): target rate 0."""
+
+    def __init__(self, angles):
+        angles = np.asarray(angles, dtype=float)
+        if angles.shape[-1:] != (2,) or angles.ndim > 2:
+            raise ValueError(f"leg target angles must have shape (2,) or (N, 2), got {angles.shape}")
+        if not np.all(np.isfinite(angles)):
+            raise ValueError("leg target angles contain NaN or inf")
+        self._angles = tuple(angles.tolist()) if angles.ndim == 1 else (angles[:, 0].copy(), angles[:, 1].copy())
+
+    def leg_targets(self, t):
+        return self._angles, (0.0, 0.0), (0.0, 0.0)
+
+
+def pd_torque(gains, leg_angles, leg_rates, targets):
+    """The paper's PD servo, tau_k = kp (phi_d - phi) + kd (phid_d - phid), per leg (N m)."""
+    (a1, a2), (r1, r2), _ = targets
+    return (
+        gains.kp * (a1 - leg_angles[0]) + gains.kd * (r1 - leg_rates[0]),
+        gains.kp * (a2 - leg_angles[1]) + gains.kd * (r2 - leg_rates[1]),
+    )
