@@ -320,6 +320,7 @@ def run_figures(args) -> None:
     _write(figure, lambda p: plotting.plot_gait_panels(p, runs))
     table = analysis.table1()
     settings = {
+        "command": args.command_line,
         "duration_s": args.duration,
         "sample_dt_s": args.sample_dt,
         "timestep_s": args.timestep,
@@ -361,6 +362,7 @@ def format_summary(settings, summaries, table) -> str:
 
     gains = settings["gains"]
     lines = [
+        f"made by: {settings['command']}",
         f"Travel of the Table II gaits, {settings['duration_s']:g} s from rest "
         f"(RK4 step {settings['timestep_s']:.4g} s, Kp {gains['kp']:g}, Kd {gains['kd']:g}, "
         f"damping {settings['robot']['damping']:g})",
@@ -382,7 +384,9 @@ def format_summary(settings, summaries, table) -> str:
 
 def main(argv=None) -> int:
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
+    args.command_line = " ".join([PROG, *argv])
     try:
         args.run(args)
     except UsageError as exc:
