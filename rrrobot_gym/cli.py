@@ -32,6 +32,13 @@ PAPER_DURATION = 50.0
 SIMULATION_ARRAYS = ("t", "x", "y", "theta", "phi", "quat", "body_rate")
 """The arrays ``rrrobot simulate`` writes, in order (see :func:`trajectory_arrays`)."""
 FIGURE_FILE = "contact_paths.png"
+NPZ_CONTENTS = """arrays in the .npz file (N samples, every --sample-dt seconds from t = 0):
+  t          (N,)    s       sample times
+  x, y       (N,)    m       contact point on the ground
+  theta      (N, 3)  rad     the paper's ZXY angles theta1..3, unwrapped along time
+  phi        (N, 2)  rad     leg angles phi1, phi2 (0 horizontal along +X, pi/2 up)
+  quat       (N, 4)  -       unit quaternion w, x, y, z, body to world
+  body_rate  (N, 3)  rad/s   the body's angular velocity in the WORLD frame"""
 
 
 class UsageError(Exception):
@@ -86,7 +93,13 @@ def build_parser() -> argparse.ArgumentParser:
     table.add_argument("--json", action="store_true", help="print the records as JSON (NaN as null)")
     table.set_defaults(run=run_table1)
 
-    sim = sub.add_parser("simulate", help="simulate one Table II gait and write the trajectory to an .npz file")
+    sim = sub.add_parser(
+        "simulate",
+        help="simulate one Table II gait and write the trajectory to an .npz file",
+        description="Simulate one Table II gait from rest and write the sampled trajectory to an .npz file.",
+        epilog=NPZ_CONTENTS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sim.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
     sim.add_argument("--gait", type=int, choices=sorted(GAIT_OFFSETS), required=True, help="Table II gait")
     sim.add_argument("--swap-phase", action="store_true", help="exchange the legs' phases (the mirrored gait)")
@@ -200,7 +213,8 @@ def _table1_footnotes(records):
         close = [r for r, d in zip(defined, diffs) if abs(d) <= 2.0]
         notes.append(f"Where defined they differ from the paper's values by {min(diffs):+.0f} % to {max(diffs):+.0f} %:")
         notes.append(
-            "taken literally they do not reproduce the paper's Table I; the compound form equals the code's linearisation."
+            "taken literally they do not reproduce the paper's Table I;\n"
+            "the compound form equals the code's linearisation."
             if not close
             else f"{len(close)} of {len(records)} entries are within 2 % of the paper's."
         )
