@@ -17,6 +17,7 @@ import json
 import math
 import sys
 from dataclasses import asdict, fields
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -49,9 +50,10 @@ class UsageError(Exception):
 
 
 def _number(text: str) -> float:
+    """A finite real number; a fraction such as 1/300 is accepted too."""
     try:
-        value = float(text)
-    except ValueError:
+        value = float(Fraction(text.strip())) if "/" in text else float(text)
+    except (ValueError, ZeroDivisionError):
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
