@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analysis, dynamics
+from . import analysis, dynamics, plotting
 from .control import GAIT_OFFSETS, table2_gait
 from .params import MODELS, PDGains, RobotParams
 from .simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
@@ -269,16 +269,21 @@ def _warn_if_tipped(traj, label: str) -> None:
         )
 
 
+MIN_SUMMARY_PERIODS = 3
+"""Gait periods a run must last for a travel summary: the averaged path needs a few
+period-spaced points before it has a heading that can turn."""
+
+
 def _summary(traj, period):
-    """analysis.travel_summary, or None for a run shorter than one gait period."""
-    if traj.times[-1] - traj.times[0] <= period:
+    """analysis.travel_summary, or None for a run too short to summarise."""
+    if traj.times[-1] - traj.times[0] < MIN_SUMMARY_PERIODS * period:
         return None
     return analysis.travel_summary(traj.times, traj.x, traj.y, period)
 
 
 def format_travel(label: str, summary) -> str:
     if summary is None:
-        return f"{label}: run shorter than one gait period, no travel summary"
+        return f"{label}: run shorter than {MIN_SUMMARY_PERIODS} gait periods, no travel summary"
     return (
         f"{label}: moved {summary['displacement_m']:.4f} m towards {summary['direction_deg']:+.1f} deg "
         f"(dx {summary['dx_m']:+.4f} m, dy {summary['dy_m']:+.4f} m), path {summary['path_length_m']:.4f} m, "
@@ -297,6 +302,8 @@ def run_simulate(args) -> None:
     if args.out.suffix != ".npz":
         raise UsageError(f"--out must name an .npz file, got {str(args.out)!r}")
     config = sim_config(args, args.model)
+    if args.plot:
+        plotting.require_matplotlib()  # before the run, not after it
     gait = table2_gait(args.gait, swapped=args.swap_phase)
     traj = _run_gait(config, gait, args)
     arrays = trajectory_arrays(traj)
@@ -305,8 +312,6 @@ def run_simulate(args) -> None:
     print(format_travel(label, _summary(traj, gait.period)))
     print(f"wrote {args.out}")
     if args.plot:
-        from . import plotting
-
         title = f"Gait {args.gait}{' (phases swapped)' if args.swap_phase else ''}, {args.model}"
         _write(args.plot, lambda p: plotting.plot_contact_path(p, traj.times, traj.x, traj.y, gait.period, title))
         print(f"wrote {args.plot}")
@@ -316,9 +321,8 @@ def run_simulate(args) -> None:
 
 
 def run_figures(args) -> None:
-    from . import plotting
-
     configs = {model: sim_config(args, model) for model in MODELS}
+    plotting.require_matplotlib()
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -26,6 +26,11 @@ AVERAGE_COLOUR = "tab:blue"
 MARK_COLOUR = "tab:red"
 
 
+def require_matplotlib() -> None:
+    """Raise the ImportError of :func:`_pyplot` now if matplotlib is missing."""
+    _pyplot()
+
+
 def _pyplot():
     """matplotlib.pyplot on the Agg backend, or an ImportError saying what to install."""
     try:

@@ -180,3 +180,18 @@ def test_figures_writes_the_panels_and_the_travel_summary(tmp_path):
     assert len(summary["table1"]) == 4
     text = (out / "summary.txt").read_text()
     assert "Table I" in text and "turning" in text
+
+
+def test_plot_without_matplotlib_says_what_to_install(tmp_path):
+    # sys.modules[name] = None makes "import matplotlib" fail as if it were not installed.
+    script = (
+        "import sys; sys.modules['matplotlib'] = None; from rrrobot_gym.cli import main; "
+        f"sys.exit(main(['simulate', '--model', 'plane', '--gait', '1', '--duration', '1', "
+        f"'--out', {str(tmp_path / 'run.npz')!r}, '--plot', {str(tmp_path / 'run.png')!r}]))"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT)}
+    result = subprocess.run([sys.executable, "-c", script], cwd=REPO_ROOT, env=env, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert "pip install rrrobot_gym[plots]" in result.stderr
+    assert not (tmp_path / "run.png").exists()
