@@ -30,8 +30,6 @@ from .simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
 PROG = "rrrobot"
 PAPER_DURATION = 50.0
 """s, the length of the paper's simulated runs."""
-SIMULATION_ARRAYS = ("t", "x", "y", "theta", "phi", "quat", "body_rate")
-"""The arrays ``rrrobot simulate`` writes, in order (see :func:`trajectory_arrays`)."""
 FIGURE_FILE = "contact_paths.png"
 NPZ_CONTENTS = """arrays in the .npz file (N samples, every --sample-dt seconds from t = 0):
   t          (N,)    s       sample times
@@ -235,7 +233,7 @@ def run_table1(args) -> None:
 
 
 def trajectory_arrays(traj) -> dict:
-    """The arrays ``rrrobot simulate`` writes, keyed as in :data:`SIMULATION_ARRAYS`."""
+    """The arrays ``rrrobot simulate`` writes (described in :data:`NPZ_CONTENTS`)."""
     return {
         "t": traj.times,  # s
         "x": traj.x,  # m, contact point
