@@ -78,3 +78,11 @@ def test_bad_durations_are_rejected():
         simulate(SimConfig(), table2_gait(1), 1.0, sample_dt=0.0)
     with pytest.raises(ValueError, match="duration"):
         advance(SimConfig(), initial_state(), 0.0, float("nan"), table2_gait(1))
+
+
+def test_travel_summary_refuses_a_trajectory_shorter_than_two_periods():
+    from rrrobot_gym.analysis import travel_summary
+
+    times = np.linspace(0.0, 1.0, 101)
+    with pytest.raises(ValueError, match="two periods"):
+        travel_summary(times, times, times, period=0.785)
