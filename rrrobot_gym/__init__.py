@@ -13,6 +13,7 @@ if ENV_ID not in _gymnasium.registry:
     _gymnasium.register(
         id=ENV_ID,
         entry_point="rrrobot_gym.envs.rrrobot_v0:RRRobotEnv",
+        vector_entry_point="rrrobot_gym.envs.vector:RRRobotVectorEnv",
         # 1000 control steps of dt = 0.05 s: 50 s, the length of the paper's runs.
         max_episode_steps=1000,
     )
