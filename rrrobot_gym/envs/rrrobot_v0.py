@@ -8,7 +8,7 @@ from gymnasium.utils import EzPickle
 
 from .. import dynamics
 from ..control import HeldTargets
-from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, advance
+from ..simulation import DEFAULT_TIMESTEP, advance
 from . import render, task
 
 RENDER_MODES = ("human", "rgb_array")
@@ -291,7 +291,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         try:
             # A (13,) state takes the simulator's fast Python-float path.
             after = advance(self.config.sim, state, self.time, self.dt, targets, check=False)
-        except NumericalFailure:
+        except task.NUMERICAL_FAILURES:
             return None, None
         observation = self._observe(after)
         if not task.finite_rows(after[None], observation[None])[0]:

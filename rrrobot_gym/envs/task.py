@@ -27,7 +27,7 @@ from gymnasium import spaces
 
 from .. import dynamics
 from ..params import PDGains, RobotParams
-from ..simulation import DEFAULT_TIMESTEP, SimConfig, check_state
+from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
 """rad, leg target of action -1: 45 degrees below horizontal, pointing back (-X) and down."""
@@ -296,18 +296,20 @@ def observe(states, targets, config: TaskConfig) -> np.ndarray:
     rows = dynamics.rotation_rows(qw, qx, qy, qz)
     cos_t, sin_t = np.cos(targets), np.sin(targets)
     obs = np.empty((len(states), config.observation_size), dtype=np.float32)
-    for i in range(3):
-        obs[:, i] = rows[2][i]
-        # (R^T d)_i = R_0i d_x + R_1i d_y, with d horizontal.
-        obs[:, 3 + i] = rows[0][i] * cos_t + rows[1][i] * sin_t
-    np.clip(obs[:, 0:6], -1.0, 1.0, out=obs[:, 0:6])
-    obs[:, 6:9] = states[:, dynamics.BODY_RATE]
-    obs[:, 9:11] = states[:, dynamics.LEG_ANGLES]
-    obs[:, 11:13] = states[:, dynamics.LEG_RATES]
-    obs[:, 13] = cos_t
-    obs[:, 14] = sin_t
-    if not config.exclude_current_positions_from_observation:
-        obs[:, 15:17] = states[:, 0:2]
+    # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(3):
+            obs[:, i] = rows[2][i]
+            # (R^T d)_i = R_0i d_x + R_1i d_y, with d horizontal.
+            obs[:, 3 + i] = rows[0][i] * cos_t + rows[1][i] * sin_t
+        np.clip(obs[:, 0:6], -1.0, 1.0, out=obs[:, 0:6])
+        obs[:, 6:9] = states[:, dynamics.BODY_RATE]
+        obs[:, 9:11] = states[:, dynamics.LEG_ANGLES]
+        obs[:, 11:13] = states[:, dynamics.LEG_RATES]
+        obs[:, 13] = cos_t
+        obs[:, 14] = sin_t
+        if not config.exclude_current_positions_from_observation:
+            obs[:, 15:17] = states[:, 0:2]
     return obs
 
 
@@ -331,6 +333,13 @@ def step_rewards(states_before, states_after, targets, actions, config: TaskConf
         "x_velocity": x_velocity,
         "y_velocity": y_velocity,
     }
+
+
+NUMERICAL_FAILURES = (NumericalFailure, ArithmeticError, ValueError)
+"""What ``advance`` raises when the integration blows up: NumericalFailure for a non-finite
+result, and on the one-robot Python-float path also ZeroDivisionError, OverflowError or
+ValueError ("math domain error" from math.sin(inf)). The envs validate every input before
+calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
 
 
 def tilt_reached_limit(tilts):
