@@ -99,15 +99,47 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
     rng = np.random.default_rng(0)
     for _ in range(40):
         action = rng.uniform(-1.5, 1.5, 2)
-        before = np.array([info["x_position"], info["y_position"]])
+        contact_before = np.array([info["x_position"], info["y_position"]])
+        upright_before = np.array([info["x_upright"], info["y_upright"]])
         obs, reward, _, _, info = env.step(action)
-        after = np.array([info["x_position"], info["y_position"]])
+        contact = np.array([info["x_position"], info["y_position"]])
+        upright = np.array([info["x_upright"], info["y_upright"]])
         assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"], abs=1e-12)
-        # cm/s along the heading
-        assert info["reward_forward"] == pytest.approx(1.5 * 100.0 * (after - before) @ heading / env.dt, rel=1e-9)
+        assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
+        assert info["reward_forward"] == pytest.approx(1.5 * 100.0 * info["forward_velocity"], rel=1e-12)  # cm/s
         assert info["reward_ctrl"] == pytest.approx(-0.2 * np.sum(np.clip(action, -1, 1) ** 2), rel=1e-12)
-        assert (info["x_velocity"], info["y_velocity"]) == pytest.approx(tuple((after - before) / env.dt), rel=1e-9)
-        np.testing.assert_allclose(obs[15:17], after, rtol=1e-6)
+        assert (info["x_velocity"], info["y_velocity"]) == pytest.approx(tuple((contact - contact_before) / env.dt))
+        np.testing.assert_allclose(obs[15:17], contact, rtol=1e-6)
+
+
+def test_rocking_in_place_moves_the_contact_point_but_not_the_upright_contact_point():
+    """A shell rocking on its bottom rolls its contact to and fro; rolled back upright, it is still."""
+    env = RRRobotEnv(reset_noise_scale=0.0)
+    _, info = env.reset(options={"state": tilted_state(0.2, 0.0)})
+    assert info["y_upright"] == pytest.approx(info["y_position"] + 0.12 * 0.2, rel=1e-12)  # r * tilt
+    contact, upright = [], []
+    for _ in range(40):  # 2 s, about two rocking periods; legs held vertical
+        _, _, _, _, info = env.step(leg_targets_to_action([0.5 * math.pi, 0.5 * math.pi]))
+        contact.append((info["x_position"], info["y_position"]))
+        upright.append((info["x_upright"], info["y_upright"]))
+        assert abs(info["reward_forward"]) < 1e-6
+    assert np.ptp(np.array(contact)[:, 1]) > 0.04  # m: the contact rolls over +-r * tilt
+    assert np.ptp(np.array(upright), axis=0).max() < 1e-9
+
+
+def test_tipping_over_towards_the_heading_earns_no_forward_reward():
+    """Rolling onto the rim carries the contact ~r pi/2 = 0.19 m but is no locomotion."""
+    env = RRRobotEnv(reset_noise_scale=0.0, target_direction=-0.5 * math.pi)
+    _, start = env.reset(options={"state": tilted_state(0.1, 8.0)})  # rolls towards -Y
+    total = 0.0
+    for _ in range(20):
+        _, _, terminated, _, info = env.step(leg_targets_to_action([0.5 * math.pi, 0.5 * math.pi]))
+        total += info["reward_forward"]
+        if terminated:
+            break
+    assert terminated and info["tilt"] >= dynamics.TILT_LIMIT
+    assert start["y_position"] - info["y_position"] > 0.15
+    assert abs(total) < 1e-3  # the raw contact point would have paid ~350
 
 
 def test_out_of_range_actions_are_clipped_to_the_box():
@@ -213,7 +245,11 @@ def test_turning_the_whole_scene_about_the_vertical_leaves_the_body_observations
 
 
 def gait_through_env(model, number, duration, target_direction):
-    """Play Table II gait ``number`` through the env: each step holds the gait's angles at the step's end."""
+    """Play Table II gait ``number`` through the env: each step holds the gait's angles at the step's end.
+
+    Returns the gait, the step times, the contact points (steps + 1, 2), the total reward
+    and the last info.
+    """
     gait = table2_gait(number)
     env = RRRobotEnv(model=model, reset_noise_scale=0.0, target_direction=target_direction)
     env.reset(seed=0)
@@ -226,7 +262,7 @@ def gait_through_env(model, number, duration, target_direction):
         xy.append((info["x_position"], info["y_position"]))
         total_reward += reward
     times = env.dt * np.arange(steps + 1)
-    return gait, times, np.array(xy), total_reward
+    return gait, times, np.array(xy), total_reward, info
 
 
 @pytest.mark.parametrize(
@@ -240,7 +276,7 @@ def test_scripted_table2_gait_moves_through_the_env_as_in_the_simulator_core(mod
     direction within 1 degree (Gait 1) and 4 degrees (Gait 3), the turning within 7 degrees.
     """
     duration = 20.0
-    gait, times, xy, _ = gait_through_env(model, number, duration, target_direction=-0.5 * math.pi)
+    gait, times, xy, _, _ = gait_through_env(model, number, duration, target_direction=-0.5 * math.pi)
     core = simulate(SimConfig(model=model), gait, duration, sample_dt=0.05)
     ours = travel_summary(times, xy[:, 0], xy[:, 1], gait.period)
     reference = travel_summary(core.times, core.x, core.y, gait.period)
@@ -251,12 +287,18 @@ def test_scripted_table2_gait_moves_through_the_env_as_in_the_simulator_core(mod
 
 
 def test_gait1_earns_its_travel_along_minus_y_as_reward():
-    """Gait 1 goes along -Y: commanded that way it is rewarded, the opposite way penalised, equally."""
-    _, _, xy, along = gait_through_env("plane", 1, 10.0, target_direction=-0.5 * math.pi)
-    _, _, _, against = gait_through_env("plane", 1, 10.0, target_direction=0.5 * math.pi)
+    """Gait 1 goes along -Y: commanded that way it is rewarded, the opposite way penalised, equally.
+
+    The forward terms add up to the net travel of the upright contact point (x 100 / dt).
+    """
+    _, _, xy, along, last = gait_through_env("plane", 1, 10.0, target_direction=-0.5 * math.pi)
+    _, _, _, against, _ = gait_through_env("plane", 1, 10.0, target_direction=0.5 * math.pi)
     ctrl = along + against  # the forward terms cancel; what is left is twice the (equal) control cost
     assert along > 0 > against
-    assert along - 0.5 * ctrl == pytest.approx(-100.0 * xy[-1, 1] / 0.05, rel=1e-9)
+    assert along - 0.5 * ctrl == pytest.approx(-100.0 * last["y_upright"] / 0.05, rel=1e-9)
+    # The upright and the raw contact point end within a few millimetres: the net travel is the same.
+    assert last["y_upright"] == pytest.approx(xy[-1, 1], abs=5e-3)
+    assert along / 200 == pytest.approx(0.9, abs=0.1)  # ~0.9 cm/s: ~0.9 reward a step
 
 
 def test_reaching_the_tilt_limit_terminates_cleanly():
