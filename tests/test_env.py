@@ -11,13 +11,14 @@ import gymnasium
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from gymnasium.utils.passive_env_checker import env_render_passive_checker
 
 import rrrobot_gym
 from rrrobot_gym import dynamics
 from rrrobot_gym.analysis import travel_summary
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.envs import RRRobotEnv
-from rrrobot_gym.envs.task import leg_targets_to_action
+from rrrobot_gym.envs.task import RESET_INFO_KEYS, STEP_INFO_KEYS, leg_targets_to_action
 from rrrobot_gym.simulation import SimConfig, initial_state, simulate
 
 REPO_ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -95,6 +96,7 @@ def test_same_seed_same_actions_give_identical_episodes_and_other_seeds_differ()
 def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions():
     env = RRRobotEnv(forward_reward_weight=1.5, ctrl_cost_weight=0.2, exclude_current_positions_from_observation=False)
     obs, info = env.reset(seed=5)
+    assert set(info) == set(RESET_INFO_KEYS)
     heading = np.array([math.cos(info["target_direction"]), math.sin(info["target_direction"])])
     rng = np.random.default_rng(0)
     for _ in range(40):
@@ -102,6 +104,7 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         contact_before = np.array([info["x_position"], info["y_position"]])
         upright_before = np.array([info["x_upright"], info["y_upright"]])
         obs, reward, _, _, info = env.step(action)
+        assert set(info) == set(STEP_INFO_KEYS)
         contact = np.array([info["x_position"], info["y_position"]])
         upright = np.array([info["x_upright"], info["y_upright"]])
         assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"], abs=1e-12)
@@ -329,6 +332,9 @@ def test_a_numerical_blow_up_ends_the_episode_with_a_flag_and_the_last_finite_ob
 def test_rgb_array_frames_are_uint8_images_that_change_as_the_robot_moves():
     env = gymnasium.make("RRRobot-v0", render_mode="rgb_array")
     env.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env_render_passive_checker(env.unwrapped)
     first = env.render()
     assert first.shape == (400, 800, 3) and first.dtype == np.uint8
     for _ in range(10):

@@ -14,6 +14,9 @@ target direction    rad, the commanded heading of travel in the world XY plane, 
 up vector           world +Z seen from the body, n = R^T z (the third row of R)
 heading in body     d seen from the body, R^T d; when upright it is
                     (cos(target - yaw), sin(target - yaw), 0) with yaw the body's heading
+contact point       p, m, the shell's point on the ground (state entries 0:2)
+upright contact     q, m, where p would be if the shell rolled back upright without slip
+point               (:func:`upright_contact_points`); the forward reward is q's velocity
 """
 
 from __future__ import annotations
@@ -54,6 +57,7 @@ OBSERVATION_FIELDS = (
 """(name, start, stop) of each observation entry; ``contact_xy`` only when positions are included."""
 
 RESET_INFO_KEYS = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction")
+"""Keys of the info ``reset()`` returns (and a vector env's top-level info for a sub-env it reset)."""
 STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "x_velocity",
     "y_velocity",
@@ -62,9 +66,17 @@ STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "reward_ctrl",
     "numerical_failure",
 )
+"""Keys of the info ``step()`` returns."""
 RESET_OPTIONS = ("state", "target_direction")
 """Keys ``reset(options=...)`` accepts: an exact start state (no noise is added) and the
 commanded heading for that episode (overrides the ``target_direction`` keyword)."""
+
+
+NUMERICAL_FAILURES = (NumericalFailure, ArithmeticError, ValueError)
+"""What ``advance`` raises when the integration blows up: NumericalFailure for a non-finite
+result, and on the one-robot Python-float path also ZeroDivisionError, OverflowError or
+ValueError ("math domain error" from math.sin(inf)). The envs validate every input before
+calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
 
 
 def _real(name, value, *, minimum=None, positive=False):
@@ -381,13 +393,6 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     info["numerical_failure"] = np.array(failed, dtype=bool)
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     return info["reward_forward"] + info["reward_ctrl"], terminated, info
-
-
-NUMERICAL_FAILURES = (NumericalFailure, ArithmeticError, ValueError)
-"""What ``advance`` raises when the integration blows up: NumericalFailure for a non-finite
-result, and on the one-robot Python-float path also ZeroDivisionError, OverflowError or
-ValueError ("math domain error" from math.sin(inf)). The envs validate every input before
-calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
 
 
 def tilt_reached_limit(tilts):
