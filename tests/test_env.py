@@ -25,7 +25,10 @@ REPO_ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 # Rates, leg angles and positions have no natural bound, so those Box bounds are infinite
 # (as in the MuJoCo envs); Gymnasium's checker reports that as a style warning only.
-INFINITE_BOUND_WARNINGS = ("observation space minimum value is -infinity", "observation space maximum value is infinity")
+INFINITE_BOUND_WARNINGS = (
+    "observation space minimum value is -infinity",
+    "observation space maximum value is infinity",
+)
 
 
 def upright_state(yaw=0.0, leg_angles=(0.5 * math.pi, 0.5 * math.pi)):
@@ -234,7 +237,8 @@ def test_turning_the_whole_scene_about_the_vertical_leaves_the_body_observations
     start[dynamics.BODY_RATE] = (0.2, -0.1, 0.3)
     turned = start.copy()
     turn = 1.1
-    turned[dynamics.QUAT] = dynamics.quat_multiply([math.cos(0.5 * turn), 0, 0, math.sin(0.5 * turn)], start[dynamics.QUAT])
+    yaw_turn = [math.cos(0.5 * turn), 0.0, 0.0, math.sin(0.5 * turn)]
+    turned[dynamics.QUAT] = dynamics.quat_multiply(yaw_turn, start[dynamics.QUAT])
 
     env_a, env_b = RRRobotEnv(), RRRobotEnv()
     obs_a, _ = env_a.reset(options={"state": start, "target_direction": 0.3})
