@@ -181,9 +181,11 @@ def draw_frame(state, path, target_direction, robot, time, width=800, height=400
     for k in range(math.floor((cy - half_y) / GRID_SPACING), math.ceil((cy + half_y) / GRID_SPACING) + 1):
         v = top(np.array([[cx, k * GRID_SPACING]]))[0, 1]
         draw.line([(0, v), (panel, v)], fill=_GRID, width=1)
-    if path is not None and len(path) > 1:
-        draw.line([tuple(p) for p in top(np.asarray(path))], fill=_PATH, width=2)
     _draw_robot(draw, top, shell, rim_count, pins, tips, scale)
+    # Drawn over the shell: in 50 s the robot travels about its own size, so the path
+    # would otherwise hide under it.
+    if path is not None and len(path) > 1:
+        draw.line([tuple(p) for p in top(np.asarray(path)).tolist()], fill=_PATH, width=2)
     arrow_from = top(np.array([[cx, cy]]))[0]
     arrow_to = top(np.array([[cx + 0.22 * heading[0], cy + 0.22 * heading[1]]]))[0]
     _arrow(draw, tuple(arrow_from), tuple(arrow_to), _HEADING, 3)

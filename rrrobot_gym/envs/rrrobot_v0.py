@@ -6,9 +6,8 @@ import gymnasium
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from .. import dynamics
 from ..control import HeldTargets
-from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, advance
+from ..simulation import DEFAULT_TIMESTEP, advance
 from . import render, task
 
 RENDER_MODES = ("human", "rgb_array")
@@ -83,23 +82,30 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     The reward is ***reward*** *=* *forward_reward - ctrl_cost*:
 
     - *forward_reward* (`info["reward_forward"]`):
-      $w_{forward} \times 100 \times \frac{(p_{after} - p_{before}) \cdot d}{dt}$, the contact
-      point p's velocity along the commanded heading d = (cos, sin)(target_direction),
-      **in cm/s** (hence the factor 100 on metres). The robot moves at about 1 cm/s (Gait 1:
-      0.9 cm/s), so a good step earns about 1 and a 1000-step episode about 1000.
-      $w_{forward}$ is `forward_reward_weight`. The contact point rocks back and forth at the
-      gait frequency, so this term is noisy from step to step (tens of cm/s either way);
-      summed over an episode it is $w_{forward} \times 100 / dt$ times the net travel (m)
-      along the heading.
+      $w_{forward} \times 100 \times \frac{(q_{after} - q_{before}) \cdot d}{dt}$, the velocity
+      **in cm/s** (hence the factor 100 on metres) along the commanded heading
+      d = (cos, sin)(target_direction) of the *upright contact point* q: where the contact
+      point would be if the shell rolled back upright without slip,
+      $q = p - r \frac{tilt}{\sin(tilt)} (R_{02}, R_{12})$ with p the contact point and
+      $(R_{02}, R_{12})$ the horizontal lean of the body's z axis. q is the contact point
+      whenever the shell is upright, so over a walk the two cover the same net distance,
+      but q does not move when the shell merely rocks or tips over: rewarding the raw
+      contact point would pay ~0.19 m (r pi/2, about 380 reward) for rolling onto the rim
+      towards the heading, and it rocks to and fro at the gait frequency (over 20 s of
+      Gait 1 its path is 15 times its net travel; q's path is its net travel).
+      The robot moves at about 1 cm/s (Gait 1: 0.9 cm/s), so a good step earns about 1 and
+      a 1000-step episode about 1000. $w_{forward}$ is `forward_reward_weight`. Summed over
+      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d.
     - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
       the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
       step, small next to the forward term; action 0 holds both legs at pi/4, the middle
       of their range).
 
-    `info` also holds `x_position`, `y_position` (m, contact point), `x_velocity`,
-    `y_velocity` (m/s, its displacement over the step / dt), `tilt` (rad, angle between
-    body z and world z), `target_direction` (rad) and `numerical_failure` (bool).
-    `reset()` returns `x_position`, `y_position`, `tilt` and `target_direction`.
+    `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
+    `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
+    `forward_velocity` (m/s, q's velocity along d), `tilt` (rad, angle between body z and
+    world z), `target_direction` (rad) and `numerical_failure` (bool). `reset()` returns
+    `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
     The paper's start: at rest at the origin, upright, both legs vertical (pi/2), plus
@@ -259,31 +265,18 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         failed = after is None
         if failed:
             after, observation = before, self._observation
-            terms = dict.fromkeys(("reward", "reward_forward", "reward_ctrl", "x_velocity", "y_velocity"), 0.0)
-        else:
-            batch = task.step_rewards(before[None], after[None], self._targets_array(), action[None], self.config)
-            terms = {key: float(value[0]) for key, value in batch.items()}
+        rewards, terminations, infos = task.step_outcome(
+            before[None], after[None], self._targets_array(), action[None], np.array([failed]), self.config
+        )
         self.state = after
         self._observation = observation
         self.time += self.dt
-        tilt = float(dynamics.tilt(after))
-        terminated = failed or bool(task.tilt_reached_limit(tilt))
-        info = {
-            "x_position": float(after[0]),
-            "y_position": float(after[1]),
-            "tilt": tilt,
-            "target_direction": float(self.episode_target_direction),
-            "x_velocity": terms["x_velocity"],
-            "y_velocity": terms["y_velocity"],
-            "reward_forward": terms["reward_forward"],
-            "reward_ctrl": terms["reward_ctrl"],
-            "numerical_failure": failed,
-        }
+        info = {key: value[0].item() for key, value in infos.items()}  # Python floats and bools
         if self._path is not None:
             self._path.append((info["x_position"], info["y_position"]))
         if self.render_mode == "human":
             self.render()
-        return observation.copy(), terms["reward"], terminated, False, info
+        return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
 
     def _advance(self, state, action):
         """(new state, observation) after one control step, or (None, None) on a numerical failure."""
@@ -291,7 +284,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         try:
             # A (13,) state takes the simulator's fast Python-float path.
             after = advance(self.config.sim, state, self.time, self.dt, targets, check=False)
-        except NumericalFailure:
+        except task.NUMERICAL_FAILURES:
             return None, None
         observation = self._observe(after)
         if not task.finite_rows(after[None], observation[None])[0]:
@@ -305,12 +298,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return task.observe(state[None], self._targets_array(), self.config)[0]
 
     def _reset_info(self):
-        return {
-            "x_position": float(self.state[0]),
-            "y_position": float(self.state[1]),
-            "tilt": float(dynamics.tilt(self.state)),
-            "target_direction": float(self.episode_target_direction),
-        }
+        infos = task.reset_info(self.state[None], self._targets_array(), self.config)
+        return {key: value[0].item() for key, value in infos.items()}
 
     def render(self):
         if self.render_mode is None:
