@@ -83,3 +83,34 @@ def friction_ratio(force, normal):
     tangential = np.sqrt(np.maximum(n_hat_part, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(normal > 0, tangential / np.where(normal > 0, normal, 1.0), np.inf)
+
+
+def envelope(states, leg_targets, config):
+    """The model-validity measures of robots under held leg targets, each (N,).
+
+    ``config`` is a :class:`rrrobot_gym.simulation.SimConfig`; ``leg_targets`` (N, 2) rad are
+    the servo targets acting (target rate 0). Returns ``normal_force`` (N, the ground's push
+    on the shell; for the pivot model the joint's), ``friction_ratio`` (the friction
+    coefficient the no-slip contact needs) and ``leg_clearance`` (m, the lower leg tip's
+    height above the ground).
+    """
+    from .control import pd_torque
+
+    states = np.atleast_2d(np.asarray(states, dtype=float))
+    leg_targets = np.atleast_2d(np.asarray(leg_targets, dtype=float))
+    params = config.robot
+    comps = [states[:, i] for i in range(dynamics.STATE_SIZE)]
+    zero = np.zeros(len(states))
+    torque = pd_torque(
+        config.gains,
+        (comps[6], comps[7]),
+        (comps[11], comps[12]),
+        ((leg_targets[:, 0], leg_targets[:, 1]), (zero, zero), (zero, zero)),
+    )
+    derivative = np.stack(dynamics.state_derivative(comps, torque, params, config.depth), axis=-1)
+    force, normal = ground_force(states, derivative, params, config.model)
+    return {
+        "normal_force": normal,
+        "friction_ratio": friction_ratio(force, normal),
+        "leg_clearance": leg_clearance(states, params).min(axis=1),
+    }

@@ -37,11 +37,12 @@ def upright_state(yaw=0.0, leg_angles=(0.5 * math.pi, 0.5 * math.pi)):
     return state
 
 
-def tilted_state(tilt, outward_rate):
-    """At rest except for a roll rate pushing the tilt (about body x) further out."""
+def tilted_state(tilt, outward_rate, axis="x"):
+    """At rest except for a rate pushing the tilt (about body x, or y) further out."""
     state = initial_state()
-    state[dynamics.QUAT] = dynamics.quat_from_paper_angles([tilt, 0.0, 0.0])
-    state[dynamics.BODY_RATE] = (outward_rate, 0.0, 0.0)
+    angles = [tilt, 0.0, 0.0] if axis == "x" else [0.0, 0.0, tilt]
+    state[dynamics.QUAT] = dynamics.quat_from_paper_angles(angles)
+    state[dynamics.BODY_RATE] = (outward_rate, 0.0, 0.0) if axis == "x" else (0.0, outward_rate, 0.0)
     return state
 
 
@@ -310,13 +311,15 @@ def test_gait1_earns_its_travel_along_minus_y_as_reward():
 
 def test_reaching_the_tilt_limit_terminates_cleanly():
     env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0)
-    env.reset(seed=0, options={"state": tilted_state(1.45, 2.0)})
+    # Pitch about body y: the legs sit on that axis, so the rim, not a leg, meets the ground.
+    env.reset(seed=0, options={"state": tilted_state(1.45, 4.0, axis="y")})
     for _ in range(20):
         obs, reward, terminated, truncated, info = env.step(np.zeros(2, dtype=np.float32))
         if terminated:
             break
     assert terminated and not truncated
     assert info["tilt"] >= dynamics.TILT_LIMIT
+    assert not info["outside_model"]
     assert not info["numerical_failure"]
     assert np.all(np.isfinite(obs)) and math.isfinite(reward)
 
@@ -382,3 +385,37 @@ def test_env_pickles_and_rebuilds_with_its_arguments():
     for a, b in zip(rollout(env, actions, seed=4)[1:], rollout(clone, actions, seed=4)[1:]):
         np.testing.assert_array_equal(a[0], b[0])
         assert a[1:] == b[1:]
+
+
+def test_a_leg_reaching_the_ground_ends_the_episode_outside_the_model():
+    """Leg-ground contact is not modelled: a leg tip at the floor ends the episode (with a flag)."""
+    start = tilted_state(1.2, 0.0)  # rolled 69 degrees onto leg 1's side
+    start[dynamics.LEG_ANGLES] = (0.0, 0.5 * math.pi)
+    from rrrobot_gym.envs import task
+
+    down = task.leg_targets_to_action([-0.25 * math.pi, 0.5 * math.pi]).astype(np.float32)
+    for terminate in (True, False):
+        env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=terminate)
+        env.reset(seed=0, options={"state": start})
+        obs, reward, terminated, truncated, info = env.step(down)
+        assert info["leg_clearance"] <= 0.0 and info["outside_model"]
+        assert info["tilt"] < dynamics.TILT_LIMIT and not info["numerical_failure"]
+        assert terminated is terminate
+
+
+def test_table2_gaits_stay_inside_the_model_for_a_whole_episode():
+    from agents import gait_agent
+
+    for name in ("gait1", "gait2", "gait3"):
+        env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0)
+        obs, _ = env.reset(seed=0)
+        agent, state = gait_agent(name, dt=env.unwrapped.dt), None
+        clearance, friction = [], []
+        for step in range(1000):
+            action, state = agent.predict(obs, state=state, episode_start=np.array([step == 0]))
+            obs, _, terminated, truncated, info = env.step(action)
+            clearance.append(info["leg_clearance"])
+            friction.append(info["friction_ratio"])
+            assert not terminated, (name, step)
+        assert truncated
+        assert min(clearance) > 0.01 and max(friction) < 1.0 and info["normal_force"] > 0.0

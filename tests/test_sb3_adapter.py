@@ -57,7 +57,7 @@ def test_adapter_behaves_like_dummy_vec_env_over_single_envs_across_autoresets()
         finished += step_a[2].sum()
         for info_a, info_b in zip(ours.reset_infos, theirs.reset_infos):
             assert info_a == pytest.approx(info_b, abs=VALUE_TOLERANCE)
-    assert finished == 3 * num_envs
+    assert finished >= 3 * num_envs  # every env hits the time limit 3 times; random legs may also touch down
 
 
 def test_finished_episodes_carry_terminal_observation_and_say_whether_time_ran_out():
@@ -71,8 +71,8 @@ def test_finished_episodes_carry_terminal_observation_and_say_whether_time_ran_o
     assert all(info["terminal_observation"].shape == (15,) for info in infos)
 
     tipping = initial_state()
-    tipping[dynamics.QUAT] = dynamics.quat_from_paper_angles([1.45, 0.0, 0.0])
-    tipping[dynamics.BODY_RATE] = (2.0, 0.0, 0.0)
+    tipping[dynamics.QUAT] = dynamics.quat_from_paper_angles([0.0, 0.0, 1.45])  # pitched about body y: the rim, not a leg, lands
+    tipping[dynamics.BODY_RATE] = (0.0, 4.0, 0.0)
     venv = RRRobotSB3VecEnv(num_envs=2)
     venv.set_options({"state": tipping})
     venv.reset()

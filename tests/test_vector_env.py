@@ -22,8 +22,8 @@ OBS_TOLERANCE = 1e-6  # float32 observations
 
 def near_tilt_limit_state():
     state = initial_state()
-    state[dynamics.QUAT] = dynamics.quat_from_paper_angles([1.45, 0.0, 0.0])
-    state[dynamics.BODY_RATE] = (2.0, 0.0, 0.0)
+    state[dynamics.QUAT] = dynamics.quat_from_paper_angles([0.0, 0.0, 1.45])  # pitched about body y: the rim, not a leg, lands
+    state[dynamics.BODY_RATE] = (0.0, 4.0, 0.0)
     return state
 
 

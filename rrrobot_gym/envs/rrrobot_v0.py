@@ -33,15 +33,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle,
     held for the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default) while the
     paper's PD servo (`kp`, `kd`, target rate 0) drives the leg towards it. The map is affine:
-    action -1 is -pi/4 rad, 0 is pi/4 rad, +1 is 3 pi/4 rad. Leg angle 0 points the leg
+    action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
+    from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
     horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
     Actions outside [-1, 1] are clipped (the control cost uses the clipped action); an action
     of the wrong shape, or with NaN or inf, raises a `ValueError`.
 
     | Num | Action                       | Control Min | Control Max | Target angle min | Target angle max | Type (Unit) |
     |-----|------------------------------|-------------|-------------|------------------|------------------|-------------|
-    | 0   | target angle of leg 1 (at body -Y) | -1    | 1           | -pi/4            | 3 pi/4           | angle (rad) |
-    | 1   | target angle of leg 2 (at body +Y) | -1    | 1           | -pi/4            | 3 pi/4           | angle (rad) |
+    | 0   | target angle of leg 1 (at body -Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
+    | 1   | target angle of leg 2 (at body +Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
 
     `rrrobot_gym.envs.task.leg_targets_to_action` inverts the map (to script a gait).
 
@@ -98,13 +99,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
       an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d.
     - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
       the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
-      step, small next to the forward term; action 0 holds both legs at pi/4, the middle
-      of their range).
+      step, small next to the forward term; action 0 holds both legs vertical, the rest
+      pose and the middle of their range).
 
     `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
     `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
     `forward_velocity` (m/s, q's velocity along d), `tilt` (rad, angle between body z and
-    world z), `target_direction` (rad) and `numerical_failure` (bool). `reset()` returns
+    world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
+    measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
+    ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
+    contact needs), `leg_clearance` (m, the lower leg tip's height) and `outside_model` (bool). `reset()` returns
     `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
@@ -125,6 +129,14 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        for the chosen gains or timestep). The episode ends with `info["numerical_failure"]`
        True, reward 0, and the last finite observation (the state is not advanced): the
        env never returns NaN.
+
+    3. The robot left the model (`info["outside_model"]`, when `terminate_outside_model` is
+       True, the default): a leg tip reached the ground (leg-ground contact is not
+       modelled), or, on a plane, the ground would have to pull the shell down (a hop:
+       normal force <= 0) or hold it with more friction than `friction_coefficient`
+       (default 1.0; None for unlimited grip). The rolling model assumes none of these
+       happen; without this check a policy free to whip its legs earns speeds no real
+       robot could reach. Checked at the end of each control step.
 
     ### Truncation
     The registered `max_episode_steps` is 1000 control steps: 50 s of robot time at the
@@ -154,6 +166,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | `reset_noise_scale`                          | **float**           | `0.01`       | half-width of the uniform start noise (>= 0) |
     | `exclude_current_positions_from_observation` | **bool**            | `True`       | leave the contact point (x, y) out of the observation |
     | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
+    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor: needing more ends the episode (plane); None: unlimited |
+    | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
     | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
     | `width`, `height`                            | **int**             | `800`, `400` | pixels of a rendered frame (a top view and a side view) |
 
@@ -182,6 +196,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         reset_noise_scale: float = 0.01,
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
+        friction_coefficient: float | None = 1.0,
+        terminate_outside_model: bool = True,
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -201,6 +217,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             reset_noise_scale=reset_noise_scale,
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
             render_mode=render_mode,
             width=width,
             height=height,
@@ -219,6 +237,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             reset_noise_scale=reset_noise_scale,
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
         )
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")

@@ -28,14 +28,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from gymnasium import spaces
 
-from .. import dynamics
+from .. import dynamics, validity
 from ..params import PDGains, RobotParams
 from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
 """rad, leg target of action -1: 45 degrees below horizontal, pointing back (-X) and down."""
-LEG_TARGET_MAX = 0.75 * math.pi
-"""rad, leg target of action +1: 45 degrees past vertical. The Table II gaits span
+LEG_TARGET_MAX = 1.25 * math.pi
+"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (mirror of -1).
+Action 0 is the rest pose, legs vertical. The Table II gaits span
 -0.3 .. 1.87 rad, inside [LEG_TARGET_MIN, LEG_TARGET_MAX]."""
 _LEG_TARGET_MID = 0.5 * (LEG_TARGET_MIN + LEG_TARGET_MAX)
 _LEG_TARGET_HALF_RANGE = 0.5 * (LEG_TARGET_MAX - LEG_TARGET_MIN)
@@ -65,6 +66,10 @@ STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "reward_forward",
     "reward_ctrl",
     "numerical_failure",
+    "normal_force",
+    "friction_ratio",
+    "leg_clearance",
+    "outside_model",
 )
 """Keys of the info ``step()`` returns."""
 RESET_OPTIONS = ("state", "target_direction")
@@ -95,6 +100,12 @@ def _real(name, value, *, minimum=None, positive=False):
     return number
 
 
+def _flag(name, value):
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {value!r}")
+    return bool(value)
+
+
 @dataclass(frozen=True)
 class TaskConfig:
     """Everything that fixes one RRRobot-v0 scene and task, validated at construction.
@@ -109,6 +120,8 @@ class TaskConfig:
     reset_noise_scale: float = 0.01  # half-width of the uniform start noise (rad, rad/s)
     exclude_current_positions_from_observation: bool = True
     target_direction: float | None = None  # rad; None draws one per episode
+    friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
+    terminate_outside_model: bool = True  # end the episode where the model stops holding
 
     @property
     def dt(self) -> float:
@@ -135,6 +148,8 @@ def make_task_config(
     reset_noise_scale=0.01,
     exclude_current_positions_from_observation=True,
     target_direction=None,
+    friction_coefficient=1.0,
+    terminate_outside_model=True,
 ) -> TaskConfig:
     """Validate the env keywords and collect them in a :class:`TaskConfig`.
 
@@ -157,11 +172,7 @@ def make_task_config(
         integrator=integrator,
         timestep=_real("timestep", timestep, positive=True),
     )
-    if not isinstance(exclude_current_positions_from_observation, (bool, np.bool_)):
-        raise TypeError(
-            "exclude_current_positions_from_observation must be a bool, "
-            f"got {exclude_current_positions_from_observation!r}"
-        )
+    _flag("exclude_current_positions_from_observation", exclude_current_positions_from_observation)
     return TaskConfig(
         sim=sim,
         frame_skip=int(frame_skip),
@@ -170,6 +181,10 @@ def make_task_config(
         reset_noise_scale=_real("reset_noise_scale", reset_noise_scale, minimum=0.0),
         exclude_current_positions_from_observation=bool(exclude_current_positions_from_observation),
         target_direction=None if target_direction is None else _real("target_direction", target_direction),
+        friction_coefficient=None
+        if friction_coefficient is None
+        else _real("friction_coefficient", friction_coefficient, positive=True),
+        terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
     )
 
 
@@ -391,8 +406,28 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
         info[key][failed] = 0.0
     info["numerical_failure"] = np.array(failed, dtype=bool)
+    info.update(validity.envelope(states_after, action_to_leg_targets(actions), config.sim))
+    info["outside_model"] = outside_model(info, config) & ~info["numerical_failure"]
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
+    if config.terminate_outside_model:
+        terminated |= info["outside_model"]
     return info["reward_forward"] + info["reward_ctrl"], terminated, info
+
+
+def outside_model(info, config: TaskConfig):
+    """True where a robot left the model's validity envelope (:mod:`rrrobot_gym.validity`).
+
+    A leg tip at or below the ground (leg contact is not modelled), and on a plane a shell
+    the ground would have to pull down (a hop) or one that needs more grip than
+    ``friction_coefficient`` (it would slip). The pivot model has no ground contact: only
+    its legs are checked. Checked at the end of each control step.
+    """
+    out = info["leg_clearance"] <= 0.0
+    if config.sim.model == "plane":
+        out |= info["normal_force"] <= 0.0
+        if config.friction_coefficient is not None:
+            out |= info["friction_ratio"] > config.friction_coefficient
+    return out
 
 
 def tilt_reached_limit(tilts):

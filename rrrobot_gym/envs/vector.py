@@ -63,6 +63,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         reset_noise_scale: float = 0.01,
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
+        friction_coefficient: float | None = 1.0,
+        terminate_outside_model: bool = True,
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -81,6 +83,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             reset_noise_scale=reset_noise_scale,
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
         )
         EzPickle.__init__(
             self,
