@@ -1,8 +1,10 @@
 """The paper's Table II gaits as agents: leg targets for RRRobot-v0, one control step at a time.
 
-The env holds each action's leg targets over a control step (target rate 0), so a gait
-agent commands the gait's angles sampled at the middle of each step: a zero-order hold
-lags by half a step, and sampling at mid-step cancels that lag to first order.
+By default (``action_hold="linear"``) the env ramps the leg targets over each control
+step from the last action's to the new one's, so a gait agent commands the gait's angles
+at the end of each step and the env draws the gait piecewise linearly. For an env with
+``action_hold="zero_order"`` (targets jump and are held) sample at mid-step instead
+(``sample_fraction=0.5``): a hold lags by half a step, and mid-step sampling cancels it.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ class GaitAgent:
     are not used: the gait is open loop, as in the paper.
     """
 
-    def __init__(self, gait: Gait, dt: float = 0.05, name: str | None = None):
+    def __init__(self, gait: Gait, dt: float = 0.05, name: str | None = None, sample_fraction: float = 1.0):
         if not isinstance(gait, Gait):
             raise TypeError(f"gait must be a rrrobot_gym.control.Gait, got {type(gait).__name__}")
         if not (np.isfinite(dt) and dt > 0):
@@ -31,6 +33,7 @@ class GaitAgent:
         self.gait = gait
         self.dt = float(dt)
         self.name = name or gait.name
+        self.sample_fraction = float(sample_fraction)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         observation = np.asarray(observation)
@@ -41,7 +44,7 @@ class GaitAgent:
             raise ValueError(f"state must hold one step count per env, shape ({n},), got {steps.shape}")
         if episode_start is not None:
             steps[np.asarray(episode_start, dtype=bool).reshape(n)] = 0
-        targets = self.gait.angles((steps + 0.5) * self.dt)
+        targets = self.gait.angles((steps + self.sample_fraction) * self.dt)
         actions = np.clip(leg_targets_to_action(targets), -1.0, 1.0).astype(np.float32)
         return (actions[0] if single else actions), steps + 1
 

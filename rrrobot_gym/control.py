@@ -99,3 +99,37 @@ def pd_torque(gains, leg_angles, leg_rates, targets):
         gains.kp * (a1 - leg_angles[0]) + gains.kd * (r1 - leg_rates[0]),
         gains.kp * (a2 - leg_angles[1]) + gains.kd * (r2 - leg_rates[1]),
     )
+
+
+class RampTargets:
+    """Leg targets ramped linearly from ``start`` to ``end`` over [t0, t0 + duration], then held.
+
+    A first-order hold of step-wise targets (an RL action per control step): the target
+    angle is continuous and its rate is the ramp's slope, so a new action does not kick
+    the servo with a torque step. ``start``/``end`` have shape (2,) or (N, 2), rad.
+    """
+
+    def __init__(self, start, end, t0: float, duration: float):
+        start = np.asarray(start, dtype=float)
+        end = np.asarray(end, dtype=float)
+        if start.shape != end.shape or start.shape[-1:] != (2,) or start.ndim > 2:
+            raise ValueError(f"ramp ends must both have shape (2,) or (N, 2), got {start.shape} and {end.shape}")
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
+            raise ValueError("ramp ends contain NaN or inf")
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ValueError(f"ramp duration must be a positive number of seconds, got {duration}")
+        self.t0, self.duration = float(t0), float(duration)
+        slope = (end - start) / duration
+        split = (lambda a: tuple(a.tolist())) if start.ndim == 1 else (lambda a: (a[:, 0].copy(), a[:, 1].copy()))
+        self._start, self._end, self._slope = split(start), split(end), split(slope)
+        self._still = split(np.zeros_like(start))
+
+    def leg_targets(self, t):
+        s = (t - self.t0) / self.duration
+        # Closed at the end: RK4's last stage falls on t0 + duration up to rounding, and the
+        # rate must not depend on which side of it rounding lands.
+        if s > 1.0 + 1e-9:
+            return self._end, self._still, self._still
+        s = max(s, 0.0)
+        angles = tuple(a + (b - a) * s for a, b in zip(self._start, self._end))
+        return angles, self._slope, self._still

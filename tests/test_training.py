@@ -90,7 +90,7 @@ def test_bad_arguments_are_named(tmp_path):
 
 @pytest.mark.parametrize("number", [1, 3])
 def test_gait_agents_move_like_the_simulator_core(number):
-    """Through the env (targets held per step, sampled mid-step) a gait moves as the core's continuous gait."""
+    """Through the env (targets ramped over each step) a gait moves as the core's continuous gait."""
     from agents import gait_agent
     from evaluate import run_episodes
     from rrrobot_gym.analysis import travel_summary
@@ -110,7 +110,7 @@ def test_gait_agents_move_like_the_simulator_core(number):
         assert abs(ours["direction_deg"] - theirs["direction_deg"]) < 3.0
 
 
-def test_gait_agent_commands_the_gait_at_mid_step_and_restarts_with_each_episode():
+def test_gait_agent_commands_the_gait_at_the_end_of_each_step_and_restarts_with_each_episode():
     from agents import gait_agent
     from rrrobot_gym.control import table2_gait
     from rrrobot_gym.envs.task import action_to_leg_targets
@@ -120,7 +120,7 @@ def test_gait_agent_commands_the_gait_at_mid_step_and_restarts_with_each_episode
     state = None
     for k in range(5):
         actions, state = agent.predict(obs, state=state, episode_start=np.array([k == 0, k in (0, 3)]))
-    expected = table2_gait(3, swapped=True).angles([4.5 * 0.05, 1.5 * 0.05])
+    expected = table2_gait(3, swapped=True).angles([5 * 0.05, 2 * 0.05])
     np.testing.assert_allclose(action_to_leg_targets(actions), expected, atol=1e-6)
     with pytest.raises(ValueError, match="unknown gait agent"):
         gait_agent("gait4")

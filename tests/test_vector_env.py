@@ -80,7 +80,9 @@ def test_each_sub_env_matches_a_single_env_with_seed_plus_i_across_autoresets(en
     obs_b, info_b = theirs.reset(seed=21, options=options)
     np.testing.assert_allclose(obs_a, obs_b, atol=OBS_TOLERANCE)
     assert_infos_match(info_a, info_b)
-    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (3 * limit, num_envs, 2)).astype(np.float32)
+    # Gentle legs for the time limit: wild ones leave the model (leg on the floor, a hop) first.
+    scale = 0.05 if ending == "time limit" else 1.2
+    actions = np.random.default_rng(1).uniform(-scale, scale, (3 * limit, num_envs, 2)).astype(np.float32)
     ended = {"terminated": 0, "truncated": 0}
     for action in actions:
         obs_a, reward_a, term_a, trunc_a, info_a = ours.step(action)
@@ -115,7 +117,7 @@ def test_a_numerical_blow_up_in_one_sub_env_leaves_the_others_running():
     obs0, _ = env.reset(seed=0, options={"state": starts})
     single = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, target_direction=0.0)
     single.reset(seed=0)
-    action = np.array([[0.3, -0.4]] * 3, dtype=np.float32)
+    action = np.array([[0.05, -0.04]] * 3, dtype=np.float32)
     obs, reward, terminated, truncated, info = env.step(action)
     single_obs, single_reward, *_ = single.step(action[0])
 

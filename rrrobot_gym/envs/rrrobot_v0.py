@@ -30,9 +30,13 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     a counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
 
     ## Action Space
-    The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle,
-    held for the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default) while the
-    paper's PD servo (`kp`, `kd`, target rate 0) drives the leg towards it. The map is affine:
+    The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle
+    for the end of the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default).
+    With `action_hold="linear"` (default) the target ramps there from the last step's target
+    over the step, and the paper's PD servo (`kp`, `kd`) tracks the ramp and its rate: a new
+    action does not kick the servo, whose torque step on a jump of target makes the shell
+    hop or slip within milliseconds. `action_hold="zero_order"` jumps to the target and
+    holds it with target rate 0 (``shared/MODEL.md``'s step-wise targets). The map is affine:
     action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
     from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
     horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
@@ -134,9 +138,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        True, the default): a leg tip reached the ground (leg-ground contact is not
        modelled), or, on a plane, the ground would have to pull the shell down (a hop:
        normal force <= 0) or hold it with more friction than `friction_coefficient`
-       (default 1.0; None for unlimited grip). The rolling model assumes none of these
-       happen; without this check a policy free to whip its legs earns speeds no real
-       robot could reach. Checked at the end of each control step.
+       (default 1.0; None for unlimited grip; checked from 0.1 s into the episode, since the
+       paper's own start, legs leaving vertical abruptly, needs up to 9 for an instant).
+       The rolling model assumes none of these happen; without this check a policy free
+       to whip its legs earns speeds no real robot could reach. Checked when an action
+       starts to act and after every integration step.
 
     ### Truncation
     The registered `max_episode_steps` is 1000 control steps: 50 s of robot time at the
@@ -168,6 +174,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
     | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor: needing more ends the episode (plane); None: unlimited |
     | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
+    | `action_hold`                                | **str**             | `"linear"`   | "linear": targets ramp over each step; "zero_order": jump and hold |
     | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
     | `width`, `height`                            | **int**             | `800`, `400` | pixels of a rendered frame (a top view and a side view) |
 
@@ -198,6 +205,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
         terminate_outside_model: bool = True,
+        action_hold: str = "linear",
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -219,6 +227,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
             terminate_outside_model=terminate_outside_model,
+            action_hold=action_hold,
             render_mode=render_mode,
             width=width,
             height=height,
@@ -239,6 +248,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
             terminate_outside_model=terminate_outside_model,
+            action_hold=action_hold,
         )
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")
@@ -253,6 +263,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = None  # (13,) float64, see rrrobot_gym.dynamics.STATE_FIELDS
         self.episode_target_direction = None  # rad, this episode's commanded heading
         self.time = 0.0  # s since the episode began
+        self.leg_targets = None  # (2,) rad, the servo targets at the end of the last step
         self._observation = None  # the last observation returned, float32
         self._path = None  # contact points so far, kept only when rendering
         self._viewer = None
@@ -269,6 +280,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = task.start_states(noise[None])[0] if option_state is None else option_state
         self.episode_target_direction = target if option_target is None else option_target
         self.time = 0.0
+        self.leg_targets = self.state[6:8].copy()
         self._observation = self._observe(self.state)
         if self.render_mode is not None:
             self._path = [(float(self.state[0]), float(self.state[1]))]
@@ -281,15 +293,24 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             raise RuntimeError("RRRobotEnv.step() called before reset()")
         action = task.check_actions(action, (2,))
         before = self.state
-        after, observation = self._advance(before, action)
+        after, observation, measures = self._advance(before, action)
         failed = after is None
         if failed:
-            after, observation = before, self._observation
+            after, observation, measures = before, self._observation, task.FAILED_MEASURES
         rewards, terminations, infos = task.step_outcome(
-            before[None], after[None], self._targets_array(), action[None], np.array([failed]), self.config
+            before[None],
+            after[None],
+            self._targets_array(),
+            action[None],
+            np.array([failed]),
+            self.config,
+            {key: np.reshape(value, (1,)) for key, value in measures.items()},
+            np.array([self.time]),
         )
         self.state = after
         self._observation = observation
+        if not failed:
+            self.leg_targets = task.action_to_leg_targets(action)
         self.time += self.dt
         info = {key: value[0].item() for key, value in infos.items()}  # Python floats and bools
         if self._path is not None:
@@ -299,17 +320,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
 
     def _advance(self, state, action):
-        """(new state, observation) after one control step, or (None, None) on a numerical failure."""
-        targets = HeldTargets(task.action_to_leg_targets(action))
+        """(new state, observation, validity measures) after one control step, or Nones on a numerical failure."""
         try:
             # A (13,) state takes the simulator's fast Python-float path.
-            after = advance(self.config.sim, state, self.time, self.dt, targets, check=False)
+            after, measures = task.advance_and_check(state, action, self.time, self.config, self.leg_targets)
         except task.NUMERICAL_FAILURES:
-            return None, None
+            return None, None, None
         observation = self._observe(after)
         if not task.finite_rows(after[None], observation[None])[0]:
-            return None, None
-        return after, observation
+            return None, None, None
+        return after, observation, measures
 
     def _targets_array(self):
         return np.array([self.episode_target_direction])

@@ -30,7 +30,8 @@ from gymnasium import spaces
 
 from .. import dynamics, validity
 from ..params import PDGains, RobotParams
-from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, check_state
+from ..control import HeldTargets, RampTargets
+from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, advance, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
 """rad, leg target of action -1: 45 degrees below horizontal, pointing back (-X) and down."""
@@ -100,6 +101,16 @@ def _real(name, value, *, minimum=None, positive=False):
     return number
 
 
+ACTION_HOLDS = ("linear", "zero_order")
+"""How an action's leg targets act over its control step (``action_hold``)."""
+
+
+def _choice(name, value, options):
+    if value not in options:
+        raise ValueError(f"unknown {name} {value!r}: expected one of {', '.join(options)}")
+    return value
+
+
 def _flag(name, value):
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a bool, got {value!r}")
@@ -122,6 +133,7 @@ class TaskConfig:
     target_direction: float | None = None  # rad; None draws one per episode
     friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
     terminate_outside_model: bool = True  # end the episode where the model stops holding
+    action_hold: str = "linear"  # "linear": targets ramp over a step; "zero_order": jump and hold
 
     @property
     def dt(self) -> float:
@@ -150,6 +162,7 @@ def make_task_config(
     target_direction=None,
     friction_coefficient=1.0,
     terminate_outside_model=True,
+    action_hold="linear",
 ) -> TaskConfig:
     """Validate the env keywords and collect them in a :class:`TaskConfig`.
 
@@ -185,6 +198,7 @@ def make_task_config(
         if friction_coefficient is None
         else _real("friction_coefficient", friction_coefficient, positive=True),
         terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
+        action_hold=_choice("action_hold", action_hold, ACTION_HOLDS),
     )
 
 
@@ -380,7 +394,7 @@ def reset_info(states, targets, config: TaskConfig):
     }
 
 
-def step_outcome(states_before, states_after, targets, actions, failed, config: TaskConfig):
+def step_outcome(states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed):
     """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step.
 
     reward_forward = forward_reward_weight * 100 * forward_velocity: cm/s of the upright
@@ -406,27 +420,78 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
         info[key][failed] = 0.0
     info["numerical_failure"] = np.array(failed, dtype=bool)
-    info.update(validity.envelope(states_after, action_to_leg_targets(actions), config.sim))
-    info["outside_model"] = outside_model(info, config) & ~info["numerical_failure"]
+    info.update({key: np.array(value, dtype=np.float64) for key, value in measures.items()})
+    info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
         terminated |= info["outside_model"]
     return info["reward_forward"] + info["reward_ctrl"], terminated, info
 
 
-def outside_model(info, config: TaskConfig):
+FAILED_MEASURES = {"normal_force": np.nan, "friction_ratio": np.nan, "leg_clearance": np.nan}
+"""Validity measures reported for a robot whose step failed numerically (it terminates anyway)."""
+
+
+def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets=None):
+    """One control step of ``states`` ((13,) or (N, 13)) under ``actions``.
+
+    With ``config.action_hold == "linear"`` the leg targets ramp from ``previous_targets``
+    (rad, the last step's targets) to the action's over the step; with "zero_order" they
+    jump to the action's and are held with target rate 0.
+
+    Returns (states after the step, the worst of each validity measure over the step: an
+    (N,) dict as :func:`rrrobot_gym.validity.envelope`). The measures are taken when the
+    new targets start to act (a target jump gives the servo's largest torque at once) and
+    after every integration step, because the servo settles within a control step: a
+    check at the step's end alone misses the hop or slip a jump causes, and a policy
+    learns to exploit exactly that.
+    Raises the simulator's numerical failures (:data:`NUMERICAL_FAILURES`).
+    """
+    leg_targets = action_to_leg_targets(actions)
+    if config.action_hold == "linear":
+        held = RampTargets(previous_targets, leg_targets, t, config.dt)
+    else:
+        held = HeldTargets(leg_targets)
+    step = config.sim.timestep
+    visited = [states]
+    for k in range(config.frame_skip):
+        states = advance(config.sim, states, t + k * step, step, held, check=False)
+        visited.append(states)
+    visited = np.asarray(visited).reshape(-1, dynamics.STATE_SIZE)
+    repeated = np.broadcast_to(leg_targets, (config.frame_skip + 1,) + np.shape(leg_targets)).reshape(-1, 2)
+    with np.errstate(all="ignore"):
+        measures = validity.envelope(visited, repeated, config.sim)
+    n = len(visited) // (config.frame_skip + 1)
+    worst = {
+        "normal_force": measures["normal_force"].reshape(-1, n).min(axis=0),
+        "friction_ratio": measures["friction_ratio"].reshape(-1, n).max(axis=0),
+        "leg_clearance": measures["leg_clearance"].reshape(-1, n).min(axis=0),
+    }
+    return states, worst
+
+
+FRICTION_GRACE = 0.1
+"""s: the friction limit applies from this time into an episode. At the paper's start the legs
+leave vertical abruptly, and even the Table II gaits need a friction coefficient up to 9
+for the first 0.1 s (a real robot slips a little there), and at most 0.86 after it."""
+
+
+def outside_model(info, config: TaskConfig, elapsed):
     """True where a robot left the model's validity envelope (:mod:`rrrobot_gym.validity`).
 
     A leg tip at or below the ground (leg contact is not modelled), and on a plane a shell
     the ground would have to pull down (a hop) or one that needs more grip than
-    ``friction_coefficient`` (it would slip). The pivot model has no ground contact: only
-    its legs are checked. Checked at the end of each control step.
+    ``friction_coefficient`` (it would slip; from :data:`FRICTION_GRACE` into the episode:
+    ``elapsed`` (N,) is the time in s at the start of the step). The pivot model has no ground contact: only
+    its legs are checked. ``info`` holds the worst measures over the control step
+    (:func:`advance_and_check`).
     """
     out = info["leg_clearance"] <= 0.0
     if config.sim.model == "plane":
         out |= info["normal_force"] <= 0.0
         if config.friction_coefficient is not None:
-            out |= info["friction_ratio"] > config.friction_coefficient
+            started = np.asarray(elapsed, dtype=float) >= FRICTION_GRACE - 1e-9
+            out |= started & (info["friction_ratio"] > config.friction_coefficient)
     return out
 
 

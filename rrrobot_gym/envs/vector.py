@@ -65,6 +65,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
         terminate_outside_model: bool = True,
+        action_hold: str = "linear",
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -85,6 +86,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
             terminate_outside_model=terminate_outside_model,
+            action_hold=action_hold,
         )
         EzPickle.__init__(
             self,
@@ -121,6 +123,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
         self.states = None
+        self.leg_targets = None  # (N, 2) rad, the servo targets at the end of the last step
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = None
@@ -144,6 +147,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 self._generators[i], _ = seeding.np_random(sub_seed)
         states, targets = self._draw_starts(np.arange(self.num_envs))
         self.states = states if option_states is None else option_states
+        self.leg_targets = self.states[:, 6:8].copy()
         self.episode_target_directions = targets if option_targets is None else option_targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = task.observe(self.states, self.episode_target_directions, self.config)
@@ -185,20 +189,22 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         actions = task.check_actions(actions, (self.num_envs, 2))
         before = self.states
         targets = self.episode_target_directions
-        after, failed = self._advance(before, actions)
+        after, measures, failed = self._advance(before, actions, self.leg_targets)
         observations = task.observe(after, targets, self.config)
         failed |= ~task.finite_rows(after, observations)
         # A failed robot keeps its last finite state and observation (never NaN out).
         after[failed] = before[failed]
         observations[failed] = self._observations[failed]
 
-        rewards, terminated, info = task.step_outcome(before, after, targets, actions, failed, self.config)
+        elapsed = self.episode_steps * self.dt
+        rewards, terminated, info = task.step_outcome(before, after, targets, actions, failed, self.config, measures, elapsed)
         self.episode_steps += 1
         if self.max_episode_steps is None:
             truncated = np.zeros(self.num_envs, dtype=bool)
         else:
             truncated = self.episode_steps >= self.max_episode_steps
         self.states = after
+        self.leg_targets = np.where(failed[:, None], self.leg_targets, task.action_to_leg_targets(actions))
         self._observations = observations
         if self._paths is not None:
             for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
@@ -209,8 +215,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             observations = self._autoreset(done, observations, info, masks)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
-    def _advance(self, states, actions):
-        """(new states, failed mask): one control step for every robot, isolating failures.
+    def _advance(self, states, actions, previous_targets):
+        """(new states, validity measures, failed mask): one control step for every robot, isolating failures.
 
         ``advance`` raises on any non-finite result, which would lose the whole batch for
         one bad robot. The rows are independent, so on a failure the batch is split in
@@ -219,17 +225,17 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         try:
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
-                after = advance(
-                    self.config.sim, states, 0.0, self.dt, HeldTargets(task.action_to_leg_targets(actions)), check=False
-                )
-            return after, np.zeros(len(states), dtype=bool)
+                after, measures = task.advance_and_check(states, actions, 0.0, self.config, previous_targets)
+            return after, measures, np.zeros(len(states), dtype=bool)
         except task.NUMERICAL_FAILURES:
             if len(states) == 1:
-                return states.copy(), np.ones(1, dtype=bool)
+                failed = {key: np.reshape(value, (1,)) for key, value in task.FAILED_MEASURES.items()}
+                return states.copy(), failed, np.ones(1, dtype=bool)
         half = len(states) // 2
-        first, first_failed = self._advance(states[:half], actions[:half])
-        second, second_failed = self._advance(states[half:], actions[half:])
-        return np.concatenate([first, second]), np.concatenate([first_failed, second_failed])
+        first, first_measures, first_failed = self._advance(states[:half], actions[:half], previous_targets[:half])
+        second, second_measures, second_failed = self._advance(states[half:], actions[half:], previous_targets[half:])
+        measures = {key: np.concatenate([first_measures[key], second_measures[key]]) for key in first_measures}
+        return np.concatenate([first, second]), measures, np.concatenate([first_failed, second_failed])
 
     def _autoreset(self, done, observations, info, masks):
         """Reset the finished sub-envs in place (SAME_STEP); returns the new observations."""
@@ -244,6 +250,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
         states, targets = self._draw_starts(indices)
         self.states[indices] = states
+        self.leg_targets[indices] = states[:, 6:8]
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
         observations[indices] = task.observe(states, targets, self.config)
