@@ -21,8 +21,10 @@ from . import dynamics
 from .control import pd_torque
 from .params import PDGains, RobotParams, check_model, rotation_point_depth
 
-INTEGRATORS = ("rk4",)
-"""Fixed-step integrators for stepping (``SimConfig.integrator``)."""
+INTEGRATORS = ("rk4", "rk3")
+"""Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
+Runge-Kutta (4 derivative evaluations a step); "rk3", Kutta's third-order method
+(3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark)."""
 
 LEG_MODES = ("servo", "kinematic")
 """How the legs move (``SimConfig.legs``): "servo" integrates the PD servo with the
@@ -34,8 +36,8 @@ DEFAULT_TIMESTEP = 1.0 / 300.0
 rtol=1e-10 reference after 50 s of every Table II gait on both models
 (``tests/test_accuracy.py``; ``python -m benchmarks.work_precision``)."""
 
-RK4_REAL_STABILITY = 2.785
-"""|h lambda| at which classical RK4 loses stability on the negative real axis."""
+REAL_AXIS_STABILITY = {"rk4": 2.785, "rk3": 2.513}
+"""|h lambda| at which each integrator loses stability on the negative real axis."""
 
 
 @dataclass(frozen=True)
@@ -362,6 +364,56 @@ def _rk4_arrays(f, t, y, h, n_steps):
     return y
 
 
+def _rk3_floats(f, t, y, h, n_steps):
+    """Kutta's third-order method on one robot (list of 13 floats)."""
+    half, sixth = 0.5 * h, h / 6.0
+    for _ in range(n_steps):
+        k1 = f(t, y)
+        k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
+        k3 = f(t + h, [a + h * (2.0 * b2 - b1) for a, b1, b2 in zip(y, k1, k2)])
+        y = [a + sixth * (b1 + 4.0 * b2 + b3) for a, b1, b2, b3 in zip(y, k1, k2, k3)]
+        inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        y[2] *= inv
+        y[3] *= inv
+        y[4] *= inv
+        y[5] *= inv
+        t += h
+    return y
+
+
+def _rk3_arrays(f, t, y, h, n_steps):
+    """Kutta's third-order method on a component-first batch y (13, N), in place."""
+    half, sixth = 0.5 * h, h / 6.0
+    slope1 = np.empty_like(y)
+    slope2 = np.empty_like(y)
+    stage_a = np.empty_like(y)
+    stage_b = np.empty_like(y)
+
+    def load(deriv, slope):
+        for i, v in enumerate(deriv):
+            slope[i] = v
+
+    for _ in range(n_steps):
+        load(f(t, y), slope1)
+        np.multiply(slope1, half, out=stage_a)
+        stage_a += y
+        load(f(t + half, stage_a), slope2)
+        np.multiply(slope2, 2.0 * h, out=stage_b)
+        stage_b -= h * slope1
+        stage_b += y
+        slope1 += 4.0 * slope2
+        load(f(t + h, stage_b), slope2)
+        slope1 += slope2
+        slope1 *= sixth
+        y += slope1
+        y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        t += h
+    return y
+
+
+_STEPPERS = {"rk4": (_rk4_floats, _rk4_arrays), "rk3": (_rk3_floats, _rk3_arrays)}
+
+
 def _leg_path_end(targets, blend, t_end):
     """Leg angles and rates of the kinematic path at t_end: where the legs must be."""
     (a1, a2), (r1, r2), _ = targets.leg_targets(t_end)
@@ -404,12 +456,13 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
         if max(float(np.max(np.abs(v))) for v in off) > 1e-9:
             blend = (t0, _blend_coefficients(off[0], off[2], duration), _blend_coefficients(off[1], off[3], duration))
     f = _stage_fn(config, targets, blend)
+    step_floats, step_arrays = _STEPPERS[config.integrator]
     if state.ndim == 1:
-        out = np.array(_rk4_floats(f, t0, state.tolist(), h, n_steps))
+        out = np.array(step_floats(f, t0, state.tolist(), h, n_steps))
     else:
         if state.shape[0] >= 1024:
             _keep_freed_heap(state.shape[0])
-        out = _rk4_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
+        out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
