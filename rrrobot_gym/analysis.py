@@ -136,6 +136,10 @@ def travel_summary(times, x, y, period: float):
     ``signed_area_m2`` (enclosed area, > 0 when the path winds counter-clockwise),
     ``mean_speed_mps`` (path length over the averaged path's duration).
     """
+    times = np.asarray(times, dtype=float)
+    if len(times) < 2 or times[-1] - times[0] < 2.0 * period:
+        span = times[-1] - times[0] if len(times) else 0.0
+        raise ValueError(f"travel_summary needs at least two periods ({2 * period:.3g} s) of trajectory, got {span:.3g} s")
     t_avg, xy = period_average(times, np.stack([x, y], axis=-1), period)
     dt = float(np.median(np.diff(t_avg)))
     # One point per period: finer sampling follows the residual wiggle of the
@@ -159,5 +163,5 @@ def travel_summary(times, x, y, period: float):
         "path_length_m": path_length,
         "turning_deg": float(np.degrees(turning)),
         "signed_area_m2": signed_area,
-        "mean_speed_mps": path_length / duration if duration > 0 else 0.0,
+        "mean_speed_mps": float(path_length / duration) if duration > 0 else 0.0,
     }

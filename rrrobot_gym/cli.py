@@ -1,0 +1,422 @@
+"""Command line: reproduce the paper's Table I, gaits and Figs. 7-9.
+
+    rrrobot table1 [--json]
+    rrrobot simulate --model plane --gait 1 --out run.npz [--plot run.png]
+    rrrobot figures --out DIR
+
+(also ``python -m rrrobot_gym ...``). This module only parses arguments, calls
+:mod:`rrrobot_gym.simulation`, :mod:`rrrobot_gym.analysis` and
+:mod:`rrrobot_gym.plotting`, and writes files. A bad argument ends the program
+with one line ``rrrobot: error: ...`` and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import asdict, fields
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from . import analysis, dynamics, plotting
+from .control import GAIT_OFFSETS, table2_gait
+from .params import MODELS, PDGains, RobotParams
+from .simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
+
+PROG = "rrrobot"
+PAPER_DURATION = 50.0
+"""s, the length of the paper's simulated runs."""
+FIGURE_FILE = "contact_paths.png"
+NPZ_CONTENTS = """arrays in the .npz file (N samples, every --sample-dt seconds from t = 0):
+  t          (N,)    s       sample times
+  x, y       (N,)    m       contact point on the ground
+  theta      (N, 3)  rad     the paper's ZXY angles theta1..3, unwrapped along time
+  phi        (N, 2)  rad     leg angles phi1, phi2 (0 horizontal along +X, pi/2 up)
+  quat       (N, 4)  -       unit quaternion w, x, y, z, body to world
+  body_rate  (N, 3)  rad/s   the body's angular velocity in the WORLD frame"""
+
+
+class UsageError(Exception):
+    """A user-facing problem: reported as one line, exit status 2."""
+
+
+# ---------------------------------------------------------------- argument types
+
+
+def _number(text: str) -> float:
+    """A finite real number; a fraction such as 1/300 is accepted too."""
+    try:
+        value = float(Fraction(text.strip())) if "/" in text else float(text)
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def _positive_seconds(text: str) -> float:
+    value = _number(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return value
+
+
+def _robot_param(text: str):
+    """NAME=VALUE for a field of RobotParams (other than damping, which has its own option)."""
+    names = [f.name for f in fields(RobotParams) if f.name != "damping"]
+    name, sep, value = text.partition("=")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    name = name.strip().replace("-", "_")
+    if name == "damping":
+        raise argparse.ArgumentTypeError("set damping with --damping")
+    if name not in names:
+        raise argparse.ArgumentTypeError(f"unknown robot parameter {name!r}: expected one of {', '.join(names)}")
+    return name, _number(value)
+
+
+# ---------------------------------------------------------------- the parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Simulate the RRRobot of 'Legless Locomotion' and reproduce the paper's Table I and Figs. 7-9.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    table = sub.add_parser("table1", help="Table I: small-oscillation periods, computed beside the paper's")
+    table.add_argument("--json", action="store_true", help="print the records as JSON (NaN as null)")
+    table.set_defaults(run=run_table1)
+
+    sim = sub.add_parser(
+        "simulate",
+        help="simulate one Table II gait and write the trajectory to an .npz file",
+        description="Simulate one Table II gait from rest and write the sampled trajectory to an .npz file.",
+        epilog=NPZ_CONTENTS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sim.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    sim.add_argument("--gait", type=int, choices=sorted(GAIT_OFFSETS), required=True, help="Table II gait")
+    sim.add_argument("--swap-phase", action="store_true", help="exchange the legs' phases (the mirrored gait)")
+    sim.add_argument("--out", type=Path, required=True, metavar="FILE.npz", help="where to write the arrays")
+    sim.add_argument("--plot", type=Path, metavar="FILE.png", help="also draw the contact path (Figs. 7-9 style)")
+    _add_run_options(sim)
+    sim.set_defaults(run=run_simulate)
+
+    figs = sub.add_parser("figures", help="all gaits on both models: the Figs. 7-9 panels and a travel summary")
+    figs.add_argument("--out", type=Path, required=True, metavar="DIR", help="directory for the PNG and summary files")
+    _add_run_options(figs)
+    figs.set_defaults(run=run_figures)
+    return parser
+
+
+def _add_run_options(parser):
+    gains, robot = PDGains(), RobotParams()
+    parser.add_argument("--duration", type=_positive_seconds, default=PAPER_DURATION, help="s (default: %(default)g, the paper's)")
+    parser.add_argument("--kp", type=_number, default=gains.kp, help="leg servo gain, N m/rad (default: %(default)g)")
+    parser.add_argument("--kd", type=_number, default=gains.kd, help="leg servo gain, N m s/rad (default: %(default)g)")
+    parser.add_argument(
+        "--damping", type=_number, default=robot.damping, help="k, torque k w on the body, N m s/rad (default: %(default)g)"
+    )
+    parser.add_argument(
+        "--param",
+        type=_robot_param,
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override a robot parameter in SI units, e.g. mass_tip=0.06 (repeatable)",
+    )
+    parser.add_argument("--sample-dt", type=_positive_seconds, default=0.01, help="s between samples (default: %(default)g)")
+    parser.add_argument(
+        "--timestep", type=_positive_seconds, default=DEFAULT_TIMESTEP, help="s, RK4 step (default: 1/300)"
+    )
+
+
+def sim_config(args, model: str) -> SimConfig:
+    """The SimConfig the options describe; a bad value raises UsageError naming it."""
+    try:
+        robot = RobotParams(**{**dict(args.param), "damping": args.damping})
+        gains = PDGains(kp=args.kp, kd=args.kd)
+        return SimConfig(model=model, robot=robot, gains=gains, timestep=args.timestep)
+    except (TypeError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+
+
+# ---------------------------------------------------------------- table1
+
+
+def _json_safe(value):
+    """Floats that are not finite become None (JSON has no NaN); numpy scalars become Python ones."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def format_table1(records) -> str:
+    """Table I as aligned text, with a footnote on the paper's single-axis formulas."""
+    header = ("model", "axis", "code (s)", "paper (s)", "diff", "compound (s)", "eq. 5/6 (s)", "rho (m)")
+    rows = []
+    for rec in records:
+        literal = rec["paper_formula_s"]
+        rows.append(
+            (
+                rec["model"],
+                rec["axis"].upper(),
+                f"{rec['period_s']:.4f}",
+                f"{rec['paper_s']:.2f}",
+                f"{100 * rec['relative_difference']:+.2f} %",
+                f"{rec['compound_formula_s']:.4f}",
+                f"{literal:.4f}" if math.isfinite(literal) else "n/a *",
+                f"{rec['radius_of_gyration_m']:.4f}",
+            )
+        )
+    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+    left = {0, 1}
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i in left else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+
+    out = ["Table I: small-oscillation periods about rest, legs held vertical", line(header), line(["-" * w for w in widths])]
+    out += [line(r) for r in rows]
+    out += ["", *_table1_footnotes(records)]
+    return "\n".join(out)
+
+
+def _table1_footnotes(records):
+    notes = [
+        "code: linearisation of the equations of motion (rrrobot_gym.analysis.small_oscillation_periods);",
+        "diff: code / paper - 1. compound: a rigid body rocking about one axis, 2 pi sqrt(I / (M g d)),",
+        "with I about the contact point (plane) or the centre (pivot), d the centre of mass's depth.",
+    ]
+    defined = [r for r in records if math.isfinite(r["paper_formula_s"])]
+    undefined = [r for r in records if not math.isfinite(r["paper_formula_s"])]
+    notes.append("eq. 5/6: the paper's eq. (5) (plane) and eq. (6) (pivot) taken literally, with")
+    notes.append("rho = sqrt(I / M) the radius of gyration about the same axis.")
+    for rec in undefined:
+        notes.append(
+            f"* {rec['model']} {rec['axis'].upper()}: rho = {rec['radius_of_gyration_m']:.3f} m >= r, "
+            f"so {rec['paper_formula']} has no real value."
+        )
+    if defined:
+        diffs = [100 * (r["paper_formula_s"] / r["paper_s"] - 1.0) for r in defined]
+        close = [r for r, d in zip(defined, diffs) if abs(d) <= 2.0]
+        notes.append(f"Where defined they differ from the paper's values by {min(diffs):+.0f} % to {max(diffs):+.0f} %:")
+        notes.append(
+            "taken literally they do not reproduce the paper's Table I;\n"
+            "the compound form equals the code's linearisation."
+            if not close
+            else f"{len(close)} of {len(records)} entries are within 2 % of the paper's."
+        )
+    return notes
+
+
+def run_table1(args) -> None:
+    records = analysis.table1()
+    if args.json:
+        print(json.dumps(_json_safe(records), indent=2, allow_nan=False))
+    else:
+        print(format_table1(records))
+
+
+# ---------------------------------------------------------------- simulate
+
+
+def trajectory_arrays(traj) -> dict:
+    """The arrays ``rrrobot simulate`` writes (described in :data:`NPZ_CONTENTS`)."""
+    return {
+        "t": traj.times,  # s
+        "x": traj.x,  # m, contact point
+        "y": traj.y,  # m
+        "theta": traj.theta,  # rad, paper's theta1..3 (ZXY), unwrapped
+        "phi": traj.leg_angles,  # rad, phi1, phi2
+        "quat": traj.quat,  # w, x, y, z, body to world
+        "body_rate": traj.body_rate_world,  # rad/s, world frame
+    }
+
+
+def _run_gait(config: SimConfig, gait, args):
+    try:
+        traj = simulate(config, gait, args.duration, sample_dt=args.sample_dt)
+    except NumericalFailure as exc:
+        raise UsageError(str(exc)) from None
+    _warn_if_tipped(traj, f"{gait.name}, {config.model}")
+    return traj
+
+
+def _warn_if_tipped(traj, label: str) -> None:
+    """Say so when the body tilted past the hemisphere's rim: the model ends there."""
+    tilt = dynamics.tilt(traj.states)
+    beyond = np.flatnonzero(tilt >= dynamics.TILT_LIMIT)
+    if beyond.size:
+        print(
+            f"{PROG}: warning: {label}: the body tilted past {math.degrees(dynamics.TILT_LIMIT):.0f} deg at "
+            f"t = {traj.times[beyond[0]]:.2f} s; the shell's rim would touch the ground, so the motion "
+            "after that is outside the model (a smaller --timestep or other gains may help)",
+            file=sys.stderr,
+        )
+
+
+MIN_SUMMARY_PERIODS = 3
+"""Gait periods a run must last for a travel summary: the averaged path needs a few
+period-spaced points before it has a heading that can turn."""
+
+
+def _summary(traj, period):
+    """analysis.travel_summary, or None for a run too short to summarise."""
+    if traj.times[-1] - traj.times[0] < MIN_SUMMARY_PERIODS * period:
+        return None
+    return analysis.travel_summary(traj.times, traj.x, traj.y, period)
+
+
+def format_travel(label: str, summary) -> str:
+    if summary is None:
+        return f"{label}: run shorter than {MIN_SUMMARY_PERIODS} gait periods, no travel summary"
+    return (
+        f"{label}: moved {summary['displacement_m']:.4f} m towards {summary['direction_deg']:+.1f} deg "
+        f"(dx {summary['dx_m']:+.4f} m, dy {summary['dy_m']:+.4f} m), path {summary['path_length_m']:.4f} m, "
+        f"turned {summary['turning_deg']:+.0f} deg, mean speed {1000 * summary['mean_speed_mps']:.2f} mm/s"
+    )
+
+
+def _write(path: Path, writer) -> None:
+    try:
+        writer(path)
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
+def run_simulate(args) -> None:
+    if args.out.suffix != ".npz":
+        raise UsageError(f"--out must name an .npz file, got {str(args.out)!r}")
+    config = sim_config(args, args.model)
+    if args.plot:
+        plotting.require_matplotlib()  # before the run, not after it
+    gait = table2_gait(args.gait, swapped=args.swap_phase)
+    traj = _run_gait(config, gait, args)
+    arrays = trajectory_arrays(traj)
+    _write(args.out, lambda p: np.savez(p, **arrays))
+    label = f"{gait.name}, {args.model}, {args.duration:g} s"
+    print(format_travel(label, _summary(traj, gait.period)))
+    print(f"wrote {args.out}")
+    if args.plot:
+        title = f"Gait {args.gait}{' (phases swapped)' if args.swap_phase else ''}, {args.model}"
+        _write(args.plot, lambda p: plotting.plot_contact_path(p, traj.times, traj.x, traj.y, gait.period, title))
+        print(f"wrote {args.plot}")
+
+
+# ---------------------------------------------------------------- figures
+
+
+def run_figures(args) -> None:
+    configs = {model: sim_config(args, model) for model in MODELS}
+    plotting.require_matplotlib()
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"cannot create {args.out}: {exc.strerror or exc}") from None
+    runs, summaries = {}, []
+    for number in sorted(GAIT_OFFSETS):
+        gait = table2_gait(number)
+        for model in MODELS:
+            traj = _run_gait(configs[model], gait, args)
+            runs[(number, model)] = {"times": traj.times, "x": traj.x, "y": traj.y, "period": gait.period}
+            summary = _summary(traj, gait.period)
+            summaries.append({"gait": number, "model": model, **(summary or {})})
+            print(format_travel(f"gait {number}, {model}", summary))
+    figure = args.out / FIGURE_FILE
+    _write(figure, lambda p: plotting.plot_gait_panels(p, runs))
+    table = analysis.table1()
+    settings = {
+        "command": args.command_line,
+        "duration_s": args.duration,
+        "sample_dt_s": args.sample_dt,
+        "timestep_s": args.timestep,
+        "gains": asdict(configs["plane"].gains),
+        "robot": asdict(configs["plane"].robot),
+    }
+    report = {"settings": settings, "travel": summaries, "table1": table}
+    _write(args.out / "summary.json", lambda p: p.write_text(json.dumps(_json_safe(report), indent=2, allow_nan=False) + "\n"))
+    _write(args.out / "summary.txt", lambda p: p.write_text(format_summary(settings, summaries, table) + "\n"))
+    for name in (FIGURE_FILE, "summary.txt", "summary.json"):
+        print(f"wrote {args.out / name}")
+
+
+def format_summary(settings, summaries, table) -> str:
+    header = ("gait", "model", "net (m)", "dx (m)", "dy (m)", "direction", "path (m)", "turning", "area (m^2)", "speed (mm/s)")
+    rows = []
+    for s in summaries:
+        if "displacement_m" not in s:
+            rows.append((str(s["gait"]), s["model"], *(["-"] * (len(header) - 2))))
+            continue
+        rows.append(
+            (
+                str(s["gait"]),
+                s["model"],
+                f"{s['displacement_m']:.4f}",
+                f"{s['dx_m']:+.4f}",
+                f"{s['dy_m']:+.4f}",
+                f"{s['direction_deg']:+.1f} deg",
+                f"{s['path_length_m']:.4f}",
+                f"{s['turning_deg']:+.0f} deg",
+                f"{s['signed_area_m2']:+.5f}",
+                f"{1000 * s['mean_speed_mps']:.2f}",
+            )
+        )
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+
+    gains = settings["gains"]
+    lines = [
+        f"made by: {settings['command']}",
+        f"Travel of the Table II gaits, {settings['duration_s']:g} s from rest "
+        f"(RK4 step {settings['timestep_s']:.4g} s, Kp {gains['kp']:g}, Kd {gains['kd']:g}, "
+        f"damping {settings['robot']['damping']:g})",
+        "measured on the contact path averaged over each gait period (2 pi / 8 s);",
+        "direction of the net displacement from +X, counter-clockwise; turning: signed change of heading, CCW +;",
+        "area: signed area enclosed by the averaged path, > 0 counter-clockwise; speed: path length / time.",
+        "",
+        line(header),
+        line(["-" * w for w in widths]),
+        *(line(r) for r in rows),
+        "",
+        format_table1(table),
+    ]
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- entry point
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = parser.parse_args(argv)
+    args.command_line = " ".join([PROG, *argv])
+    try:
+        args.run(args)
+    except UsageError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except ImportError as exc:
+        if "rrrobot_gym[plots]" not in str(exc):
+            raise
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # The reader went away (``rrrobot table1 | head``): not an error of ours.
+        sys.stderr.close()
+        return 0
+    return 0

@@ -1,0 +1,23 @@
+import numpy as np
+import pytest
+
+from rrrobot_gym import dynamics
+from rrrobot_gym.simulation import initial_state
+
+
+def random_states(rng, n, max_tilt=0.6, max_rate=1.5):
+    """n states with random attitude (tilt <= max_tilt), legs and speeds."""
+    states = initial_state(n)
+    theta = rng.uniform(-max_tilt, max_tilt, size=(n, 3))
+    theta[:, 1] = rng.uniform(-np.pi, np.pi, size=n)  # heading is free
+    states[:, dynamics.QUAT] = dynamics.quat_from_paper_angles(theta)
+    states[:, dynamics.LEG_ANGLES] = rng.uniform(-0.8, 2.4, size=(n, 2))
+    states[:, dynamics.BODY_RATE] = rng.uniform(-max_rate, max_rate, size=(n, 3))
+    states[:, dynamics.LEG_RATES] = rng.uniform(-3 * max_rate, 3 * max_rate, size=(n, 2))
+    states[:, 0:2] = rng.uniform(-1, 1, size=(n, 2))
+    return states
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20261122)

@@ -1,0 +1,197 @@
+"""The command line, run as a user runs it: ``python -m rrrobot_gym ...`` in a subprocess.
+
+Runs are a few seconds of simulated time so the whole file stays short; the 50 s
+runs of the paper are the physics tests' business.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import cumulative_trapezoid
+
+from rrrobot_gym import dynamics
+from rrrobot_gym.params import RobotParams
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DOCUMENTED_ARRAYS = {"t": 1, "x": 1, "y": 1, "theta": 3, "phi": 2, "quat": 4, "body_rate": 3}
+"""Name -> columns (1: a plain (T,) array) of what ``rrrobot simulate`` writes."""
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def rrrobot(*args, check=True):
+    """Run ``python -m rrrobot_gym *args`` from the repository root, without an install."""
+    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env["MPLBACKEND"] = "Agg"
+    result = subprocess.run(
+        [sys.executable, "-m", "rrrobot_gym", *map(str, args)],
+        cwd=REPO_ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    if check and result.returncode != 0:
+        raise AssertionError(f"rrrobot {' '.join(map(str, args))} failed ({result.returncode}):\n{result.stderr}")
+    return result
+
+
+# ---------------------------------------------------------------- table1
+
+
+def test_table1_json_reproduces_the_papers_periods():
+    records = json.loads(rrrobot("table1", "--json").stdout)  # strict JSON: NaN would not parse as null
+    by_entry = {(r["model"], r["axis"]): r for r in records}
+    assert set(by_entry) == {("plane", "x"), ("plane", "y"), ("pivot", "x"), ("pivot", "y")}
+    tolerance = {("plane", "x"): 0.005, ("plane", "y"): 0.005, ("pivot", "x"): 0.005, ("pivot", "y"): 0.02}
+    for entry, rec in by_entry.items():
+        assert rec["period_s"] == pytest.approx(rec["paper_s"], rel=tolerance[entry]), entry
+    # The paper's eq. (5) needs rho < r; about the plane's X axis rho > r, so the literal formula is undefined.
+    assert by_entry[("plane", "x")]["radius_of_gyration_m"] > RobotParams().radius
+    assert by_entry[("plane", "x")]["paper_formula_s"] is None
+
+
+def test_table1_text_flags_that_the_literal_formulas_miss_the_paper():
+    text = rrrobot("table1").stdout
+    for model, axis, paper in (("plane", "X", "1.29"), ("plane", "Y", "1.07"), ("pivot", "X", "1.19"), ("pivot", "Y", "0.96")):
+        assert any(line.split()[:2] == [model, axis] and paper in line.split() for line in text.splitlines())
+    assert "no real value" in text
+    assert "do not reproduce the paper's Table I" in text
+
+
+# ---------------------------------------------------------------- simulate
+
+SAMPLE_DT = 0.005
+DURATION = 3.0
+
+
+@pytest.fixture(scope="module")
+def gait3_runs(tmp_path_factory):
+    """Gait 3 on a plane, as given and with the legs' phases swapped, and the normal run's plot."""
+    out = tmp_path_factory.mktemp("simulate")
+    common = ("simulate", "--model", "plane", "--gait", "3", "--duration", DURATION, "--sample-dt", SAMPLE_DT)
+    normal = rrrobot(*common, "--out", out / "normal.npz", "--plot", out / "normal.png")
+    rrrobot(*common, "--swap-phase", "--out", out / "swapped.npz")
+    return {
+        "normal": dict(np.load(out / "normal.npz")),
+        "swapped": dict(np.load(out / "swapped.npz")),
+        "plot": out / "normal.png",
+        "stdout": normal.stdout,
+    }
+
+
+def test_simulate_writes_exactly_the_documented_arrays(gait3_runs):
+    arrays = gait3_runs["normal"]
+    assert set(arrays) == set(DOCUMENTED_ARRAYS)
+    samples = round(DURATION / SAMPLE_DT) + 1
+    for name, columns in DOCUMENTED_ARRAYS.items():
+        expected = (samples,) if columns == 1 else (samples, columns)
+        assert arrays[name].shape == expected, name
+        assert np.all(np.isfinite(arrays[name])), name
+    assert arrays["t"][0] == 0.0
+    np.testing.assert_allclose(np.diff(arrays["t"]), SAMPLE_DT, rtol=1e-9)
+
+
+def test_simulate_attitude_arrays_agree(gait3_runs):
+    arrays = gait3_runs["normal"]
+    np.testing.assert_allclose(np.linalg.norm(arrays["quat"], axis=1), 1.0, atol=1e-12)
+    # theta is the paper's ZXY angles of the same attitude: rebuilding the quaternion gives +-quat.
+    rebuilt = dynamics.quat_from_paper_angles(arrays["theta"])
+    sign = np.sign(np.sum(rebuilt * arrays["quat"], axis=1, keepdims=True))
+    np.testing.assert_allclose(sign * rebuilt, arrays["quat"], atol=1e-12)
+    assert np.ptp(arrays["theta"], axis=0).min() > 0.01  # all three angles move in Gait 3
+
+
+def test_simulate_body_rate_is_world_frame_and_moves_the_contact_point(gait3_runs):
+    # Contact kinematics (paper eq. 2/4): xdot = r w_y, ydot = -r w_x with w in the WORLD frame.
+    # The first 0.5 s are skipped: the legs leap to the gait's start there, faster than the sampling.
+    arrays = gait3_runs["normal"]
+    r = RobotParams().radius
+    later = arrays["t"] >= 0.5
+    t, w = arrays["t"][later], arrays["body_rate"][later]
+    predicted_x = arrays["x"][later][0] + cumulative_trapezoid(r * w[:, 1], t, initial=0.0)
+    predicted_y = arrays["y"][later][0] + cumulative_trapezoid(-r * w[:, 0], t, initial=0.0)
+    np.testing.assert_allclose(predicted_x, arrays["x"][later], atol=2e-4)
+    np.testing.assert_allclose(predicted_y, arrays["y"][later], atol=2e-4)
+    # The same test with the body-frame rate fails by far more: the body tilts and turns.
+    body_frame = np.einsum("nji,nj->ni", dynamics.rotation_matrix(arrays["quat"][later]), w)
+    body_frame_y = arrays["y"][later][0] + cumulative_trapezoid(-r * body_frame[:, 0], t, initial=0.0)
+    assert np.abs(body_frame_y - arrays["y"][later]).max() > 10 * 2e-4
+
+
+def test_swap_phase_mirrors_the_path_in_y(gait3_runs):
+    normal, swapped = gait3_runs["normal"], gait3_runs["swapped"]
+    assert np.ptp(normal["y"]) > 0.01
+    np.testing.assert_allclose(swapped["x"], normal["x"], atol=1e-10)
+    np.testing.assert_allclose(swapped["y"], -normal["y"], atol=1e-10)
+
+
+def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
+    assert "moved" in gait3_runs["stdout"] and "turned" in gait3_runs["stdout"]
+    assert gait3_runs["plot"].read_bytes()[:8] == PNG_SIGNATURE
+
+
+@pytest.mark.parametrize(
+    "args, problem",
+    [
+        (("--model", "moon", "--gait", "1"), "--model"),
+        (("--model", "plane", "--gait", "4"), "--gait"),
+        (("--model", "plane", "--gait", "1", "--duration", "-1"), "--duration"),
+        (("--model", "plane", "--gait", "1", "--sample-dt", "0"), "--sample-dt"),
+        (("--model", "plane", "--gait", "1", "--param", "mass_tip=-0.1"), "mass_tip"),
+        (("--model", "pivot", "--gait", "1", "--param", "mass_bottom=-1"), "mass_bottom"),
+        (("--model", "plane", "--gait", "1", "--kp", "-2"), "kp"),
+    ],
+)
+def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
+    # A later option wins in argparse, so a bad --duration in ``args`` overrides the short default.
+    result = rrrobot("simulate", "--duration", "1", *args, "--out", tmp_path / "run.npz", check=False)
+    assert result.returncode != 0
+    assert "Traceback" not in result.stderr
+    error_lines = [line for line in result.stderr.splitlines() if "error:" in line]
+    assert len(error_lines) == 1 and problem in error_lines[0], result.stderr
+    assert not (tmp_path / "run.npz").exists()
+
+
+# ---------------------------------------------------------------- figures
+
+
+def test_figures_writes_the_panels_and_the_travel_summary(tmp_path):
+    out = tmp_path / "figures"
+    rrrobot("figures", "--out", out, "--duration", 3)
+    png = (out / "contact_paths.png").read_bytes()
+    assert png[:8] == PNG_SIGNATURE and len(png) < 300_000
+    summary = json.loads((out / "summary.json").read_text())
+    runs = {(run["gait"], run["model"]): run for run in summary["travel"]}
+    assert set(runs) == {(g, m) for g in (1, 2, 3) for m in ("plane", "pivot")}
+    for run in runs.values():
+        for key in ("displacement_m", "direction_deg", "path_length_m", "turning_deg", "signed_area_m2", "mean_speed_mps"):
+            assert math.isfinite(run[key]), key
+    # Gait 1 sets off sideways (along Y) even in 3 s: the summary belongs to the runs it names.
+    for model in ("plane", "pivot"):
+        assert abs(runs[(1, model)]["dy_m"]) > 5 * abs(runs[(1, model)]["dx_m"])
+    assert len(summary["table1"]) == 4
+    text = (out / "summary.txt").read_text()
+    assert "Table I" in text and "turning" in text
+
+
+def test_plot_without_matplotlib_says_what_to_install(tmp_path):
+    # sys.modules[name] = None makes "import matplotlib" fail as if it were not installed.
+    script = (
+        "import sys; sys.modules['matplotlib'] = None; from rrrobot_gym.cli import main; "
+        f"sys.exit(main(['simulate', '--model', 'plane', '--gait', '1', '--duration', '1', "
+        f"'--out', {str(tmp_path / 'run.npz')!r}, '--plot', {str(tmp_path / 'run.png')!r}]))"
+    )
+    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT)}
+    result = subprocess.run([sys.executable, "-c", script], cwd=REPO_ROOT, env=env, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert "pip install rrrobot_gym[plots]" in result.stderr
+    assert not (tmp_path / "run.png").exists()

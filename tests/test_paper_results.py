@@ -1,0 +1,107 @@
+"""The paper's numbers and observations, reproduced by the simulator.
+
+50 s runs of every Table II gait on both models, from the paper's start.
+"""
+
+import functools
+
+import numpy as np
+import pytest
+
+from rrrobot_gym.analysis import PAPER_TABLE1, small_oscillation_periods, table1, travel_summary
+from rrrobot_gym.control import table2_gait
+from rrrobot_gym.simulation import SimConfig, simulate, simulate_reference
+
+DURATION = 50.0
+
+
+@functools.lru_cache(maxsize=None)
+def run(model, gait_number, swapped=False):
+    return simulate(SimConfig(model=model), table2_gait(gait_number, swapped), DURATION)
+
+
+@functools.lru_cache(maxsize=None)
+def travel(model, gait_number, swapped=False):
+    traj = run(model, gait_number, swapped)
+    return travel_summary(traj.times, traj.x, traj.y, table2_gait(gait_number).period)
+
+
+@pytest.mark.parametrize(
+    "model, axis, tolerance",
+    [("plane", "x", 0.005), ("plane", "y", 0.005), ("pivot", "x", 0.005), ("pivot", "y", 0.02)],
+)
+def test_table1_small_oscillation_periods_match_the_paper(model, axis, tolerance):
+    period = small_oscillation_periods(model)[axis]
+    assert period == pytest.approx(PAPER_TABLE1[(model, axis)], rel=tolerance)
+
+
+def test_table1_linearisation_agrees_with_the_compound_single_axis_formula():
+    for record in table1():
+        assert record["period_s"] == pytest.approx(record["compound_formula_s"], rel=1e-6)
+
+
+def test_table1_periods_are_measured_by_free_oscillation_too():
+    """Release the robot slightly tilted about X with the legs held by a stiff servo; time the rocking."""
+    from rrrobot_gym import dynamics
+    from rrrobot_gym.control import HeldTargets
+    from rrrobot_gym.params import PDGains, RobotParams
+    from rrrobot_gym.simulation import initial_state
+
+    config = SimConfig(model="plane", robot=RobotParams(damping=0.0), gains=PDGains(kp=200.0, kd=0.5), timestep=1e-4)
+    start = initial_state()
+    start[dynamics.QUAT] = dynamics.quat_from_paper_angles([1e-3, 0.0, 0.0])
+    traj = simulate(config, HeldTargets([np.pi / 2, np.pi / 2]), 4.0, state=start, sample_dt=1e-3)
+    theta1 = traj.theta[:, 0]
+    crossings = traj.times[1:][(theta1[:-1] > 0) & (theta1[1:] <= 0)]
+    assert np.diff(crossings).mean() == pytest.approx(small_oscillation_periods("plane")["x"], rel=2e-3)
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_gait1_travels_along_y_with_little_x(model):
+    summary = travel(model, 1)
+    assert abs(summary["dy_m"]) > 0.3
+    assert abs(summary["dx_m"]) < 0.02 * abs(summary["dy_m"])
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_gait2_travels_along_x_little_after_a_jump_at_the_start(model):
+    traj = run(model, 2)
+    early = np.hypot(traj.x[traj.times <= 2.0], traj.y[traj.times <= 2.0]).max()
+    summary = travel(model, 2)
+    # X travel, small: well below gait 1's displacement over the same 50 s.
+    assert summary["path_length_m"] < 0.5 * travel(model, 1)["path_length_m"]
+    assert abs(traj.x[-1]) > 0.01
+    # The jump: the legs swing down from vertical and the contact point moves along X first.
+    assert early > 0.02
+    start_jump = traj.x[np.argmax(np.hypot(traj.x, traj.y)[traj.times <= 2.0])]
+    assert abs(start_jump) > 0.02
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_gait3_turns_counter_clockwise_about_once(model):
+    summary = travel(model, 3)
+    assert summary["signed_area_m2"] > 0.0
+    assert 300.0 < summary["turning_deg"] < 600.0  # about one circle in 50 s (the paper: 1 on a plane)
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+@pytest.mark.parametrize("gait_number", [1, 2, 3])
+def test_swapping_the_phases_mirrors_the_path_exactly(model, gait_number):
+    original, mirrored = run(model, gait_number), run(model, gait_number, True)
+    np.testing.assert_allclose(mirrored.x, original.x, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(mirrored.y, -original.y, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("gait_number", [1, 3])
+def test_pivoting_model_travels_farther_than_the_plane_model(gait_number):
+    assert travel("pivot", gait_number)["path_length_m"] > travel("plane", gait_number)["path_length_m"]
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+@pytest.mark.parametrize("gait_number", [1, 2, 3])
+def test_default_step_keeps_the_contact_point_within_1mm_of_the_reference(model, gait_number):
+    gait = table2_gait(gait_number)
+    reference = simulate_reference(SimConfig(model=model), gait, DURATION, sample_dt=0.01)
+    fixed = run(model, gait_number)
+    error = np.hypot(fixed.x - reference.x, fixed.y - reference.y)
+    assert error.max() < 1e-3
