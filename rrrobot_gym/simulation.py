@@ -12,7 +12,9 @@ integrated on Python floats, which is several times faster than numpy at N = 1.
 
 from __future__ import annotations
 
+import functools
 import math
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -61,8 +63,10 @@ class SimConfig:
             raise TypeError(f"SimConfig.robot must be a RobotParams, got {type(self.robot).__name__}")
         if not isinstance(self.gains, PDGains):
             raise TypeError(f"SimConfig.gains must be a PDGains, got {type(self.gains).__name__}")
-        if self.timestep == "auto":
-            object.__setattr__(self, "_step", scene_timestep(self.model, self.robot, self.gains, self.legs))
+        if isinstance(self.timestep, str):
+            if self.timestep != "auto":
+                raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
+            object.__setattr__(self, "_step", scene_timestep(self.model, self.robot, self.gains, self.legs, self.integrator))
             return
         try:
             step = float(self.timestep)
@@ -72,6 +76,16 @@ class SimConfig:
             raise ValueError(f"SimConfig.timestep must be a positive finite number of seconds, got {self.timestep}")
         object.__setattr__(self, "timestep", step)
         object.__setattr__(self, "_step", step)
+        if self.legs == "servo":
+            limit = stable_step_limit(self.model, self.robot, self.gains, self.integrator)
+            if step > limit:
+                raise ValueError(
+                    f"SimConfig.timestep {step:.4g} s is beyond the stability limit {limit:.4g} s of "
+                    f"{self.integrator} for the leg servo (kp={self.gains.kp}, kd={self.gains.kd}, tip mass "
+                    f"{self.robot.mass_tip} kg, model {self.model!r}; fastest servo pole "
+                    f"{servo_fastest_rate(self.model, self.robot, self.gains):.4g} 1/s): the run would blow up. "
+                    f"Use a smaller timestep, timestep='auto', or legs='kinematic'"
+                )
 
     @property
     def step(self) -> float:
@@ -128,6 +142,7 @@ def check_state(state):
 # The scene's time scales: a step derived from gains, masses and model.
 
 
+@functools.lru_cache(maxsize=64)
 def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
     """1/kg m^2, the largest eigenvalue of the legs' block of M^-1 over attitudes and leg angles.
 
@@ -143,43 +158,88 @@ def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
     states[..., 3] = np.sin(0.5 * tilt_angle) * np.cos(axis_angle)
     states[..., 4] = np.sin(0.5 * tilt_angle) * np.sin(axis_angle)
     states[..., 6], states[..., 7] = phi1, phi2
-    inverse = np.linalg.inv(dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model))
+    mass = dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model)
+    # Skip configurations where M is singular (e.g. no bottom mass and every mass on one
+    # line): the dynamics is undefined there and no step size helps.
+    eig = np.linalg.eigvalsh(mass)
+    regular = eig[:, 0] > 1e-9 * eig[:, -1]
+    if not np.any(regular):
+        raise ValueError(
+            f"the generalised mass matrix of {robot} ({model} model) is singular in every configuration: "
+            f"some motion moves no mass (e.g. with mass_bottom = 0 the pivoting shell has no inertia about "
+            f"the legs' axis), so the dynamics is undefined"
+        )
+    inverse = np.linalg.inv(mass[regular])
     return float(np.linalg.eigvalsh(inverse[:, 3:, 3:]).max())
 
 
-def servo_fastest_rate(model: str, robot: RobotParams, gains: PDGains) -> float:
-    """1/s, |lambda| of the fastest pole of the leg servo, over all configurations.
+def servo_poles(model: str, robot: RobotParams, gains: PDGains) -> tuple:
+    """1/s, the two poles of the stiffest leg-servo mode over all configurations.
 
     Each leg obeys I_eff phi'' + kd phi' + kp phi = ... with I_eff as small as
-    1/max eig(M^-1 legs block): poles (-kd +- sqrt(kd^2 - 4 kp I_eff)) / (2 I_eff).
+    1/max eig(M^-1 legs block): poles (-kd mu +- sqrt((kd mu)^2 - 4 kp mu)) / 2, mu = 1/I_eff.
     """
     mu = _effective_leg_inverse_inertia(model, robot)
-    disc = (gains.kd * mu) ** 2 - 4.0 * gains.kp * mu
-    if disc >= 0.0:
-        return 0.5 * (gains.kd * mu + math.sqrt(disc))
-    return math.sqrt(gains.kp * mu)  # complex pair: |lambda| = sqrt(kp/I)
+    disc = complex((gains.kd * mu) ** 2 - 4.0 * gains.kp * mu)
+    root = disc**0.5
+    return (0.5 * (-gains.kd * mu - root), 0.5 * (-gains.kd * mu + root))
 
 
-SERVO_STEP_FACTOR = 1.22
-"""h |lambda_servo| of the auto step for the servo legs (stability ends at 2.785). Calibrated
-by ``benchmarks.work_precision``: at 1.22 the plane model's defaults give 1/300 s, whose
-worst contact error after 50 s is 0.6 mm; larger values leave the 1 mm budget."""
+def servo_fastest_rate(model: str, robot: RobotParams, gains: PDGains) -> float:
+    """1/s, |lambda| of the fastest pole of the leg servo, over all configurations."""
+    return max(abs(p) for p in servo_poles(model, robot, gains))
 
-KINEMATIC_STEP = 1.0 / 60.0
+
+def _amplification(integrator: str, z: complex) -> float:
+    """|R(z)|, the integrator's growth factor per step on y' = lambda y, z = h lambda."""
+    poly = 1.0 + z + z * z / 2.0 + z**3 / 6.0
+    if integrator == "rk4":
+        poly += z**4 / 24.0
+    return abs(poly)
+
+
+def stable_step_limit(model: str, robot: RobotParams, gains: PDGains, integrator: str = "rk4") -> float:
+    """s, the largest step at which ``integrator`` stays stable on the leg servo's fastest poles."""
+    poles = [p for p in servo_poles(model, robot, gains) if p != 0]
+    lo, hi = 0.0, 10.0 / max(abs(p) for p in poles)
+    for _ in range(60):  # bisection on the first step where some pole is amplified
+        mid = 0.5 * (lo + hi)
+        if all(_amplification(integrator, mid * p) <= 1.0 + 1e-12 for p in poles):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+SERVO_STEP_FACTOR = {("rk4", "plane"): 1.28, ("rk4", "pivot"): 1.08, ("rk3", "plane"): 1.13, ("rk3", "pivot"): 0.95}
+"""h |lambda_servo| of the auto step for servo legs, per integrator and model (RK4 is
+stable up to 2.785 on the real axis, RK3 up to 2.513). Calibrated by
+``benchmarks.work_precision`` to the cheapest step under 1 mm of contact error after
+50 s on every gait: plane RK4 1/300 s, pivot RK4 1/140 s, plane RK3 1/340 s (pivot
+RK3 is scaled from pivot RK4, not swept). The models differ: the same h |lambda|
+costs the pivot model more contact error than the plane model."""
+
+KINEMATIC_STEP = 1.0 / 40.0
 """s, the auto step with kinematic legs: the fastest remaining motion is the body
-rocking (~7 rad/s) driven at the gait frequency (8 rad/s)."""
+rocking (~7 rad/s) driven at the gait frequency (8 rad/s). At 1/40 s the contact error
+after 50 s is ~0.03 mm (1/20 s: ~0.4 mm; ``benchmarks.work_precision``)."""
 
 
-def scene_timestep(model: str, robot: RobotParams, gains: PDGains, legs: str = "servo") -> float:
+def scene_timestep(model: str, robot: RobotParams, gains: PDGains, legs: str = "servo", integrator: str = "rk4") -> float:
     """s, a step derived from the scene rather than one fixed number (``timestep="auto"``).
 
     Servo legs: the stiffest motion is the overdamped leg servo, |lambda| =
-    :func:`servo_fastest_rate`; h = SERVO_STEP_FACTOR / |lambda|. Kinematic legs: the
-    servo is gone and the body's rocking sets the step (:data:`KINEMATIC_STEP`).
+    :func:`servo_fastest_rate`; h = SERVO_STEP_FACTOR[integrator, model] / |lambda|, and never
+    more than 0.8 of the stability limit (:func:`stable_step_limit`). Kinematic legs:
+    the servo is gone and the body's rocking sets the step (:data:`KINEMATIC_STEP`).
     """
     if legs == "kinematic":
         return KINEMATIC_STEP
-    return min(SERVO_STEP_FACTOR / servo_fastest_rate(model, robot, gains), KINEMATIC_STEP)
+    return min(
+        SERVO_STEP_FACTOR[integrator, model] / servo_fastest_rate(model, robot, gains),
+        0.8 * stable_step_limit(model, robot, gains, integrator),
+        KINEMATIC_STEP,
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -425,6 +485,46 @@ def _leg_path_end(targets, blend, t_end):
     return a1, a2, r1, r2
 
 
+AUTO_RATE_FACTOR = 0.3
+"""With ``timestep="auto"``, h x (fastest rate at the start of an advance) stays below this:
+the body's spin and the legs' rates (or, kinematic, the peak rate of their path) set
+a limit of their own that gains and masses cannot predict (bang-bang kinematic
+targets, a top-heavy robot falling over)."""
+
+
+def _rate_limited_step(state, path_rate: float) -> float:
+    body = float(np.max(np.linalg.norm(np.atleast_2d(state)[:, dynamics.BODY_RATE], axis=-1)))
+    legs = float(np.max(np.abs(state[..., dynamics.LEG_RATES])))
+    fastest = max(body, legs, path_rate)
+    return AUTO_RATE_FACTOR / fastest if fastest > 0.0 else math.inf
+
+
+def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) -> str:
+    """The message of a NumericalFailure: what blew up and the likely cause, from the start state."""
+    state = np.atleast_2d(state)
+    body_rate = float(np.max(np.linalg.norm(state[:, dynamics.BODY_RATE], axis=-1)))
+    leg_rate = float(np.max(np.abs(state[:, dynamics.LEG_RATES])))
+    tilt = float(np.max(dynamics.tilt(state)))
+    causes = []
+    if config.legs == "servo":
+        limit = stable_step_limit(config.model, config.robot, config.gains, config.integrator)
+        if h > 0.8 * limit:
+            causes.append(f"the step {h:.3g} s is near or past the leg servo's stability limit {limit:.3g} s")
+    # Gyroscopic and leg-swing motion at rate w needs h w well below ~2.8 for RK4.
+    fastest = max(body_rate, leg_rate)
+    if h * fastest > 1.0:
+        causes.append(f"the robot turns too fast for the step (|Omega| up to {body_rate:.3g} rad/s, leg rates up to "
+                      f"{leg_rate:.3g} rad/s; h x rate = {h * fastest:.2g}, keep it below ~1)")  # fmt: skip
+    if tilt >= dynamics.TILT_LIMIT:
+        causes.append(f"the tilt {math.degrees(tilt):.1f} deg is past the rim limit of 90 deg, where the model ends")
+    if not causes:
+        causes.append("no single cause found: try a smaller timestep; check masses and gains for extreme ratios")
+    return (
+        f"non-finite state after integrating {duration} s from t={t0} with step {h:.3g} s "
+        f"({config.integrator}, model {config.model!r}, {config.legs} legs): " + "; ".join(causes)
+    )
+
+
 def advance(config: SimConfig, state, t0: float, duration: float, targets, *, check=True):
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
@@ -443,11 +543,10 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
         state = check_state(state)
     if duration < 0.0 or not math.isfinite(duration):
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
-    n_steps = max(1, math.ceil(duration / config.step - 1e-9)) if duration > 0 else 0
-    if n_steps == 0:
+    if duration == 0.0:
         return np.array(state)
-    h = duration / n_steps
     blend = None
+    path_rate = 0.0
     if config.legs == "kinematic":
         (a1, a2), (r1, r2), _ = targets.leg_targets(t0)
         legs = state[..., dynamics.LEG_ANGLES]
@@ -455,23 +554,32 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
         off = (legs[..., 0] - a1, legs[..., 1] - a2, rates[..., 0] - r1, rates[..., 1] - r2)
         if max(float(np.max(np.abs(v))) for v in off) > 1e-9:
             blend = (t0, _blend_coefficients(off[0], off[2], duration), _blend_coefficients(off[1], off[3], duration))
+            # A minimum-jerk move of b0 in T peaks at 1.875 b0 / T.
+            path_rate = float(np.max(np.abs(off[:2]))) * 1.875 / duration + float(np.max(np.abs(off[2:])))
+        path_rate += float(np.max(np.abs(np.asarray([r1, r2], dtype=float))))
+    step = config.step
+    if config.timestep == "auto":
+        step = min(step, _rate_limited_step(state, path_rate))
+    n_steps = max(1, math.ceil(duration / step - 1e-9))
+    h = duration / n_steps
     f = _stage_fn(config, targets, blend)
     step_floats, step_arrays = _STEPPERS[config.integrator]
     if state.ndim == 1:
-        out = np.array(step_floats(f, t0, state.tolist(), h, n_steps))
+        try:
+            out = np.array(step_floats(f, t0, state.tolist(), h, n_steps))
+        except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
+            raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
     else:
         if state.shape[0] >= 1024:
             _keep_freed_heap(state.shape[0])
-        out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
+        with np.errstate(all="ignore"):  # a blow-up is reported below, by name, not as warnings
+            out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
         out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
     if not np.all(np.isfinite(out)):
-        raise NumericalFailure(
-            f"non-finite state after integrating {duration} s from t={t0} with step {h:.3g} s "
-            f"(model {config.model!r}); reduce the timestep or the gains"
-        )
+        raise NumericalFailure(_diagnose(config, state, t0, duration, h))
     return out
 
 
