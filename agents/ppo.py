@@ -1,0 +1,82 @@
+"""Loading a trained PPO policy, with its observation normalisation, as an agent.
+
+Loading a Stable-Baselines3 model unpickles it (``PPO.load`` and the VecNormalize
+statistics both use pickle): load only files you trust.
+"""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+
+class PPOAgent:
+    """A PPO policy that normalises raw env observations with saved statistics.
+
+    ``obs_mean``, ``obs_var``, ``clip_obs`` and ``epsilon`` are those of SB3's
+    ``VecNormalize`` at the end of training (None: the policy takes raw observations).
+    """
+
+    name = "ppo"
+
+    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8):
+        self.model = model
+        self.obs_mean = None if obs_mean is None else np.asarray(obs_mean, dtype=np.float64)
+        self.obs_var = None if obs_var is None else np.asarray(obs_var, dtype=np.float64)
+        self.clip_obs = float(clip_obs)
+        self.epsilon = float(epsilon)
+
+    def normalize(self, observation):
+        observation = np.asarray(observation, dtype=np.float64)
+        if self.obs_mean is None:
+            return observation.astype(np.float32)
+        scaled = (observation - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon)
+        return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        actions, _ = self.model.predict(self.normalize(observation), deterministic=deterministic)
+        return actions, state
+
+
+def normalization_path(model_path) -> Path:
+    """Where the VecNormalize statistics of a saved model live, by this project's naming.
+
+    ``best_model.zip`` -> ``vecnormalize.pkl``; ``final_model.zip`` -> ``final_vecnormalize.pkl``;
+    a checkpoint ``ppo_<N>_steps.zip`` -> ``ppo_vecnormalize_<N>_steps.pkl`` (SB3's naming);
+    anything else ``<stem>.zip`` -> ``<stem>_vecnormalize.pkl``.
+    """
+    model_path = Path(model_path)
+    stem = model_path.stem
+    if stem == "best_model":
+        name = "vecnormalize.pkl"
+    elif stem == "final_model":
+        name = "final_vecnormalize.pkl"
+    elif stem.endswith("_steps") and "_" in stem[: -len("_steps")]:
+        prefix, steps = stem[: -len("_steps")].rsplit("_", 1)
+        name = f"{prefix}_vecnormalize_{steps}_steps.pkl"
+    else:
+        name = f"{stem}_vecnormalize.pkl"
+    return model_path.with_name(name)
+
+
+def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
+    """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
+    (:func:`normalization_path`), its VecNormalize statistics. Unpickles both files:
+    trusted files only.
+    """
+    from stable_baselines3 import PPO
+
+    model_path = Path(model_path)
+    if not model_path.exists():
+        raise FileNotFoundError(f"no PPO model at {model_path}")
+    model = PPO.load(model_path, device=device)
+    if vecnormalize_path is None:
+        candidate = normalization_path(model_path)
+        vecnormalize_path = candidate if candidate.exists() else None
+    if vecnormalize_path is None:
+        return PPOAgent(model)
+    with open(vecnormalize_path, "rb") as handle:
+        stats = pickle.load(handle)
+    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon)

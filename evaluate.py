@@ -1,0 +1,298 @@
+"""Score a learned PPO policy and the paper's gaits on the same RRRobot-v0 evaluation.
+
+Every agent runs 50 s episodes from the paper's start (no start noise) on each model,
+commanded along the 8 compass headings (0, 45, ..., 315 degrees) and along each gait's
+own direction of travel. All agents go through one loop over the batched env and the
+same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
+
+    python evaluate.py                                  # the shipped policy
+    python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
+
+Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
+(keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
+and plots with ``--plots DIR``. Loading a policy unpickles it: load only files you trust.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from agents import GAIT_AGENT_NAMES, gait_agent, load_ppo_agent
+from rrrobot_gym.envs.task import action_to_leg_targets
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
+
+HERE = Path(__file__).resolve().parent
+DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
+COMPASS_DEG = tuple(range(0, 360, 45))
+
+
+def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0):
+    """Run every agent once along each heading (degrees), all in one batched env.
+
+    ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
+    Returns {name: run}, each run a dict of arrays: ``times`` (T+1,), ``xy`` (T+1, H, 2)
+    contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``torque``
+    (T, H, 2) the servo torque at the end of each control step (N m), ``terminated`` (H,).
+    After a robot reaches the tilt limit its path holds its last position, then NaN.
+    """
+    names = list(agents)
+    n_head = len(headings_deg)
+    headings = np.tile(np.radians(np.asarray(headings_deg, dtype=float)), len(names))
+    env = RRRobotVectorEnv(num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0)
+    steps = int(round(duration / env.dt))
+    obs, _ = env.reset(seed=seed, options={"target_direction": headings})
+    gains = env.config.sim.gains
+    xy, legs, targets, torque = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], [], []
+    agent_states = {name: None for name in names}
+    episode_start = np.ones(n_head, dtype=bool)
+    ended = np.zeros(len(headings), dtype=bool)
+    for _ in range(steps):
+        actions = np.empty((len(headings), 2), dtype=np.float32)
+        for a, name in enumerate(names):
+            rows = slice(a * n_head, (a + 1) * n_head)
+            actions[rows], agent_states[name] = agents[name].predict(
+                obs[rows], state=agent_states[name], episode_start=episode_start, deterministic=True
+            )
+        episode_start = np.zeros(n_head, dtype=bool)
+        obs, _, terminated, _, info = env.step(actions)
+        leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
+        current = env.states.copy()
+        if np.any(terminated):
+            # SAME_STEP autoreset has already restarted a finished robot: take its last
+            # position from final_info and mark the rest of its episode as missing.
+            final = info["final_info"]
+            for i in np.flatnonzero(terminated & ~ended):
+                current[i, :] = np.nan
+                current[i, 0:2] = final["x_position"][i], final["y_position"][i]
+            ended |= terminated
+        current[ended & ~terminated] = np.nan
+        targets.append(leg_target)
+        xy.append(current[:, 0:2])
+        legs.append(current[:, 6:8])
+        torque.append(gains.kp * (leg_target - current[:, 6:8]) - gains.kd * current[:, 11:13])
+    env.close()
+    arrays = {"xy": np.array(xy), "leg_angles": np.array(legs), "leg_targets": np.array(targets), "torque": np.array(torque)}
+    runs = {}
+    for a, name in enumerate(names):
+        rows = slice(a * n_head, (a + 1) * n_head)
+        runs[name] = {key: value[:, rows] for key, value in arrays.items()}
+        runs[name]["times"] = np.arange(steps + 1) * env.dt
+        runs[name]["terminated"] = ended[rows]
+    return runs
+
+
+def score(run, headings_deg, duration):
+    """Per heading: speed along it (m/s), lateral drift (m), RMS servo torque (N m)."""
+    records = []
+    for i, heading in enumerate(headings_deg):
+        direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
+        path = run["xy"][:, i]
+        valid = np.all(np.isfinite(path), axis=1)
+        end = path[valid][-1] - path[0]
+        along = float(end @ direction)
+        lateral = float(direction[0] * end[1] - direction[1] * end[0])
+        torque = run["torque"][:, i]
+        records.append(
+            {
+                "heading_deg": float(heading),
+                "speed_mps": along / duration,
+                "lateral_drift_m": lateral,
+                "displacement_m": [float(end[0]), float(end[1])],
+                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(torque**2))),
+                "terminated": bool(run["terminated"][i]),
+            }
+        )
+    return records
+
+
+def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0):
+    """Records for every agent, model and heading, plus the runs for plotting.
+
+    Headings: the 8 compass directions and each gait's own direction (the heading of its
+    net displacement in a first episode), so each gait is also scored where it goes.
+    """
+    records, runs = [], {}
+    gaits = {name: agent for name, agent in agents.items() if name != "ppo"}
+    for model in models:
+        first = run_episodes(gaits, model, [0.0], duration, seed) if gaits else {}
+        own = {}
+        for name, run in first.items():
+            end = run["xy"][-1, 0] - run["xy"][0, 0]
+            own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
+        headings = list(COMPASS_DEG) + list(own.values())
+        for name, run in run_episodes(agents, model, headings, duration, seed).items():
+            runs[(name, model)] = (headings, run)
+            for record in score(run, headings, duration):
+                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG)
+                record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
+                records.append(record)
+    return records, runs
+
+
+def ratios(records, model="plane"):
+    """The issue's target, measured: PPO vs gait 1 along every compass heading, and PPO vs
+    each gait along that gait's own direction."""
+    by = {(r["agent"], r["heading_deg"]): r for r in records if r["model"] == model}
+    gait1_own = [r for r in records if r["model"] == model and r["agent"] == "gait1" and "gait1" in r["own_direction_of"]]
+    out = {"model": model}
+    if ("ppo", 0.0) in by and gait1_own:
+        reference = gait1_own[0]["speed_mps"]
+        out["gait1_own_speed_mps"] = reference
+        out["ppo_over_gait1_by_heading"] = {
+            int(h): by[("ppo", float(h))]["speed_mps"] / reference for h in COMPASS_DEG
+        }
+        out["ppo_over_gait_on_its_own_direction"] = {}
+        for r in records:
+            if r["model"] == model and r["agent"] != "ppo" and r["agent"] in r["own_direction_of"]:
+                ppo = by[("ppo", r["heading_deg"])]["speed_mps"]
+                out["ppo_over_gait_on_its_own_direction"][r["agent"]] = {
+                    "heading_deg": r["heading_deg"],
+                    "gait_speed_mps": r["speed_mps"],
+                    "ppo_speed_mps": ppo,
+                    "ratio": ppo / r["speed_mps"] if r["speed_mps"] > 0 else math.inf,
+                }
+    return out
+
+
+def markdown(records, ratio_list):
+    lines = []
+    for model in sorted({r["model"] for r in records}):
+        lines.append(f"### {model}: mean speed along the commanded heading (mm/s), 50 s from rest\n")
+        agents = list(dict.fromkeys(r["agent"] for r in records))
+        lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
+        lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
+        for agent in agents:
+            rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
+            own = [r for r in rows.values() if agent in r["own_direction_of"]]
+            own_text = f"{own[0]['speed_mps'] * 1e3:.2f} at {own[0]['heading_deg']:.0f} deg" if own else ""
+            cells = []
+            for h in COMPASS_DEG:
+                r = rows[float(h)]
+                cells.append(f"{r['speed_mps'] * 1e3:.2f}" + (" (T)" if r["terminated"] else ""))
+            lines.append(f"| {agent} | " + " | ".join(cells) + f" | {own_text} |")
+        lines.append("")
+        lines.append(f"Lateral drift (m) and RMS servo torque (N m), {model}:\n")
+        lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " |")
+        lines.append("|---" * (len(COMPASS_DEG) + 1) + "|")
+        for agent in agents:
+            rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
+            cells = [f"{rows[float(h)]['lateral_drift_m']:+.3f} / {rows[float(h)]['effort_rms_torque_nm']:.3f}" for h in COMPASS_DEG]
+            lines.append(f"| {agent} | " + " | ".join(cells) + " |")
+        lines.append("")
+    for ratio in ratio_list:
+        if "ppo_over_gait1_by_heading" not in ratio:
+            continue
+        lines.append(
+            f"PPO speed / gait 1's speed along its own axis ({ratio['gait1_own_speed_mps'] * 1e3:.2f} mm/s), {ratio['model']}: "
+            + ", ".join(f"{h} deg {v:.2f}" for h, v in ratio["ppo_over_gait1_by_heading"].items())
+        )
+        lines.append("")
+        lines.append(f"PPO / gait on the gait's own direction, {ratio['model']}: " + ", ".join(
+            f"{g} ({v['heading_deg']:.0f} deg) {v['ratio']:.2f}" for g, v in ratio["ppo_over_gait_on_its_own_direction"].items()))
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot(runs, out_dir: Path, models):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(dict.fromkeys(name for name, _ in runs))
+    for model in models:
+        fig, axes = plt.subplots(1, 2, figsize=(12, 6))
+        ax = axes[0]
+        if ("ppo", model) in runs:
+            headings, run = runs[("ppo", model)]
+            for i, h in enumerate(headings[: len(COMPASS_DEG)]):
+                ax.plot(run["xy"][:, i, 0], run["xy"][:, i, 1], lw=1.0, label=f"{h} deg")
+                d = np.radians(h)
+                ax.annotate("", xy=(0.8 * math.cos(d) * _reach(run), 0.8 * math.sin(d) * _reach(run)), xytext=(0, 0),
+                            arrowprops={"arrowstyle": "->", "color": "0.7", "lw": 0.8})
+            ax.set_title(f"PPO, commanded along the 8 compass headings ({model})")
+            ax.legend(fontsize=7, ncol=2)
+        ax.plot(0, 0, "ko")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.grid(alpha=0.3)
+        ax = axes[1]
+        for name in names:
+            if name == "ppo" or (name, model) not in runs:
+                continue
+            headings, run = runs[(name, model)]
+            ax.plot(run["xy"][:, 0, 0], run["xy"][:, 0, 1], lw=1.0, label=name)
+        ax.plot(0, 0, "ko")
+        ax.set_aspect("equal")
+        ax.set_title(f"Table II gaits, 50 s ({model})")
+        ax.set_xlabel("x (m)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out_dir / f"paths_{model}.png", dpi=90)
+        plt.close(fig)
+    if ("ppo", "plane") in runs:
+        headings, run = runs[("ppo", "plane")]
+        fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+        window = run["times"] <= 5.0
+        for ax, i in zip(axes, (0, 2)):
+            for leg in range(2):
+                ax.plot(run["times"][window], run["leg_angles"][window, i, leg], label=f"leg {leg + 1} angle")
+            ax.set_ylabel("rad")
+            ax.set_title(f"PPO leg angles, first 5 s, heading {headings[i]} deg (plane)")
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        fig.tight_layout()
+        fig.savefig(out_dir / "ppo_leg_angles.png", dpi=90)
+        plt.close(fig)
+
+
+def _reach(run):
+    finite = run["xy"][np.isfinite(run["xy"]).all(axis=-1)]
+    return float(np.max(np.abs(finite))) if len(finite) else 1.0
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--policy", type=Path, default=DEFAULT_POLICY, help="PPO model zip (default: the shipped one)")
+    parser.add_argument("--no-policy", action="store_true", help="score only the gaits")
+    parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"])
+    parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
+    parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
+    parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
+    args = parser.parse_args(argv)
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
+    agents = {}
+    if not args.no_policy:
+        if not args.policy.is_file():
+            parser.error(f"--policy: no model file at {args.policy}")
+        agents["ppo"] = load_ppo_agent(args.policy)
+    for name in GAIT_AGENT_NAMES:
+        agents[name] = gait_agent(name)
+    records, runs = evaluate(agents, args.models, args.duration, args.seed)
+    ratio_list = [ratios(records, model) for model in args.models]
+    text = markdown(records, ratio_list)
+    print(text)
+    if args.markdown:
+        args.markdown.write_text(text + "\n")
+    if args.json:
+        args.json.write_text(json.dumps({"records": records, "ratios": ratio_list, "command": " ".join(sys.argv)}, indent=1))
+    if args.plots:
+        plot(runs, args.plots, args.models)
+    return records
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,351 @@
+"""RRRobot-v0: directional legless locomotion, one robot (the Gymnasium single env)."""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+from gymnasium.utils import EzPickle
+
+from ..control import HeldTargets
+from ..simulation import DEFAULT_TIMESTEP, advance
+from . import render, task
+
+RENDER_MODES = ("human", "rgb_array")
+
+
+class RRRobotEnv(gymnasium.Env, EzPickle):
+    r"""
+    ## Description
+    The RRRobot of Balasubramanian, Rizzi and Mason, "Legless Locomotion: Models and
+    Experimental Demonstration": a hemispherical shell (radius 0.12 m, open side up) with
+    two short legs pinned on its rim that never touch the ground. Swinging the legs rocks
+    and twists the shell, and rolling without slip turns those oscillations into travel of
+    about a centimetre a second. The dynamics are the paper's (``shared/MODEL.md``), from the
+    project's one implementation in `rrrobot_gym.dynamics`.
+
+    The task is directional locomotion: move the contact point along a commanded heading
+    `target_direction` (radians in the world XY plane, from +X towards +Y), fixed by the
+    keyword or drawn anew each episode. The paper's three gaits (Table II) move the robot
+    sideways (Gait 1, along -Y from the start), forwards (Gait 2, a little, along X) and on
+    a counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
+
+    ## Action Space
+    The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle,
+    held for the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default) while the
+    paper's PD servo (`kp`, `kd`, target rate 0) drives the leg towards it. The map is affine:
+    action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
+    from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
+    horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
+    Actions outside [-1, 1] are clipped (the control cost uses the clipped action); an action
+    of the wrong shape, or with NaN or inf, raises a `ValueError`.
+
+    | Num | Action                       | Control Min | Control Max | Target angle min | Target angle max | Type (Unit) |
+    |-----|------------------------------|-------------|-------------|------------------|------------------|-------------|
+    | 0   | target angle of leg 1 (at body -Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
+    | 1   | target angle of leg 2 (at body +Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
+
+    `rrrobot_gym.envs.task.leg_targets_to_action` inverts the map (to script a gait).
+
+    ## Observation Space
+    The observation space is a `Box(low, high, (15,), float32)`: unit vectors lie in [-1, 1],
+    the rest is unbounded. The body's attitude is given as two unit vectors seen from the
+    body (body coordinates: z up when upright, legs at -Y and +Y): world up, and the commanded
+    heading. Together they fix the attitude relative to the task without any singularity,
+    and they do not change when the whole scene is turned about the vertical, which the
+    dynamics do not notice either. When the robot is upright the heading in the body frame
+    is (cos(target_direction - yaw), sin(target_direction - yaw), 0), yaw being the body's heading.
+
+    | Num | Observation                                                    | Min  | Max | Type (Unit)              |
+    |-----|----------------------------------------------------------------|------|-----|--------------------------|
+    | 0   | world up (+Z) in body coordinates, x                           | -1   | 1   | unit vector (-)          |
+    | 1   | world up (+Z) in body coordinates, y                           | -1   | 1   | unit vector (-)          |
+    | 2   | world up (+Z) in body coordinates, z (cos of the tilt)         | -1   | 1   | unit vector (-)          |
+    | 3   | commanded heading in body coordinates, x                       | -1   | 1   | unit vector (-)          |
+    | 4   | commanded heading in body coordinates, y                       | -1   | 1   | unit vector (-)          |
+    | 5   | commanded heading in body coordinates, z                       | -1   | 1   | unit vector (-)          |
+    | 6   | body angular velocity about body x                             | -Inf | Inf | angular velocity (rad/s) |
+    | 7   | body angular velocity about body y                             | -Inf | Inf | angular velocity (rad/s) |
+    | 8   | body angular velocity about body z                             | -Inf | Inf | angular velocity (rad/s) |
+    | 9   | leg 1 angle (0 horizontal along body +X, pi/2 up)              | -Inf | Inf | angle (rad)              |
+    | 10  | leg 2 angle                                                    | -Inf | Inf | angle (rad)              |
+    | 11  | leg 1 angular rate                                             | -Inf | Inf | angular velocity (rad/s) |
+    | 12  | leg 2 angular rate                                             | -Inf | Inf | angular velocity (rad/s) |
+    | 13  | commanded heading in world coordinates, cos(target_direction)  | -1   | 1   | unit vector (-)          |
+    | 14  | commanded heading in world coordinates, sin(target_direction)  | -1   | 1   | unit vector (-)          |
+    | excluded (15) | contact point x                                      | -Inf | Inf | position (m)             |
+    | excluded (16) | contact point y                                      | -Inf | Inf | position (m)             |
+
+    With `exclude_current_positions_from_observation=False` the contact point (x, y) is
+    appended as entries 15 and 16 (appended, not prepended, so the other indices do not
+    move). Either way it is in `info` as `x_position` and `y_position`.
+
+    ## Rewards
+    The reward is ***reward*** *=* *forward_reward - ctrl_cost*:
+
+    - *forward_reward* (`info["reward_forward"]`):
+      $w_{forward} \times 100 \times \frac{(q_{after} - q_{before}) \cdot d}{dt}$, the velocity
+      **in cm/s** (hence the factor 100 on metres) along the commanded heading
+      d = (cos, sin)(target_direction) of the *upright contact point* q: where the contact
+      point would be if the shell rolled back upright without slip,
+      $q = p - r \frac{tilt}{\sin(tilt)} (R_{02}, R_{12})$ with p the contact point and
+      $(R_{02}, R_{12})$ the horizontal lean of the body's z axis. q is the contact point
+      whenever the shell is upright, so over a walk the two cover the same net distance,
+      but q does not move when the shell merely rocks or tips over: rewarding the raw
+      contact point would pay ~0.19 m (r pi/2, about 380 reward) for rolling onto the rim
+      towards the heading, and it rocks to and fro at the gait frequency (over 20 s of
+      Gait 1 its path is 15 times its net travel; q's path is its net travel).
+      The robot moves at about 1 cm/s (Gait 1: 0.9 cm/s), so a good step earns about 1 and
+      a 1000-step episode about 1000. $w_{forward}$ is `forward_reward_weight`. Summed over
+      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d.
+    - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
+      the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
+      step, small next to the forward term; action 0 holds both legs vertical, the rest
+      pose and the middle of their range).
+
+    `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
+    `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
+    `forward_velocity` (m/s, q's velocity along d), `tilt` (rad, angle between body z and
+    world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
+    measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
+    ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
+    contact needs), `leg_clearance` (m, the lower leg tip's height) and `outside_model` (bool). `reset()` returns
+    `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
+
+    ## Starting State
+    The paper's start: at rest at the origin, upright, both legs vertical (pi/2), plus
+    uniform noise $\mathcal{U}(-s, s)$, $s$ = `reset_noise_scale` (default 0.01), on the
+    paper's three attitude angles (rad), both leg angles (rad), the body angular velocity
+    (rad/s) and both leg rates (rad/s). Then, if `target_direction` is None, the heading
+    is drawn uniformly from [-pi, pi). All randomness comes from the env's `np_random`.
+    `reset(options={"state": s, "target_direction": a})` starts from an exact (13,) state
+    `s` (layout `rrrobot_gym.dynamics.STATE_FIELDS`; no noise added; its tilt must be below
+    pi/2) and/or with heading `a` for that episode.
+
+    ## Episode End
+    ### Termination
+    1. The tilt reaches pi/2 (`rrrobot_gym.dynamics.TILT_LIMIT`): the shell's rim touches the
+       ground and the rolling model no longer holds. Checked at the end of each control step.
+    2. A numerical failure: the integration produced a non-finite state (a step too large
+       for the chosen gains or timestep). The episode ends with `info["numerical_failure"]`
+       True, reward 0, and the last finite observation (the state is not advanced): the
+       env never returns NaN.
+
+    3. The robot left the model (`info["outside_model"]`, when `terminate_outside_model` is
+       True, the default): a leg tip reached the ground (leg-ground contact is not
+       modelled), or, on a plane, the ground would have to pull the shell down (a hop:
+       normal force <= 0) or hold it with more friction than `friction_coefficient`
+       (default 1.0; None for unlimited grip). The rolling model assumes none of these
+       happen; without this check a policy free to whip its legs earns speeds no real
+       robot could reach. Checked at the end of each control step.
+
+    ### Truncation
+    The registered `max_episode_steps` is 1000 control steps: 50 s of robot time at the
+    default `dt` = 0.05 s, the length of the paper's runs. The time limit comes from
+    `gymnasium.make`'s `TimeLimit` wrapper; the env itself never truncates.
+
+    ## Arguments
+    ```python
+    import gymnasium as gym
+    import rrrobot_gym  # registers RRRobot-v0
+
+    env = gym.make("RRRobot-v0", model="pivot", target_direction=0.5 * 3.14159, ...)
+    ```
+
+    | Parameter                                    | Type                | Default      | Description |
+    |----------------------------------------------|---------------------|--------------|-------------|
+    | `frame_skip`                                 | **int**             | `15`         | integrator steps per control step |
+    | `timestep`                                   | **float**           | `1/300`      | s, the RK4 step; `dt` = `frame_skip` x `timestep` |
+    | `integrator`                                 | **str**             | `"rk4"`      | fixed-step integrator (`rrrobot_gym.simulation.INTEGRATORS`) |
+    | `model`                                      | **str**             | `"plane"`    | `"plane"` (rolling on a plane) or `"pivot"` (the paper's Pivoting Dynamics model) |
+    | `robot`                                      | **RobotParams**     | `RobotParams()` | geometry, masses, gravity, damping (`rrrobot_gym.params`) |
+    | `kp`                                         | **float**           | `2.0`        | N m/rad, leg servo stiffness |
+    | `kd`                                         | **float**           | `0.05`       | N m s/rad, leg servo damping |
+    | `damping`                                    | **float \| None**   | `None`       | N m s/rad, body damping k (<= 0); None keeps `robot.damping` (-0.01) |
+    | `forward_reward_weight`                      | **float**           | `1.0`        | weight of the forward term (reward per cm/s) |
+    | `ctrl_cost_weight`                           | **float**           | `0.01`       | weight of the control cost (>= 0) |
+    | `reset_noise_scale`                          | **float**           | `0.01`       | half-width of the uniform start noise (>= 0) |
+    | `exclude_current_positions_from_observation` | **bool**            | `True`       | leave the contact point (x, y) out of the observation |
+    | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
+    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor: needing more ends the episode (plane); None: unlimited |
+    | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
+    | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
+    | `width`, `height`                            | **int**             | `800`, `400` | pixels of a rendered frame (a top view and a side view) |
+
+    Unknown keywords raise a `TypeError`, invalid values a `ValueError`, at construction.
+    `gymnasium.make_vec("RRRobot-v0", num_envs=N)` gives the native batched
+    `rrrobot_gym.envs.RRRobotVectorEnv`, which takes the same keywords.
+
+    ## Version History
+    * v0: Initial version.
+    """
+
+    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 20}
+
+    def __init__(
+        self,
+        frame_skip: int = 15,
+        timestep: float = DEFAULT_TIMESTEP,
+        integrator: str = "rk4",
+        model: str = "plane",
+        robot=None,
+        kp: float = 2.0,
+        kd: float = 0.05,
+        damping: float | None = None,
+        forward_reward_weight: float = 1.0,
+        ctrl_cost_weight: float = 0.01,
+        reset_noise_scale: float = 0.01,
+        exclude_current_positions_from_observation: bool = True,
+        target_direction: float | None = None,
+        friction_coefficient: float | None = 1.0,
+        terminate_outside_model: bool = True,
+        render_mode: str | None = None,
+        width: int = 800,
+        height: int = 400,
+    ):
+        EzPickle.__init__(
+            self,
+            frame_skip=frame_skip,
+            timestep=timestep,
+            integrator=integrator,
+            model=model,
+            robot=robot,
+            kp=kp,
+            kd=kd,
+            damping=damping,
+            forward_reward_weight=forward_reward_weight,
+            ctrl_cost_weight=ctrl_cost_weight,
+            reset_noise_scale=reset_noise_scale,
+            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
+            target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
+            render_mode=render_mode,
+            width=width,
+            height=height,
+        )
+        self.config = task.make_task_config(
+            frame_skip=frame_skip,
+            timestep=timestep,
+            integrator=integrator,
+            model=model,
+            robot=robot,
+            kp=kp,
+            kd=kd,
+            damping=damping,
+            forward_reward_weight=forward_reward_weight,
+            ctrl_cost_weight=ctrl_cost_weight,
+            reset_noise_scale=reset_noise_scale,
+            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
+            target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
+        )
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")
+        self.render_mode = render_mode
+        self._frame_size = render.check_frame_size(width, height)
+        if render_mode == "human":
+            render.check_human_display()
+        self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
+        self.action_space = task.single_action_space()
+        self.observation_space = task.single_observation_space(self.config)
+
+        self.state = None  # (13,) float64, see rrrobot_gym.dynamics.STATE_FIELDS
+        self.episode_target_direction = None  # rad, this episode's commanded heading
+        self.time = 0.0  # s since the episode began
+        self._observation = None  # the last observation returned, float32
+        self._path = None  # contact points so far, kept only when rendering
+        self._viewer = None
+
+    @property
+    def dt(self) -> float:
+        """s, one control step: frame_skip x timestep."""
+        return self.config.dt
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        option_state, option_target = task.parse_reset_options(options, None)
+        noise, target = task.draw_start(self.np_random, self.config)
+        self.state = task.start_states(noise[None])[0] if option_state is None else option_state
+        self.episode_target_direction = target if option_target is None else option_target
+        self.time = 0.0
+        self._observation = self._observe(self.state)
+        if self.render_mode is not None:
+            self._path = [(float(self.state[0]), float(self.state[1]))]
+        if self.render_mode == "human":
+            self.render()
+        return self._observation.copy(), self._reset_info()
+
+    def step(self, action):
+        if self.state is None:
+            raise RuntimeError("RRRobotEnv.step() called before reset()")
+        action = task.check_actions(action, (2,))
+        before = self.state
+        after, observation = self._advance(before, action)
+        failed = after is None
+        if failed:
+            after, observation = before, self._observation
+        rewards, terminations, infos = task.step_outcome(
+            before[None], after[None], self._targets_array(), action[None], np.array([failed]), self.config
+        )
+        self.state = after
+        self._observation = observation
+        self.time += self.dt
+        info = {key: value[0].item() for key, value in infos.items()}  # Python floats and bools
+        if self._path is not None:
+            self._path.append((info["x_position"], info["y_position"]))
+        if self.render_mode == "human":
+            self.render()
+        return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
+
+    def _advance(self, state, action):
+        """(new state, observation) after one control step, or (None, None) on a numerical failure."""
+        targets = HeldTargets(task.action_to_leg_targets(action))
+        try:
+            # A (13,) state takes the simulator's fast Python-float path.
+            after = advance(self.config.sim, state, self.time, self.dt, targets, check=False)
+        except task.NUMERICAL_FAILURES:
+            return None, None
+        observation = self._observe(after)
+        if not task.finite_rows(after[None], observation[None])[0]:
+            return None, None
+        return after, observation
+
+    def _targets_array(self):
+        return np.array([self.episode_target_direction])
+
+    def _observe(self, state):
+        return task.observe(state[None], self._targets_array(), self.config)[0]
+
+    def _reset_info(self):
+        infos = task.reset_info(self.state[None], self._targets_array(), self.config)
+        return {key: value[0].item() for key, value in infos.items()}
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' or 'human' to the constructor"
+            )
+            return None
+        if self.state is None:
+            raise RuntimeError("RRRobotEnv.render() called before reset()")
+        frame = render.draw_frame(
+            self.state,
+            self._path,
+            self.episode_target_direction,
+            self.config.sim.robot,
+            self.time,
+            *self._frame_size,
+        )
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._viewer is None:
+            self._viewer = render.HumanViewer("RRRobot-v0")
+        self._viewer.show(frame, self.metadata["render_fps"])
+        return None
+
+    def close(self):
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+

@@ -1,0 +1,143 @@
+"""A Stable-Baselines3 ``VecEnv`` over the native batched env, so SB3 trains on it directly.
+
+SB3 cannot take a Gymnasium ``VectorEnv`` (DLR-RM/stable-baselines3#1608). Its own
+``VecEnv`` API resets a finished env within the same step and expects
+``info["terminal_observation"]`` and ``info["TimeLimit.truncated"]`` for it (PPO bootstraps
+the value of truncated episodes from these): exactly Gymnasium's SAME_STEP autoreset,
+which :class:`RRRobotVectorEnv` uses, so this adapter only reshapes the results.
+
+This module imports Stable-Baselines3; ``rrrobot_gym.envs`` imports it only when
+``RRRobotSB3VecEnv`` is first used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from stable_baselines3.common.vec_env import VecEnv
+
+from .vector import RRRobotVectorEnv
+
+
+class RRRobotSB3VecEnv(VecEnv):
+    """SB3 view of a batched Gymnasium vector env with SAME_STEP autoreset.
+
+    Args:
+        vector_env: an :class:`RRRobotVectorEnv` (e.g. from
+            ``gymnasium.make_vec("RRRobot-v0", num_envs=N)``), or any Gymnasium
+            ``VectorEnv`` with ``metadata["autoreset_mode"] == AutoresetMode.SAME_STEP``.
+            When None, one is built from ``num_envs`` and ``env_kwargs``.
+        num_envs, **env_kwargs: passed to :class:`RRRobotVectorEnv` when ``vector_env`` is None.
+
+    Per env and step, ``infos[i]`` is the env's step info; for a finished episode it is
+    the last step's info plus ``terminal_observation`` and ``TimeLimit.truncated``
+    (truncated and not terminated), and the returned observation already starts the next
+    episode, whose reset info goes to ``reset_infos[i]``. Seeds from ``seed()`` and
+    options from ``set_options()`` apply at the next ``reset()``, as in SB3's own VecEnvs;
+    per-env options must all be equal (one options dict goes to the batched env).
+
+    The sub-envs share one batched env, so ``get_attr``, ``set_attr`` and ``env_method``
+    act on it: ``get_attr`` returns its attribute once per requested index, while
+    ``set_attr`` and ``env_method`` only accept all indices.
+    """
+
+    def __init__(self, vector_env: VectorEnv | None = None, *, num_envs: int | None = None, **env_kwargs):
+        if vector_env is None:
+            vector_env = RRRobotVectorEnv(num_envs=1 if num_envs is None else num_envs, **env_kwargs)
+        elif num_envs is not None or env_kwargs:
+            raise TypeError("pass either a vector_env or num_envs and env keywords, not both")
+        if not isinstance(vector_env, VectorEnv):
+            raise TypeError(f"vector_env must be a gymnasium VectorEnv, got {type(vector_env).__name__}")
+        mode = vector_env.metadata.get("autoreset_mode")
+        if mode != AutoresetMode.SAME_STEP:
+            raise ValueError(
+                f"the SB3 adapter needs a vector env with AutoresetMode.SAME_STEP (SB3's convention), got {mode!r}"
+            )
+        self.vector_env = vector_env
+        super().__init__(vector_env.num_envs, vector_env.single_observation_space, vector_env.single_action_space)
+        self._actions = None
+
+    def reset(self):
+        seeds = None if all(seed is None for seed in self._seeds) else list(self._seeds)
+        options = self._options
+        if any(options):
+            if any(option != options[0] for option in options):
+                raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
+            options = options[0]
+        else:
+            options = None
+        observations, info = self.vector_env.reset(seed=seeds, options=options)
+        self.reset_infos = _info_list(info, self.num_envs)
+        self._reset_seeds()
+        self._reset_options()
+        return observations
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self):
+        observations, rewards, terminated, truncated, info = self.vector_env.step(self._actions)
+        self._actions = None
+        dones = terminated | truncated
+        if dones.any():
+            infos = _info_list(info, self.num_envs, exclude=("final_obs", "final_info"))
+            final_infos = _info_list(info["final_info"], self.num_envs)
+            for i in np.flatnonzero(dones):
+                self.reset_infos[i] = infos[i]
+                infos[i] = final_infos[i]
+                infos[i]["terminal_observation"] = info["final_obs"][i]
+                infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        else:
+            infos = _info_list(info, self.num_envs)
+        for i in np.flatnonzero(~dones):
+            infos[i]["TimeLimit.truncated"] = False
+        return observations, rewards.astype(np.float32), dones, infos
+
+    def close(self) -> None:
+        self.vector_env.close()
+
+    def get_images(self):
+        frames = self.vector_env.render()
+        return [None] * self.num_envs if frames is None else list(frames)
+
+    def get_attr(self, attr_name, indices=None):
+        value = getattr(self.vector_env, attr_name)
+        return [value for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name, value, indices=None):
+        self._require_all(indices, "set_attr")
+        setattr(self.vector_env, attr_name, value)
+
+    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
+        self._require_all(indices, "env_method")
+        result = getattr(self.vector_env, method_name)(*method_args, **method_kwargs)
+        return [result for _ in range(self.num_envs)]
+
+    def env_is_wrapped(self, wrapper_class, indices=None):
+        return [False for _ in self._get_indices(indices)]
+
+    def _require_all(self, indices, what):
+        if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
+            raise ValueError(f"{what} acts on the whole batched env; pass indices=None")
+
+
+def _info_list(info, num_envs, exclude=()):
+    """Gymnasium's vector info (dict of arrays with "_key" masks) as SB3's list of per-env dicts."""
+    infos = [{} for _ in range(num_envs)]
+    for key, values in info.items():
+        if key.startswith("_") or key in exclude:
+            continue
+        mask = info.get("_" + key)
+        if isinstance(values, dict):
+            for i, sub_info in enumerate(_info_list(values, num_envs)):
+                if mask is None or mask[i]:
+                    infos[i][key] = sub_info
+            continue
+        items = values.tolist() if isinstance(values, np.ndarray) and values.dtype != object else list(values)
+        if mask is None or mask.all():
+            for env_info, item in zip(infos, items):
+                env_info[key] = item
+        else:
+            for i in np.flatnonzero(mask):
+                infos[i][key] = items[i]
+    return infos

@@ -1,0 +1,296 @@
+"""RRRobot-v0 as a native batched Gymnasium VectorEnv: N robots in one numpy state array.
+
+The N robots are integrated together as one (N, 13) state by
+:func:`rrrobot_gym.simulation.advance` (the same dynamics as the single env, batched
+along the leading axis), and the task (observation, reward, termination, start) comes from
+the same functions in :mod:`rrrobot_gym.envs.task`. Each sub-env keeps its own random
+generator, seeded with ``seed + i`` as Gymnasium's ``SyncVectorEnv`` does, so sub-env i
+reproduces ``RRRobotEnv`` reset with ``seed + i`` (up to rounding: the single env integrates
+on Python floats, this env on numpy arrays; they agree to about 1e-12).
+
+Autoreset: ``AutoresetMode.SAME_STEP``. A sub-env that terminates or is truncated is
+reset within the same ``step``: the returned observation starts its next episode, and the
+last observation and info of the finished episode are in ``info["final_obs"]`` and
+``info["final_info"]`` (masks ``info["_final_obs"]``, ``info["_final_info"]``). For a reset
+sub-env the top-level info holds its reset info (as ``SyncVectorEnv`` does in this mode).
+This is the convention Stable-Baselines3 uses, so :class:`RRRobotSB3VecEnv` is a thin layer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import gymnasium
+from gymnasium.utils import EzPickle, seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ..control import HeldTargets
+from ..simulation import DEFAULT_TIMESTEP, advance
+from . import render, task
+
+class RRRobotVectorEnv(VectorEnv, EzPickle):
+    """N RRRobot-v0 robots stepped together (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``).
+
+    Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (see its docstring for the
+    spaces, reward and episode end) plus ``num_envs`` and ``max_episode_steps`` (control
+    steps before truncation; None never truncates). ``render_mode="rgb_array"`` renders
+    one frame per sub-env.
+
+    ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
+    seeds (None keeps that sub-env's generator). ``reset(options=...)`` takes "state", a
+    (13,) or (N, 13) start, and "target_direction", a number or (N,) headings.
+
+    Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
+    ``episode_steps`` (N,) expose the batch; do not write to them.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = 1000,
+        frame_skip: int = 15,
+        timestep: float = DEFAULT_TIMESTEP,
+        integrator: str = "rk4",
+        model: str = "plane",
+        robot=None,
+        kp: float = 2.0,
+        kd: float = 0.05,
+        damping: float | None = None,
+        forward_reward_weight: float = 1.0,
+        ctrl_cost_weight: float = 0.01,
+        reset_noise_scale: float = 0.01,
+        exclude_current_positions_from_observation: bool = True,
+        target_direction: float | None = None,
+        friction_coefficient: float | None = 1.0,
+        terminate_outside_model: bool = True,
+        render_mode: str | None = None,
+        width: int = 800,
+        height: int = 400,
+    ):
+        env_kwargs = dict(
+            frame_skip=frame_skip,
+            timestep=timestep,
+            integrator=integrator,
+            model=model,
+            robot=robot,
+            kp=kp,
+            kd=kd,
+            damping=damping,
+            forward_reward_weight=forward_reward_weight,
+            ctrl_cost_weight=ctrl_cost_weight,
+            reset_noise_scale=reset_noise_scale,
+            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
+            target_direction=target_direction,
+            friction_coefficient=friction_coefficient,
+            terminate_outside_model=terminate_outside_model,
+        )
+        EzPickle.__init__(
+            self,
+            num_envs=num_envs,
+            max_episode_steps=max_episode_steps,
+            render_mode=render_mode,
+            width=width,
+            height=height,
+            **env_kwargs,
+        )
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if max_episode_steps is not None and (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, (int, np.integer))
+            or max_episode_steps < 1
+        ):
+            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
+        self.config = task.make_task_config(**env_kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"unknown render_mode {render_mode!r} for the vector env: expected None or 'rgb_array' "
+                "(for a window, use the single env with render_mode='human')"
+            )
+        self.num_envs = int(num_envs)
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
+        self.render_mode = render_mode
+        self._frame_size = render.check_frame_size(width, height)
+        self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
+
+        self.single_action_space = task.single_action_space()
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.single_observation_space = task.single_observation_space(self.config)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        self.states = None
+        self.episode_target_directions = None
+        self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._observations = None
+        self._generators = [None] * self.num_envs
+        self._paths = None
+
+    @property
+    def dt(self) -> float:
+        """s, one control step: frame_skip x timestep."""
+        return self.config.dt
+
+    # ------------------------------------------------------------------
+    # reset
+
+    def reset(self, *, seed=None, options=None):
+        seeds = self._seed_list(seed)
+        super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
+        option_states, option_targets = task.parse_reset_options(options, self.num_envs)
+        for i, sub_seed in enumerate(seeds):
+            if sub_seed is not None or self._generators[i] is None:
+                self._generators[i], _ = seeding.np_random(sub_seed)
+        states, targets = self._draw_starts(np.arange(self.num_envs))
+        self.states = states if option_states is None else option_states
+        self.episode_target_directions = targets if option_targets is None else option_targets
+        self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._observations = task.observe(self.states, self.episode_target_directions, self.config)
+        if self.render_mode is not None:
+            self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
+        info = self._reset_info(np.arange(self.num_envs))
+        masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
+        return self._observations.copy(), _with_masks(info, masks)
+
+    def _seed_list(self, seed):
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(self.num_envs)]
+        try:
+            seeds = list(seed)
+        except TypeError:
+            raise TypeError(f"seed must be None, an int or a list of {self.num_envs} ints, got {seed!r}") from None
+        if len(seeds) != self.num_envs:
+            raise ValueError(f"seed list must have num_envs={self.num_envs} entries, got {len(seeds)}")
+        return seeds
+
+    def _draw_starts(self, indices):
+        """Start states (len, 13) and headings (len,) for the sub-envs ``indices``, each from its own generator."""
+        draws = [task.draw_start(self._generators[i], self.config) for i in indices]
+        noise = np.array([noise for noise, _ in draws]).reshape(len(indices), 10)
+        targets = np.array([target for _, target in draws], dtype=np.float64)
+        return task.start_states(noise), targets
+
+    def _reset_info(self, indices):
+        return task.reset_info(self.states[indices], self.episode_target_directions[indices], self.config)
+
+    # ------------------------------------------------------------------
+    # step
+
+    def step(self, actions):
+        if self.states is None:
+            raise RuntimeError("RRRobotVectorEnv.step() called before reset()")
+        actions = task.check_actions(actions, (self.num_envs, 2))
+        before = self.states
+        targets = self.episode_target_directions
+        after, failed = self._advance(before, actions)
+        observations = task.observe(after, targets, self.config)
+        failed |= ~task.finite_rows(after, observations)
+        # A failed robot keeps its last finite state and observation (never NaN out).
+        after[failed] = before[failed]
+        observations[failed] = self._observations[failed]
+
+        rewards, terminated, info = task.step_outcome(before, after, targets, actions, failed, self.config)
+        self.episode_steps += 1
+        if self.max_episode_steps is None:
+            truncated = np.zeros(self.num_envs, dtype=bool)
+        else:
+            truncated = self.episode_steps >= self.max_episode_steps
+        self.states = after
+        self._observations = observations
+        if self._paths is not None:
+            for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
+                path.append((x, y))
+        masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
+        done = terminated | truncated
+        if done.any():
+            observations = self._autoreset(done, observations, info, masks)
+        return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+
+    def _advance(self, states, actions):
+        """(new states, failed mask): one control step for every robot, isolating failures.
+
+        ``advance`` raises on any non-finite result, which would lose the whole batch for
+        one bad robot. The rows are independent, so on a failure the batch is split in
+        halves and each retried: a rare failure costs about two extra batch steps.
+        """
+        try:
+            # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
+            with np.errstate(all="ignore"):
+                after = advance(
+                    self.config.sim, states, 0.0, self.dt, HeldTargets(task.action_to_leg_targets(actions)), check=False
+                )
+            return after, np.zeros(len(states), dtype=bool)
+        except task.NUMERICAL_FAILURES:
+            if len(states) == 1:
+                return states.copy(), np.ones(1, dtype=bool)
+        half = len(states) // 2
+        first, first_failed = self._advance(states[:half], actions[:half])
+        second, second_failed = self._advance(states[half:], actions[half:])
+        return np.concatenate([first, second]), np.concatenate([first_failed, second_failed])
+
+    def _autoreset(self, done, observations, info, masks):
+        """Reset the finished sub-envs in place (SAME_STEP); returns the new observations."""
+        indices = np.flatnonzero(done)
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for i in indices:
+            final_obs[i] = observations[i].copy()
+        final_info = {}
+        for key, values in info.items():
+            final_info[key] = np.where(done, values, np.zeros((), dtype=values.dtype))
+            final_info["_" + key] = done.copy()
+
+        states, targets = self._draw_starts(indices)
+        self.states[indices] = states
+        self.episode_target_directions[indices] = targets
+        self.episode_steps[indices] = 0
+        observations[indices] = task.observe(states, targets, self.config)
+        self._observations[indices] = observations[indices]
+        if self._paths is not None:
+            for i in indices:
+                self._paths[i] = [(float(self.states[i, 0]), float(self.states[i, 1]))]
+
+        # The top-level info of a reset sub-env is its reset info, as in SyncVectorEnv.
+        reset_info = self._reset_info(indices)
+        for key in info:
+            if key in reset_info:
+                info[key][indices] = reset_info[key]
+            else:
+                info[key][indices] = 0
+                masks[key][indices] = False
+        info["final_obs"] = final_obs
+        masks["final_obs"] = done.copy()
+        info["final_info"] = final_info
+        masks["final_info"] = done.copy()
+        return observations
+
+    # ------------------------------------------------------------------
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
+            return None
+        if self.states is None:
+            raise RuntimeError("RRRobotVectorEnv.render() called before reset()")
+        return tuple(
+            render.draw_frame(
+                self.states[i],
+                self._paths[i],
+                float(self.episode_target_directions[i]),
+                self.config.sim.robot,
+                float(self.episode_steps[i] * self.dt),
+                *self._frame_size,
+            )
+            for i in range(self.num_envs)
+        )
+
+
+def _with_masks(info, masks):
+    """Gymnasium's vector info layout: each key followed by its boolean mask "_key"."""
+    out = {}
+    for key, value in info.items():
+        out[key] = value
+        out["_" + key] = masks[key]
+    return out

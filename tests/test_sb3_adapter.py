@@ -1,0 +1,106 @@
+"""Stable-Baselines3 on RRRobot-v0: its checker on the single env, the batched adapter, PPO."""
+
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.env_checker import check_env  # noqa: E402
+from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
+
+import rrrobot_gym  # noqa: E402,F401  (registers RRRobot-v0)
+from rrrobot_gym import dynamics  # noqa: E402
+from rrrobot_gym.envs import RRRobotSB3VecEnv  # noqa: E402
+from rrrobot_gym.simulation import initial_state  # noqa: E402
+
+OBS_TOLERANCE = 1e-6
+VALUE_TOLERANCE = 1e-9
+
+
+def test_sb3_check_env_passes_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gymnasium.make("RRRobot-v0"))
+        check_env(gymnasium.make("RRRobot-v0", exclude_current_positions_from_observation=False, model="pivot"))
+
+
+def assert_sb3_steps_match(ours, theirs):
+    obs_a, rewards_a, dones_a, infos_a = ours
+    obs_b, rewards_b, dones_b, infos_b = theirs
+    np.testing.assert_allclose(obs_a, obs_b, atol=OBS_TOLERANCE)
+    np.testing.assert_allclose(rewards_a, rewards_b, atol=1e-5)  # SB3 keeps rewards in float32
+    np.testing.assert_array_equal(dones_a, dones_b)
+    for info_a, info_b in zip(infos_a, infos_b):
+        assert set(info_a) == set(info_b)
+        for key, value in info_b.items():
+            atol = OBS_TOLERANCE if key == "terminal_observation" else VALUE_TOLERANCE
+            np.testing.assert_allclose(info_a[key], value, atol=atol, err_msg=key)
+
+
+def test_adapter_behaves_like_dummy_vec_env_over_single_envs_across_autoresets():
+    """SB3's own reference: DummyVecEnv over copies of the single env, same seeds."""
+    num_envs, limit = 3, 4
+    ours = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=limit)
+    theirs = DummyVecEnv([lambda: gymnasium.make("RRRobot-v0", max_episode_steps=limit)] * num_envs)
+    ours.seed(8)
+    theirs.seed(8)
+    np.testing.assert_allclose(ours.reset(), theirs.reset(), atol=OBS_TOLERANCE)
+    actions = np.random.default_rng(2).uniform(-1.1, 1.1, (3 * limit, num_envs, 2)).astype(np.float32)
+    finished = 0
+    for action in actions:
+        step_a, step_b = ours.step(action), theirs.step(action)
+        assert_sb3_steps_match(step_a, step_b)
+        finished += step_a[2].sum()
+        for info_a, info_b in zip(ours.reset_infos, theirs.reset_infos):
+            assert info_a == pytest.approx(info_b, abs=VALUE_TOLERANCE)
+    assert finished >= 3 * num_envs  # every env hits the time limit 3 times; random legs may also touch down
+
+
+def test_finished_episodes_carry_terminal_observation_and_say_whether_time_ran_out():
+    venv = RRRobotSB3VecEnv(gymnasium.make_vec("RRRobot-v0", num_envs=2, max_episode_steps=2))
+    venv.reset()
+    _, _, dones, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+    assert not dones.any() and not any(info["TimeLimit.truncated"] for info in infos)
+    _, _, dones, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+    assert dones.all()
+    assert all(info["TimeLimit.truncated"] for info in infos)  # PPO bootstraps these
+    assert all(info["terminal_observation"].shape == (15,) for info in infos)
+
+    tipping = initial_state()
+    tipping[dynamics.QUAT] = dynamics.quat_from_paper_angles([0.0, 0.0, 1.45])  # pitched about body y: the rim, not a leg, lands
+    tipping[dynamics.BODY_RATE] = (0.0, 4.0, 0.0)
+    venv = RRRobotSB3VecEnv(num_envs=2)
+    venv.set_options({"state": tipping})
+    venv.reset()
+    for _ in range(20):
+        _, _, dones, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+        if dones.any():
+            break
+    assert dones.all()
+    assert not any(info["TimeLimit.truncated"] for info in infos)  # a real end: no bootstrap
+    assert all(info["tilt"] >= dynamics.TILT_LIMIT for info in infos)
+    assert all(np.all(np.isfinite(info["terminal_observation"])) for info in infos)
+
+
+def test_adapter_refuses_a_next_step_vector_env_and_mixed_arguments():
+    next_step = gymnasium.make_vec("RRRobot-v0", num_envs=2, vectorization_mode="sync")
+    with pytest.raises(ValueError, match="SAME_STEP"):
+        RRRobotSB3VecEnv(next_step)
+    with pytest.raises(TypeError, match="not both"):
+        RRRobotSB3VecEnv(gymnasium.make_vec("RRRobot-v0", num_envs=2), num_envs=2)
+
+
+def test_ppo_trains_a_few_hundred_steps_on_the_batched_env():
+    venv = VecNormalize(VecMonitor(RRRobotSB3VecEnv(num_envs=4, max_episode_steps=50)), gamma=0.99)
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=2, device="cpu", seed=0)
+    model.learn(total_timesteps=384)
+    assert model.num_timesteps >= 384
+    # Near-random actions tip the robot over within a second or so, or it lasts the 50 steps.
+    episodes = list(model.ep_info_buffer)
+    assert episodes and all(1 <= episode["l"] <= 50 and np.isfinite(episode["r"]) for episode in episodes)
+    action, _ = model.predict(venv.reset(), deterministic=True)
+    assert action.shape == (4, 2)

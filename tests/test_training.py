@@ -1,0 +1,126 @@
+"""train.py, evaluate.py and agents/, run as a user would: in subprocesses, on tiny budgets."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ["--num-envs", "8", "--n-steps", "64", "--batch-size", "256", "--n-epochs", "2", "--eval-freq", "1024",
+        "--checkpoint-freq", "1024", "--episode-steps", "200", "--no-progress-bar"]
+
+
+def run(args, timeout=300, **kwargs):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, *args], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=timeout, **kwargs)
+
+
+def only_run(runs_dir: Path) -> Path:
+    (run_dir,) = [p for p in runs_dir.iterdir() if p.is_dir()]
+    return run_dir
+
+
+def test_train_then_evaluate_a_tiny_run(tmp_path):
+    trained = run(["train.py", "--total-timesteps", "2048", "--runs-dir", str(tmp_path), "--seed", "3", *TINY])
+    assert trained.returncode == 0, trained.stderr
+    run_dir = only_run(tmp_path)
+    assert run_dir.name.startswith("RRRobot-v0__ppo__3__")
+    for name in ("best_model.zip", "vecnormalize.pkl", "final_model.zip", "final_vecnormalize.pkl",
+                 "evaluations.npz", "args.json"):
+        assert (run_dir / name).is_file(), name
+    assert list((run_dir / "checkpoints").glob("ppo_*_steps.zip"))
+    assert list(run_dir.glob("tb_*/events.out.tfevents.*"))
+
+    out = tmp_path / "eval.json"
+    evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane",
+                     "--duration", "2", "--json", str(out)])
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert "| ppo |" in evaluated.stdout and "| gait1 |" in evaluated.stdout
+    records = json.loads(out.read_text())["records"]
+    agents = {r["agent"] for r in records}
+    assert agents == {"ppo", "gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped"}
+    compass = sorted({r["heading_deg"] for r in records if r["compass"]})
+    assert compass == [0, 45, 90, 135, 180, 225, 270, 315]
+    for r in records:
+        assert {"agent", "model", "heading_deg", "speed_mps"} <= set(r)
+        assert math.isfinite(r["speed_mps"])
+
+
+def test_resume_continues_from_a_checkpoint(tmp_path):
+    first = run(["train.py", "--total-timesteps", "2048", "--runs-dir", str(tmp_path / "a"), *TINY])
+    assert first.returncode == 0, first.stderr
+    checkpoint = sorted((only_run(tmp_path / "a") / "checkpoints").glob("ppo_*_steps.zip"))[-1]
+    resumed = run(["train.py", "--total-timesteps", "1024", "--runs-dir", str(tmp_path / "b"),
+                   "--resume", str(checkpoint), *TINY])
+    assert resumed.returncode == 0, resumed.stderr
+    from stable_baselines3 import PPO
+
+    model = PPO.load(only_run(tmp_path / "b") / "final_model.zip", device="cpu")
+    assert model.num_timesteps > 2048  # continued counting from the checkpoint
+
+
+def test_ctrl_c_saves_the_model_before_exiting(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "train.py", "--total-timesteps", "10000000", "--runs-dir", str(tmp_path), *TINY],
+                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list(tmp_path.glob("*/checkpoints/*.zip")):
+        time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "saving the model" in out
+    assert (only_run(tmp_path) / "final_model.zip").is_file()
+
+
+def test_bad_arguments_are_named(tmp_path):
+    result = run(["train.py", "--model", "moon", "--runs-dir", str(tmp_path)])
+    assert result.returncode != 0 and "--model" in result.stderr and "Traceback" not in result.stderr
+    result = run(["evaluate.py", "--policy", str(tmp_path / "missing.zip")])
+    assert result.returncode != 0 and "no model file" in result.stderr and "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("number", [1, 3])
+def test_gait_agents_move_like_the_simulator_core(number):
+    """Through the env (targets held per step, sampled mid-step) a gait moves as the core's continuous gait."""
+    from agents import gait_agent
+    from evaluate import run_episodes
+    from rrrobot_gym.analysis import travel_summary
+    from rrrobot_gym.control import table2_gait
+    from rrrobot_gym.simulation import SimConfig, simulate
+
+    duration = 20.0
+    name = f"gait{number}"
+    env_run = run_episodes({name: gait_agent(name)}, "plane", [0.0], duration)[name]
+    core = simulate(SimConfig(), table2_gait(number), duration, sample_dt=0.05)
+    period = table2_gait(number).period
+    ours = travel_summary(env_run["times"], env_run["xy"][:, 0, 0], env_run["xy"][:, 0, 1], period)
+    theirs = travel_summary(core.times, core.x, core.y, period)
+    assert ours["path_length_m"] == pytest.approx(theirs["path_length_m"], rel=0.1)
+    assert abs(ours["turning_deg"] - theirs["turning_deg"]) < 20.0
+    if number == 1:
+        assert abs(ours["direction_deg"] - theirs["direction_deg"]) < 3.0
+
+
+def test_gait_agent_commands_the_gait_at_mid_step_and_restarts_with_each_episode():
+    from agents import gait_agent
+    from rrrobot_gym.control import table2_gait
+    from rrrobot_gym.envs.task import action_to_leg_targets
+
+    agent = gait_agent("gait3-swapped", dt=0.05)
+    obs = np.zeros((2, 15), dtype=np.float32)
+    state = None
+    for k in range(5):
+        actions, state = agent.predict(obs, state=state, episode_start=np.array([k == 0, k in (0, 3)]))
+    expected = table2_gait(3, swapped=True).angles([4.5 * 0.05, 1.5 * 0.05])
+    np.testing.assert_allclose(action_to_leg_targets(actions), expected, atol=1e-6)
+    with pytest.raises(ValueError, match="unknown gait agent"):
+        gait_agent("gait4")

@@ -1,0 +1,71 @@
+"""The model's validity envelope: the ground force and the legs' clearance."""
+
+import numpy as np
+import pytest
+
+from conftest import random_states
+from rrrobot_gym import dynamics, validity
+from rrrobot_gym.control import table2_gait
+from rrrobot_gym.params import RobotParams
+from rrrobot_gym.simulation import SimConfig, _derivative_fn, simulate_reference
+
+
+def _centre_of_mass(states, params):
+    r = params.radius
+    tips, _, _ = validity._leg_vectors(states[:, dynamics.LEG_ANGLES], params)
+    moment = params.mass_tip * tips.sum(axis=1)
+    moment[:, 2] -= params.mass_bottom * r
+    rot = dynamics.rotation_matrix(states[:, dynamics.QUAT])
+    centre = np.stack([states[:, 0], states[:, 1], np.full(len(states), r)], axis=1)
+    return centre + np.einsum("nij,nj->ni", rot, moment) / params.total_mass
+
+
+def test_ground_force_equals_mass_times_centre_of_mass_acceleration_minus_gravity(rng):
+    """Newton's second law for the whole robot, with a_com from finite differences of its path."""
+    config = SimConfig(model="plane")
+    params = config.robot
+    gait = table2_gait(2)
+    traj = simulate_reference(config, gait, 1.0, state=random_states(rng, 1)[0], sample_dt=1e-4)
+    derivative = _derivative_fn(config, gait)
+    com = _centre_of_mass(traj.states, params)
+    for k in (2000, 5000, 8000):
+        accel = (com[k + 1] - 2 * com[k] + com[k - 1]) / 1e-8
+        expected_world = params.total_mass * (accel + np.array([0.0, 0.0, params.gravity]))
+        force, normal = validity.ground_force(traj.states[k], derivative(traj.times[k], traj.states[k]), params, "plane")
+        rot = dynamics.rotation_matrix(traj.states[k, dynamics.QUAT])
+        np.testing.assert_allclose(rot @ force[0], expected_world, rtol=0, atol=2e-4 * params.total_mass * params.gravity)
+        assert normal[0] == pytest.approx(expected_world[2], abs=2e-4 * params.total_mass * params.gravity)
+
+
+def test_ground_carries_the_weight_at_rest():
+    params = RobotParams()
+    state = np.r_[0, 0, 1, 0, 0, 0, np.pi / 2, np.pi / 2, 0, 0, 0, 0, 0]
+    derivative = np.array(dynamics.state_derivative(state.tolist(), (0.0, 0.0), params, params.radius))
+    force, normal = validity.ground_force(state, derivative, params, "plane")
+    assert normal[0] == pytest.approx(params.total_mass * params.gravity, rel=1e-12)
+    assert validity.friction_ratio(force, normal)[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_leg_clearance_is_the_height_of_the_leg_tips(rng):
+    params = RobotParams()
+    states = random_states(rng, 20, max_tilt=1.2)
+    clearance = validity.leg_clearance(states, params)
+    rot = dynamics.rotation_matrix(states[:, dynamics.QUAT])
+    for k, side in ((0, -1.0), (1, 1.0)):
+        phi = states[:, 6 + k]
+        tip = np.stack([params.leg_length * np.cos(phi), np.full_like(phi, side * params.radius), params.leg_length * np.sin(phi)], 1)
+        height = params.radius + np.einsum("nij,nj->ni", rot, tip)[:, 2]
+        np.testing.assert_allclose(clearance[:, k], height, atol=1e-14)
+    # a leg pointing down on a robot rolled 70 degrees onto that side is in the floor
+    state = random_states(rng, 1)[0]
+    state[dynamics.QUAT] = dynamics.quat_from_paper_angles([1.2, 0.0, 0.0])
+    state[dynamics.LEG_ANGLES] = (-0.5, np.pi / 2)
+    low, high = validity.leg_clearance(state, params)[0]
+    assert low < 0.0 < high
+
+
+def test_friction_ratio_is_infinite_without_a_push_from_the_ground():
+    force = np.array([[1.0, 0.0, 0.0], [0.3, 0.4, 2.0]])
+    normal = np.array([0.0, 2.0])
+    ratio = validity.friction_ratio(force, normal)
+    assert np.isinf(ratio[0]) and ratio[1] == pytest.approx(0.25)

@@ -1,0 +1,209 @@
+"""The native batched vector env: per-env agreement with the single env, autoreset, failures."""
+
+import math
+import pickle
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
+
+import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
+from rrrobot_gym import dynamics
+from rrrobot_gym.envs import RRRobotVectorEnv
+from rrrobot_gym.simulation import initial_state
+
+# The single env integrates one robot on Python floats, the vector env an (N, 13) array:
+# the same arithmetic in a different order, so they agree to rounding, not bitwise.
+STATE_TOLERANCE = 1e-9
+OBS_TOLERANCE = 1e-6  # float32 observations
+
+
+def near_tilt_limit_state():
+    state = initial_state()
+    state[dynamics.QUAT] = dynamics.quat_from_paper_angles([0.0, 0.0, 1.45])  # pitched about body y: the rim, not a leg, lands
+    state[dynamics.BODY_RATE] = (0.0, 4.0, 0.0)
+    return state
+
+
+def sync_reference(num_envs, **kwargs):
+    """Gymnasium's own SAME_STEP vectoriser over copies of the registered single env."""
+    return SyncVectorEnv(
+        [lambda: gymnasium.make("RRRobot-v0", **kwargs) for _ in range(num_envs)],
+        autoreset_mode=AutoresetMode.SAME_STEP,
+    )
+
+
+def assert_infos_match(ours, theirs):
+    """Same keys where set, same masks, same values (to rounding)."""
+    for key in theirs:
+        if key.startswith("_"):
+            continue
+        mask = theirs["_" + key]
+        np.testing.assert_array_equal(ours["_" + key], mask, err_msg=key)
+        if key == "final_obs":
+            for a, b in zip(ours[key][mask], theirs[key][mask]):
+                np.testing.assert_allclose(a, b, atol=OBS_TOLERANCE)
+        elif key == "final_info":
+            assert_infos_match(ours[key], theirs[key])
+        else:
+            np.testing.assert_allclose(ours[key][mask], theirs[key][mask], atol=STATE_TOLERANCE, err_msg=key)
+    # Keys we report that the reference does not have must be masked out everywhere.
+    for key in set(ours) - set(theirs):
+        if not key.startswith("_"):
+            assert not ours["_" + key].any(), key
+
+
+def test_make_vec_gives_the_native_batched_env_declaring_same_step_autoreset():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gymnasium.make_vec("RRRobot-v0", num_envs=4, model="pivot")
+    assert type(env) is RRRobotVectorEnv
+    assert env.metadata["autoreset_mode"] is AutoresetMode.SAME_STEP
+    assert env.max_episode_steps == 1000
+    assert env.config.sim.model == "pivot"
+    assert env.observation_space.shape == (4, 15) and env.action_space.shape == (4, 2)
+    assert env.single_observation_space == gymnasium.make("RRRobot-v0").observation_space
+    obs, info = env.reset(seed=0)
+    assert obs.shape == (4, 15) and obs.dtype == np.float32
+    assert info["_x_position"].all()
+
+
+@pytest.mark.parametrize("ending", ["time limit", "tilt limit"])
+def test_each_sub_env_matches_a_single_env_with_seed_plus_i_across_autoresets(ending):
+    num_envs, limit = 3, 5
+    ours = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=limit)
+    theirs = sync_reference(num_envs, max_episode_steps=limit)
+    options = {"state": near_tilt_limit_state()} if ending == "tilt limit" else None
+    obs_a, info_a = ours.reset(seed=21, options=options)
+    obs_b, info_b = theirs.reset(seed=21, options=options)
+    np.testing.assert_allclose(obs_a, obs_b, atol=OBS_TOLERANCE)
+    assert_infos_match(info_a, info_b)
+    actions = np.random.default_rng(1).uniform(-1.2, 1.2, (3 * limit, num_envs, 2)).astype(np.float32)
+    ended = {"terminated": 0, "truncated": 0}
+    for action in actions:
+        obs_a, reward_a, term_a, trunc_a, info_a = ours.step(action)
+        obs_b, reward_b, term_b, trunc_b, info_b = theirs.step(action)
+        np.testing.assert_allclose(obs_a, obs_b, atol=OBS_TOLERANCE)
+        np.testing.assert_allclose(reward_a, reward_b, atol=STATE_TOLERANCE)
+        np.testing.assert_array_equal(term_a, term_b)
+        np.testing.assert_array_equal(trunc_a, trunc_b)
+        assert_infos_match(info_a, info_b)
+        ended["terminated"] += term_a.sum()
+        ended["truncated"] += trunc_a.sum()
+    # The scenario really exercised the autoreset it is named after.
+    assert ended["terminated" if ending == "tilt limit" else "truncated"] >= num_envs
+
+
+def test_seeding_is_deterministic_and_a_seed_list_can_keep_sub_env_generators():
+    a, b = RRRobotVectorEnv(num_envs=3), RRRobotVectorEnv(num_envs=3)
+    obs_a, _ = a.reset(seed=[5, 6, 7])
+    obs_b, _ = b.reset(seed=5)
+    np.testing.assert_array_equal(obs_a, obs_b)
+    again, _ = a.reset(seed=[5, None, 7])  # sub-env 1 continues its generator
+    np.testing.assert_array_equal(again[[0, 2]], obs_a[[0, 2]])
+    assert not np.array_equal(again[1], obs_a[1])
+    other, _ = b.reset(seed=99)
+    assert not np.array_equal(other, obs_b)
+
+
+def test_a_numerical_blow_up_in_one_sub_env_leaves_the_others_running():
+    env = RRRobotVectorEnv(num_envs=3, reset_noise_scale=0.0, target_direction=0.0)
+    starts = initial_state(3)
+    starts[1, dynamics.BODY_RATE] = (1e30, 0.0, 0.0)  # finite, but the first step overflows
+    obs0, _ = env.reset(seed=0, options={"state": starts})
+    single = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, target_direction=0.0)
+    single.reset(seed=0)
+    action = np.array([[0.3, -0.4]] * 3, dtype=np.float32)
+    obs, reward, terminated, truncated, info = env.step(action)
+    single_obs, single_reward, *_ = single.step(action[0])
+
+    np.testing.assert_array_equal(terminated, [False, True, False])
+    assert info["final_info"]["numerical_failure"][1] and info["final_info"]["_numerical_failure"][1]
+    np.testing.assert_array_equal(info["final_obs"][1], obs0[1])  # the last finite observation
+    assert reward[1] == 0.0
+    assert np.all(np.isfinite(obs))
+    for i in (0, 2):  # unaffected by their neighbour's blow-up
+        np.testing.assert_allclose(obs[i], single_obs, atol=OBS_TOLERANCE)
+        assert reward[i] == pytest.approx(single_reward, abs=STATE_TOLERANCE)
+
+
+@pytest.mark.parametrize(
+    "call, error, message",
+    [
+        (lambda: RRRobotVectorEnv(num_envs=0), ValueError, "num_envs"),
+        (lambda: RRRobotVectorEnv(num_envs=2, max_episode_steps=0), ValueError, "max_episode_steps"),
+        (lambda: RRRobotVectorEnv(num_envs=2, render_mode="human"), ValueError, "render_mode"),
+        (lambda: RRRobotVectorEnv(num_envs=2, frame_skip=-3), ValueError, "frame_skip"),
+        (lambda: RRRobotVectorEnv(num_envs=2, model="moon"), ValueError, "model"),
+        (lambda: RRRobotVectorEnv(num_envs=2, color="red"), TypeError, "color"),
+        (lambda: RRRobotVectorEnv(num_envs=2).reset(seed=[1, 2, 3]), ValueError, "seed"),
+        (lambda: RRRobotVectorEnv(num_envs=2).reset(options={"state": initial_state(3)}), ValueError, "shape"),
+    ],
+)
+def test_bad_construction_and_reset_arguments_raise_naming_the_problem(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+@pytest.mark.parametrize(
+    "action, message",
+    [
+        (np.zeros((2,)), "shape"),
+        (np.zeros((3, 3)), "shape"),
+        (np.array([[0.0, 0.0], [0.0, np.nan], [0.0, 0.0]]), "NaN"),
+    ],
+)
+def test_bad_batched_actions_raise_value_error(action, message):
+    env = RRRobotVectorEnv(num_envs=3)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.step(action)
+
+
+def test_rgb_array_renders_one_uint8_frame_per_sub_env():
+    env = gymnasium.make_vec("RRRobot-v0", num_envs=2, render_mode="rgb_array", width=200, height=100)
+    env.reset(seed=0)
+    env.step(np.zeros((2, 2), dtype=np.float32))
+    frames = env.render()
+    assert len(frames) == 2
+    assert all(frame.shape == (100, 200, 3) and frame.dtype == np.uint8 for frame in frames)
+    env.close()
+    env.close()
+
+
+def test_vector_env_pickles_with_its_arguments():
+    env = RRRobotVectorEnv(num_envs=2, max_episode_steps=7, ctrl_cost_weight=0.5)
+    clone = pickle.loads(pickle.dumps(env))
+    assert clone.num_envs == 2 and clone.max_episode_steps == 7 and clone.config == env.config
+
+
+def test_async_vector_env_rebuilds_the_env_in_fresh_subprocesses():
+    """Spawned workers start a new interpreter, where the env must be rebuilt from scratch.
+
+    Worker 0 gets a pickled env instance (EzPickle records the constructor arguments);
+    worker 1 makes one by the module-qualified id, which imports and registers the package.
+    """
+    from rrrobot_gym.envs import RRRobotEnv
+
+    kwargs = dict(target_direction=0.5 * math.pi, ctrl_cost_weight=0.05)
+    instance = gymnasium.wrappers.TimeLimit(RRRobotEnv(**kwargs), max_episode_steps=3)
+    async_env = AsyncVectorEnv(
+        [lambda: instance, lambda: gymnasium.make("rrrobot_gym:RRRobot-v0", max_episode_steps=3, **kwargs)],
+        context="spawn",
+        autoreset_mode=AutoresetMode.SAME_STEP,
+    )
+    try:
+        native = RRRobotVectorEnv(num_envs=2, max_episode_steps=3, **kwargs)
+        obs_a, _ = async_env.reset(seed=3)
+        obs_b, _ = native.reset(seed=3)
+        np.testing.assert_allclose(obs_a, obs_b, atol=OBS_TOLERANCE)
+        action = np.array([[0.2, -0.7], [1.0, 0.1]], dtype=np.float32)
+        for _ in range(4):  # across the time limit at step 3
+            obs_a, reward_a, _, trunc_a, _ = async_env.step(action)
+            obs_b, reward_b, _, trunc_b, _ = native.step(action)
+            np.testing.assert_allclose(reward_a, reward_b, atol=STATE_TOLERANCE)
+            np.testing.assert_array_equal(trunc_a, trunc_b)
+    finally:
+        async_env.close()

@@ -1,0 +1,244 @@
+"""Train a PPO policy for directional locomotion on RRRobot-v0 (Stable-Baselines3, CPU).
+
+Reads top to bottom: arguments, environments, model, callbacks, learn, save.
+
+    python train.py                       # goal-conditioned: any commanded heading
+    python train.py --direction 45        # a specialist for one heading (degrees)
+    python train.py --resume runs/RUN/checkpoints/ppo_500000_steps.zip
+
+Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard logs,
+``evaluations.npz``, ``best_model.zip``, periodic checkpoints, and at the end (or on
+Ctrl-C) ``final_model.zip`` with ``vecnormalize.pkl`` (the observation normalisation)
+beside every saved model. Loading a model unpickles it: load only files you trust.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import random
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ENV_ID = "RRRobot-v0"
+
+
+@dataclass
+class Args:
+    exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
+    seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
+    total_timesteps: int = field(default=6_000_000, metadata={"help": "env steps (control steps) to train for"})
+    model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
+    direction: float | None = field(
+        default=None, metadata={"help": "commanded heading in degrees for a specialist; default: any heading"}
+    )
+    num_envs: int = field(default=64, metadata={"help": "robots simulated together in the batched env"})
+    n_steps: int = field(default=256, metadata={"help": "PPO rollout length per env"})
+    batch_size: int = field(default=4096, metadata={"help": "PPO minibatch size"})
+    n_epochs: int = field(default=10, metadata={"help": "PPO epochs per rollout"})
+    learning_rate: float = field(default=3e-4, metadata={"help": "Adam learning rate"})
+    gamma: float = field(default=0.99, metadata={"help": "discount factor (per 0.05 s control step)"})
+    gae_lambda: float = field(default=0.95, metadata={"help": "GAE lambda"})
+    clip_range: float = field(default=0.2, metadata={"help": "PPO clip range"})
+    ent_coef: float = field(default=0.0, metadata={"help": "entropy bonus coefficient"})
+    log_std_init: float = field(default=-1.0, metadata={"help": "initial log std of the Gaussian policy"})
+    net_arch: str = field(default="128,128", metadata={"help": "hidden layer sizes of policy and value nets"})
+    episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
+    eval_freq: int = field(default=200_000, metadata={"help": "evaluate every this many env steps"})
+    checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
+    resume: str | None = field(default=None, metadata={"help": "a model zip to continue from (its vecnormalize.pkl beside it)"})
+    runs_dir: str = field(default="runs", metadata={"help": "where runs are written"})
+    progress_bar: bool = field(default=True, metadata={"help": "show a progress bar (needs tqdm and rich)"})
+    torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
+
+
+def parse_args(argv=None) -> Args:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    for f in dataclasses.fields(Args):
+        flag = "--" + f.name.replace("_", "-")
+        help_text = f"{f.metadata['help']} (default: {f.default})"
+        if f.type in ("bool",):
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
+        elif f.name == "direction":
+            parser.add_argument(flag, type=float, default=None, help=help_text)
+        elif f.name == "resume":
+            parser.add_argument(flag, type=str, default=None, help=help_text)
+        else:
+            kind = {"int": int, "float": float, "str": str}[f.type]
+            parser.add_argument(flag, type=kind, default=f.default, help=help_text)
+    args = Args(**vars(parser.parse_args(argv)))
+    if args.model not in ("plane", "pivot"):
+        parser.error(f"--model must be plane or pivot, got {args.model!r}")
+    if args.direction is not None and not math.isfinite(args.direction):
+        parser.error("--direction must be a finite number of degrees")
+    for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
+                 "checkpoint_freq", "torch_threads"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
+    if args.resume is not None and not Path(args.resume).is_file():
+        parser.error(f"--resume: no model file at {args.resume}")
+    return args
+
+
+def env_kwargs(args: Args) -> dict:
+    direction = None if args.direction is None else math.radians(args.direction)
+    return {"model": args.model, "target_direction": direction}
+
+
+def make_env(args: Args, num_envs: int, seed: int):
+    """The batched env behind SB3's VecEnv API, with episode statistics."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
+
+    venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
+    venv.seed(seed)
+    return VecMonitor(venv)
+
+
+class CompassEval:
+    """Fixed evaluation headings: the 8 compass directions (or the specialist's one), one env each."""
+
+    @staticmethod
+    def headings(args: Args):
+        if args.direction is not None:
+            return np.array([math.radians(args.direction)])
+        return np.radians(np.arange(0, 360, 45, dtype=float))
+
+
+def make_eval_env(args: Args, seed: int):
+    """One env per evaluation heading, 50 s from the paper's start (no start noise)."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
+
+    headings = CompassEval.headings(args)
+
+    class _FixedHeadings(RRRobotSB3VecEnv):
+        def reset(self):
+            self.set_options({"target_direction": headings})
+            return super().reset()
+
+    venv = _FixedHeadings(num_envs=len(headings), max_episode_steps=1000, model=args.model, reset_noise_scale=0.0)
+    venv.seed(seed)
+    return VecMonitor(venv)
+
+
+def run_name(args: Args) -> str:
+    return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
+
+
+def main(argv=None) -> Path:
+    args = parse_args(argv)
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    import rrrobot_gym  # noqa: F401  (registers the env)
+
+    torch.set_num_threads(args.torch_threads)
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    set_random_seed(args.seed)
+
+    run_dir = Path(args.runs_dir) / run_name(args)
+    run_dir.mkdir(parents=True, exist_ok=False)
+    (run_dir / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
+    (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
+
+    train_env = make_env(args, args.num_envs, args.seed)
+    eval_env = make_eval_env(args, args.seed + 10_000)
+    if args.resume:
+        from agents.ppo import normalization_path
+
+        stats = normalization_path(args.resume)
+        if not stats.exists():
+            raise SystemExit(f"train.py: error: --resume needs the normalisation statistics {stats}")
+        train_env = VecNormalize.load(str(stats), train_env)
+        train_env.training = True
+        model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir))
+    else:
+        train_env = VecNormalize(train_env, norm_obs=True, norm_reward=True, gamma=args.gamma)
+        model = PPO(
+            "MlpPolicy",
+            train_env,
+            learning_rate=args.learning_rate,
+            n_steps=args.n_steps,
+            batch_size=args.batch_size,
+            n_epochs=args.n_epochs,
+            gamma=args.gamma,
+            gae_lambda=args.gae_lambda,
+            clip_range=args.clip_range,
+            ent_coef=args.ent_coef,
+            policy_kwargs={
+                "net_arch": [int(n) for n in args.net_arch.split(",")],
+                "log_std_init": args.log_std_init,
+            },
+            tensorboard_log=str(run_dir),
+            seed=args.seed,
+            device="cpu",
+            verbose=0,
+        )
+    eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
+
+    class SaveNormalization(EvalCallback):
+        """EvalCallback that keeps the normalisation statistics beside best_model.zip."""
+
+        def _on_step(self) -> bool:
+            best = self.best_mean_reward
+            result = super()._on_step()
+            if self.best_mean_reward != best:
+                train_env.save(str(run_dir / "vecnormalize.pkl"))
+            return result
+
+    evaluation = SaveNormalization(
+        eval_env,
+        n_eval_episodes=len(CompassEval.headings(args)),
+        eval_freq=max(1, args.eval_freq // args.num_envs),
+        best_model_save_path=str(run_dir),
+        log_path=str(run_dir),
+        deterministic=True,
+    )
+    checkpoints = CheckpointCallback(
+        save_freq=max(1, args.checkpoint_freq // args.num_envs),
+        save_path=str(run_dir / "checkpoints"),
+        name_prefix="ppo",
+        save_vecnormalize=True,
+    )
+    print(f"run: {run_dir}", flush=True)
+    interrupted = False
+    try:
+        model.learn(
+            total_timesteps=args.total_timesteps,
+            callback=CallbackList([evaluation, checkpoints]),
+            progress_bar=args.progress_bar,
+            reset_num_timesteps=args.resume is None,
+            tb_log_name="tb",
+        )
+    except KeyboardInterrupt:
+        interrupted = True
+        print("interrupted: saving the model before exiting", flush=True)
+    model.save(run_dir / "final_model.zip")
+    train_env.save(str(run_dir / "final_vecnormalize.pkl"))
+    if not (run_dir / "best_model.zip").exists():
+        shutil.copy(run_dir / "final_model.zip", run_dir / "best_model.zip")
+        shutil.copy(run_dir / "final_vecnormalize.pkl", run_dir / "vecnormalize.pkl")
+    print(f"saved: {run_dir / 'final_model.zip'} (best: {run_dir / 'best_model.zip'})", flush=True)
+    train_env.close()
+    eval_env.close()
+    if interrupted:
+        raise SystemExit(130)
+    return run_dir
+
+
+if __name__ == "__main__":
+    main()
