@@ -75,21 +75,6 @@ BODY_RATE = slice(8, 11)
 LEG_RATES = slice(11, 13)
 
 
-def _trig(sample):
-    """sin and cos that suit the component type: math for floats, numpy for arrays."""
-    if isinstance(sample, float):
-        return math.sin, math.cos
-    return np.sin, np.cos
-
-
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def rotation_rows(qw, qx, qy, qz):
     """Rows of R(quat), body to world, each a 3-tuple of components."""
     return (
@@ -99,79 +84,242 @@ def rotation_rows(qw, qx, qy, qz):
     )
 
 
-class _Terms:
-    """Configuration-dependent quantities shared by the dynamics and the energy."""
+class Constants(tuple):
+    """Numbers that depend only on (params, depth), computed once per configuration.
 
-    __slots__ = ("rows", "n", "tips", "e", "a", "s", "inertia", "first_moment", "m_omega", "coupling", "leg_mass")
+    Made by :func:`constants`; the integrators pass it to :func:`derivative_kernel`
+    so that a derivative evaluation does no parameter arithmetic.
+    """
 
-    def __init__(self, c, params: RobotParams, depth: float):
-        _, _, qw, qx, qy, qz, phi1, phi2 = c[:8]
-        sin, cos = _trig(phi1)
-        r, l, ml, h = params.radius, params.leg_length, params.mass_tip, depth
-        mfix_x = (params.mass_bottom + 2.0 * params.mass_pin) * r * r
-        self.rows = rotation_rows(qw, qx, qy, qz)
-        n = self.rows[2]
-        self.n = n
-        c1, s1, c2, s2 = cos(phi1), sin(phi1), cos(phi2), sin(phi2)
-        lc1, ls1, lc2, ls2 = l * c1, l * s1, l * c2, l * s2
-        self.tips = ((lc1, -r, ls1), (lc2, r, ls2))
-        self.e = ((-ls1, 0.0, lc1), (-ls2, 0.0, lc2))
-        self.a = ((-lc1, 0.0, -ls1), (-lc2, 0.0, -ls2))
-        # Inertia about the centre, body frame: the fixed masses plus both tips.
-        tip_sq = l * l + r * r
-        ixx = mfix_x + ml * (2.0 * tip_sq - (lc1 * lc1 + lc2 * lc2))
-        iyy = params.mass_bottom * r * r + 2.0 * ml * l * l
-        izz = 2.0 * params.mass_pin * r * r + ml * (2.0 * tip_sq - (ls1 * ls1 + ls2 * ls2))
-        ixy = -ml * r * (lc2 - lc1)
-        ixz = -ml * (lc1 * ls1 + lc2 * ls2)
-        iyz = -ml * r * (ls2 - ls1)
-        self.inertia = (ixx, ixy, ixz, iyy, iyz, izz)
-        # First moment sum m p (its y part cancels between the two legs).
-        sx = ml * (lc1 + lc2)
-        sz = ml * (ls1 + ls2) - params.mass_bottom * r
-        self.first_moment = (sx, 0.0, sz)
-        # M_omega = I_c + h^2 m (1 - n n^T) + h (2 (S.n) 1 - S n^T - n S^T): inertia about the turning point.
-        if h == 0.0:
-            self.m_omega = self.inertia
-            self.s = self.tips
-        else:
-            mt = params.total_mass * h * h
-            sn2 = 2.0 * h * (sx * n[0] + sz * n[2])
-            nx, ny, nz = n
-            self.m_omega = (
-                ixx + mt * (1.0 - nx * nx) + sn2 - 2.0 * h * sx * nx,
-                ixy - mt * nx * ny - h * sx * ny,
-                ixz - mt * nx * nz - h * (sx * nz + sz * nx),
-                iyy + mt * (1.0 - ny * ny) + sn2,
-                iyz - mt * ny * nz - h * sz * ny,
-                izz + mt * (1.0 - nz * nz) + sn2 - 2.0 * h * sz * nz,
-            )
-            self.s = tuple(tuple(p[i] + h * n[i] for i in range(3)) for p in self.tips)
-        # Mass-matrix coupling between Omega and phidot_k: Ml s_k x e_k.
-        self.coupling = tuple(tuple(ml * v for v in _cross(sk, ek)) for sk, ek in zip(self.s, self.e))
-        self.leg_mass = ml * l * l
+    __slots__ = ()
 
 
-def _sym_matvec(m, v):
-    m00, m01, m02, m11, m12, m22 = m
-    return (
-        m00 * v[0] + m01 * v[1] + m02 * v[2],
-        m01 * v[0] + m11 * v[1] + m12 * v[2],
-        m02 * v[0] + m12 * v[1] + m22 * v[2],
+_CONSTANT_NAMES = (
+    "radius", "leg_length", "mass_tip", "depth", "gravity", "damping", "leg_inertia", "inv_leg_inertia",
+    "ixx0", "iyy", "izz0", "ml_r", "mb_r", "total_h2", "two_ml", "neg_ml", "neg_ml_l2", "ml_h",
+)  # fmt: skip
+
+
+def constants(params: RobotParams, depth: float) -> Constants:
+    """The per-configuration constants of the equations of motion (see :class:`Constants`)."""
+    r, l, ml, mb, ms = params.radius, params.leg_length, params.mass_tip, params.mass_bottom, params.mass_pin
+    h = float(depth)
+    tip_sq = l * l + r * r
+    values = {
+        "radius": r,
+        "leg_length": l,
+        "mass_tip": ml,
+        "depth": h,
+        "gravity": params.gravity,
+        "damping": params.damping,
+        "leg_inertia": ml * l * l,
+        "inv_leg_inertia": 1.0 / (ml * l * l),
+        # Inertia about the centre: Ixx = ixx0 - Ml (l^2 cos^2 phi1 + l^2 cos^2 phi2),
+        # Izz = izz0 + the same (since sin^2 = 1 - cos^2); Iyy does not depend on the legs.
+        "ixx0": (mb + 2.0 * ms) * r * r + 2.0 * ml * tip_sq,
+        "iyy": mb * r * r + 2.0 * ml * l * l,
+        "izz0": 2.0 * ms * r * r + 2.0 * ml * r * r,
+        "ml_r": ml * r,
+        "mb_r": mb * r,
+        "total_h2": params.total_mass * h * h,
+        "two_ml": 2.0 * ml,
+        "neg_ml": -ml,
+        "neg_ml_l2": -ml * l * l,
+        "ml_h": ml * h,
+    }
+    return Constants(values[name] for name in _CONSTANT_NAMES)
+
+
+def _leg_trig(phi1, phi2):
+    """cos and sin of both leg angles (times nothing): (c1, s1, c2, s2)."""
+    if isinstance(phi1, float):
+        return math.cos(phi1), math.sin(phi1), math.cos(phi2), math.sin(phi2)
+    # numpy's float64 sin and cos have no SIMD kernel and cost ~15x a tan: use the
+    # half-angle tangent t, cos = 2/(1+t^2) - 1, sin = t (2/(1+t^2)) (errors ~1e-16
+    # absolute; t stays finite in float64 since phi/2 is never exactly pi/2).
+    t1 = np.tan(0.5 * phi1)
+    t2 = np.tan(0.5 * phi2)
+    w1 = 2.0 / (1.0 + t1 * t1)
+    w2 = 2.0 / (1.0 + t2 * t2)
+    return w1 - 1.0, t1 * w1, w2 - 1.0, t2 * w2
+
+
+def _up_vector(qw, qx, qy, qz):
+    """n = R^T z (world up in body coordinates), the third row of R."""
+    tqx, tqy, tqz = qx + qx, qy + qy, qz + qz
+    return qx * tqz - qw * tqy, qy * tqz + qw * tqx, 1.0 - (qx * tqx + qy * tqy)
+
+
+def _configuration(phi1, phi2, n, k):
+    """Configuration-dependent terms shared by the dynamics, the energy and the mass matrix.
+
+    Returns (legs, inertia, first_moment, m_omega, coupling), where legs holds, per leg,
+    (l cos phi, l sin phi, s_y) with s_y the y of s = p + h n, the tip relative to
+    the turning point; inertia and m_omega are upper triangles (xx, xy, xz, yy, yz, zz)
+    of I_c and of M_omega; first_moment is (S_x, S_z) (S_y cancels between the legs);
+    coupling is (c_1, c_2), c_k = Ml s_k x e_k.
+    """
+    r, l, ml, h = k[0], k[1], k[2], k[3]
+    nx, ny, nz = n
+    cos1, sin1, cos2, sin2 = _leg_trig(phi1, phi2)
+    lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
+    m2 = ml * (lc1 * lc1 + lc2 * lc2)
+    ixx, iyy, izz = k[8] - m2, k[9], k[10] + m2
+    ixy = k[11] * (lc1 - lc2)
+    ixz = k[15] * (lc1 * ls1 + lc2 * ls2)
+    iyz = k[11] * (ls1 - ls2)
+    sx = ml * (lc1 + lc2)
+    sz = ml * (ls1 + ls2) - k[12]
+    inertia = (ixx, ixy, ixz, iyy, iyz, izz)
+    if h == 0.0:
+        # Pivoting: s = p, M_omega = I_c, and c_k = Ml p_k x e_k = Ml (p_y lc, -l^2, p_y ls).
+        c_y = k[16]
+        c1 = (-k[11] * lc1, c_y, -k[11] * ls1)
+        c2 = (k[11] * lc2, c_y, k[11] * ls2)
+        return ((lc1, ls1, -r), (lc2, ls2, r)), inertia, (sx, sz), inertia, (c1, c2)
+    # M_omega = I_c + h^2 M (1 - n n^T) + h (2 (S.n) 1 - S n^T - n S^T): inertia about the turning point.
+    hsx, hsz = h * sx, h * sz
+    mt = k[13]
+    mnx, mny, mnz = mt * nx, mt * ny, mt * nz
+    diag = mt + 2.0 * (hsx * nx + hsz * nz)
+    ax, az = mnx + hsx, mnz + hsz
+    m_omega = (
+        ixx + diag - nx * (ax + hsx),
+        ixy - ny * ax,
+        ixz - nz * ax - hsz * nx,
+        iyy + diag - ny * mny,
+        iyz - ny * az,
+        izz + diag - nz * (az + hsz),
     )
+    # c_k = Ml s_k x e_k = Ml (s_y lc, -(l^2 + h (nx lc + nz ls)), s_y ls), using p_k.e_k = 0.
+    hny = h * ny
+    sy1, sy2 = hny - r, hny + r
+    ml_h = k[17]
+    ml_sy1, ml_sy2 = ml * sy1, ml * sy2
+    c1 = (ml_sy1 * lc1, k[16] - ml_h * (nx * lc1 + nz * ls1), ml_sy1 * ls1)
+    c2 = (ml_sy2 * lc2, k[16] - ml_h * (nx * lc2 + nz * ls2), ml_sy2 * ls2)
+    return ((lc1, ls1, sy1), (lc2, ls2, sy2)), inertia, (sx, sz), m_omega, (c1, c2)
 
 
-def _sym_solve(m, b):
+def _sym_solve(m, b0, b1, b2):
     """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise)."""
     a, bb, c, d, e, f = m
     c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
     c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
     inv_det = 1.0 / (a * c00 + bb * c01 + c * c02)
     return (
-        (c00 * b[0] + c01 * b[1] + c02 * b[2]) * inv_det,
-        (c01 * b[0] + c11 * b[1] + c12 * b[2]) * inv_det,
-        (c02 * b[0] + c12 * b[1] + c22 * b[2]) * inv_det,
+        (c00 * b0 + c01 * b1 + c02 * b2) * inv_det,
+        (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
+        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
     )
+
+
+def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None):
+    """:func:`state_derivative` with the constants precomputed by :func:`constants`.
+
+    This is the implementation; the integrators call it directly to skip the
+    per-call parameter arithmetic.
+    """
+    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
+    ox, oy, oz = c[8], c[9], c[10]
+    rate1, rate2 = c[11], c[12]
+    r, ml, h, g, damping = k[0], k[2], k[3], k[4], k[5]
+
+    # Attitude products; rows 0 and 1 of R give the world rate for the contact
+    # kinematics (eq. 2 and 4: xdot = r w_y, ydot = -r w_x), row 2 is n.
+    tqx, tqy, tqz = qx + qx, qy + qy, qz + qz
+    xx, yy, zz = qx * tqx, qy * tqy, qz * tqz
+    xy, xz, yz = qx * tqy, qx * tqz, qy * tqz
+    wx, wy, wz = qw * tqx, qw * tqy, qw * tqz
+    w_x = (1.0 - yy - zz) * ox + (xy - wz) * oy + (xz + wy) * oz
+    w_y = (xy + wz) * ox + (1.0 - xx - zz) * oy + (yz - wx) * oz
+    nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
+    # qdot = 1/2 q (x) (0, Omega) for a body-frame rate.
+    hox, hoy, hoz = 0.5 * ox, 0.5 * oy, 0.5 * oz
+    dqw = -(qx * hox + qy * hoy + qz * hoz)
+    dqx = qw * hox + qy * hoz - qz * hoy
+    dqy = qw * hoy + qz * hox - qx * hoz
+    dqz = qw * hoz + qx * hoy - qy * hox
+
+    legs, inertia, (sx, sz), m_omega, (c1, c2) = _configuration(c[6], c[7], (nx, ny, nz), k)
+    ixx, ixy, ixz, iyy, iyz, izz = inertia
+
+    # Generalised forces minus the velocity-dependent inertial terms, Omega rows:
+    # damping k Omega, gyroscopic -Omega x (I Omega), gravity -g S x n with S = (sx, 0, sz).
+    lx = ixx * ox + ixy * oy + ixz * oz
+    ly = ixy * ox + iyy * oy + iyz * oz
+    lz = ixz * ox + iyz * oy + izz * oz
+    gsx, gsz = g * sx, g * sz
+    f0 = damping * ox - (oy * lz - oz * ly) + gsz * ny
+    f1 = damping * oy - (oz * lx - ox * lz) + (gsx * nz - gsz * nx)
+    f2 = damping * oz - (ox * ly - oy * lx) - gsx * ny
+    n_omega = nx * ox + ny * oy + nz * oz
+    if h != 0.0:
+        # -h n x (Omega (Omega.S) - S |Omega|^2): the centre's acceleration about the turning point.
+        h_os = h * (ox * sx + oz * sz)
+        h_osq = h * (ox * ox + oy * oy + oz * oz)
+        vx, vy, vz = ox * h_os - sx * h_osq, oy * h_os, oz * h_os - sz * h_osq
+        f0 = f0 - (ny * vz - nz * vy)
+        f1 = f1 - (nz * vx - nx * vz)
+        f2 = f2 - (nx * vy - ny * vx)
+        h_n_omega = h * n_omega
+
+    # Each leg, with e = (-ls, 0, lc), p = (lc, p_y, ls), a = -(lc, 0, ls):
+    # Omega rows lose Ml s x b_rel, b_rel = 2 phidot Omega x e + phidot^2 a, where
+    # s x (Omega x e) = h (n.e) Omega - (s.Omega) e (as p.e = 0) and
+    # s x a = (-s_y ls, -h (n.e), s_y lc); the leg row gets
+    # e.(F - Ml b) = -Ml ((Omega.e)(Omega.p) + g n.e), since e.(Omega x (Omega x p)) = (Omega.e)(Omega.p).
+    (lc1, ls1, sy1), (lc2, ls2, sy2) = legs
+    r_oy = r * oy
+    ne1, ne2 = nz * lc1 - nx * ls1, nz * lc2 - nx * ls2
+    p_omega1, p_omega2 = lc1 * ox + ls1 * oz - r_oy, lc2 * ox + ls2 * oz + r_oy
+    neg_ml = k[15]
+    f_leg1 = neg_ml * ((lc1 * oz - ls1 * ox) * p_omega1 + g * ne1)
+    f_leg2 = neg_ml * ((lc2 * oz - ls2 * ox) * p_omega2 + g * ne2)
+    two_ml = k[14]
+    a1, a2 = two_ml * rate1, two_ml * rate2
+    cc1, cc2 = ml * rate1 * rate1, ml * rate2 * rate2
+    if h != 0.0:
+        hne1, hne2 = h * ne1, h * ne2
+        a_hne = a1 * hne1 + a2 * hne2
+        d1 = a1 * (p_omega1 + h_n_omega) - cc1 * sy1
+        d2 = a2 * (p_omega2 + h_n_omega) - cc2 * sy2
+        f0 = f0 - (a_hne * ox + d1 * ls1 + d2 * ls2)
+        f1 = f1 - (a_hne * oy - (cc1 * hne1 + cc2 * hne2))
+        f2 = f2 - (a_hne * oz - (d1 * lc1 + d2 * lc2))
+    else:
+        d1 = a1 * p_omega1 - cc1 * sy1
+        d2 = a2 * p_omega2 - cc2 * sy2
+        f0 = f0 - (d1 * ls1 + d2 * ls2)
+        f2 = f2 + (d1 * lc1 + d2 * lc2)
+
+    c1x, c1y, c1z = c1
+    c2x, c2y, c2z = c2
+    if leg_accel is None:
+        # Schur complement of the diagonal leg block (Ml l^2 on each leg).
+        inv_d = k[7]
+        fl1, fl2 = f_leg1 + leg_torque[0], f_leg2 + leg_torque[1]
+        h1x, h1y, h1z = c1x * inv_d, c1y * inv_d, c1z * inv_d
+        h2x, h2y, h2z = c2x * inv_d, c2y * inv_d, c2z * inv_d
+        m_red = (
+            m_omega[0] - (c1x * h1x + c2x * h2x),
+            m_omega[1] - (c1x * h1y + c2x * h2y),
+            m_omega[2] - (c1x * h1z + c2x * h2z),
+            m_omega[3] - (c1y * h1y + c2y * h2y),
+            m_omega[4] - (c1y * h1z + c2y * h2z),
+            m_omega[5] - (c1z * h1z + c2z * h2z),
+        )
+        od0, od1, od2 = _sym_solve(
+            m_red, f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2)
+        )
+        acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
+        acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
+    else:
+        acc1, acc2 = leg_accel[0], leg_accel[1]
+        od0, od1, od2 = _sym_solve(
+            m_omega, f0 - (c1x * acc1 + c2x * acc2), f1 - (c1y * acc1 + c2y * acc2), f2 - (c1z * acc1 + c2z * acc2)
+        )
+    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
 
 
 def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):
@@ -189,97 +337,23 @@ def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel
     Returns:
         The 13 derivative components, in the same layout.
     """
-    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
-    omega = (c[8], c[9], c[10])
-    leg_rates = (c[11], c[12])
-    t = _Terms(c, params, depth)
-    n, ml, g, h = t.n, params.mass_tip, params.gravity, depth
-
-    # Contact kinematics (eq. 2 and 4) with w = R Omega.
-    w_x = _dot(t.rows[0], omega)
-    w_y = _dot(t.rows[1], omega)
-    r = params.radius
-    # Attitude: qdot = 1/2 q (x) (0, Omega) for a body-frame rate.
-    dq = (
-        -0.5 * (qx * omega[0] + qy * omega[1] + qz * omega[2]),
-        0.5 * (qw * omega[0] + qy * omega[2] - qz * omega[1]),
-        0.5 * (qw * omega[1] + qz * omega[0] - qx * omega[2]),
-        0.5 * (qw * omega[2] + qx * omega[1] - qy * omega[0]),
-    )
-
-    # Generalised forces minus the velocity-dependent inertial terms, Omega rows.
-    s_mom = t.first_moment
-    gyro = _cross(omega, _sym_matvec(t.inertia, omega))
-    omega_sq = _dot(omega, omega)
-    grav = _cross(s_mom, n)
-    k = params.damping
-    f_omega = [k * omega[i] - gyro[i] - g * grav[i] for i in range(3)]
-    if h != 0.0:
-        os_ = _dot(omega, s_mom)
-        oos = tuple(omega[i] * os_ - s_mom[i] * omega_sq for i in range(3))
-        turn = _cross(n, oos)
-        f_omega = [f_omega[i] - h * turn[i] for i in range(3)]
-    f_leg = []
-    for k_leg in range(2):
-        e, a, p, s = t.e[k_leg], t.a[k_leg], t.tips[k_leg], t.s[k_leg]
-        rate = leg_rates[k_leg]
-        oe = _cross(omega, e)
-        b_rel = tuple(2.0 * rate * oe[i] + rate * rate * a[i] for i in range(3))
-        sb = _cross(s, b_rel)
-        f_omega = [f_omega[i] - ml * sb[i] for i in range(3)]
-        # e.(Omega x (Omega x p)) = (Omega.e)(Omega.p), since e.p = 0.
-        f_leg.append(-ml * (_dot(omega, e) * _dot(omega, p) + g * _dot(e, n)))
-
-    c1, c2 = t.coupling
-    d = t.leg_mass
-    if leg_accel is None:
-        f_leg = [f_leg[0] + leg_torque[0], f_leg[1] + leg_torque[1]]
-        # Schur complement of the diagonal leg block.
-        mo = t.m_omega
-        inv_d = 1.0 / d
-        m_red = (
-            mo[0] - (c1[0] * c1[0] + c2[0] * c2[0]) * inv_d,
-            mo[1] - (c1[0] * c1[1] + c2[0] * c2[1]) * inv_d,
-            mo[2] - (c1[0] * c1[2] + c2[0] * c2[2]) * inv_d,
-            mo[3] - (c1[1] * c1[1] + c2[1] * c2[1]) * inv_d,
-            mo[4] - (c1[1] * c1[2] + c2[1] * c2[2]) * inv_d,
-            mo[5] - (c1[2] * c1[2] + c2[2] * c2[2]) * inv_d,
-        )
-        rhs = tuple(f_omega[i] - (c1[i] * f_leg[0] + c2[i] * f_leg[1]) * inv_d for i in range(3))
-        omega_dot = _sym_solve(m_red, rhs)
-        leg_acc = ((f_leg[0] - _dot(c1, omega_dot)) * inv_d, (f_leg[1] - _dot(c2, omega_dot)) * inv_d)
-    else:
-        leg_acc = (leg_accel[0], leg_accel[1])
-        rhs = tuple(f_omega[i] - c1[i] * leg_acc[0] - c2[i] * leg_acc[1] for i in range(3))
-        omega_dot = _sym_solve(t.m_omega, rhs)
-
-    return (
-        r * w_y,
-        -r * w_x,
-        dq[0],
-        dq[1],
-        dq[2],
-        dq[3],
-        leg_rates[0],
-        leg_rates[1],
-        omega_dot[0],
-        omega_dot[1],
-        omega_dot[2],
-        leg_acc[0],
-        leg_acc[1],
-    )
+    return derivative_kernel(c, leg_torque, constants(params, depth), leg_accel)
 
 
 def energy_components(c, params: RobotParams, depth: float):
     """Kinetic and potential energy (J), with the centre at height r in both models."""
-    omega = (c[8], c[9], c[10])
-    leg_rates = (c[11], c[12])
-    t = _Terms(c, params, depth)
-    kinetic = 0.5 * _dot(omega, _sym_matvec(t.m_omega, omega))
-    for k_leg in range(2):
-        kinetic = kinetic + leg_rates[k_leg] * _dot(t.coupling[k_leg], omega)
-        kinetic = kinetic + 0.5 * t.leg_mass * leg_rates[k_leg] * leg_rates[k_leg]
-    potential = params.gravity * (params.total_mass * params.radius + _dot(t.first_moment, t.n))
+    k = constants(params, depth)
+    ox, oy, oz = c[8], c[9], c[10]
+    n = _up_vector(c[2], c[3], c[4], c[5])
+    _, _, (sx, sz), mo, (c1, c2) = _configuration(c[6], c[7], n, k)
+    kinetic = 0.5 * (
+        mo[0] * ox * ox + mo[3] * oy * oy + mo[5] * oz * oz
+        + 2.0 * (mo[1] * ox * oy + mo[2] * ox * oz + mo[4] * oy * oz)
+    )  # fmt: skip
+    kinetic = kinetic + c[11] * (c1[0] * ox + c1[1] * oy + c1[2] * oz)
+    kinetic = kinetic + c[12] * (c2[0] * ox + c2[1] * oy + c2[2] * oz)
+    kinetic = kinetic + 0.5 * k[6] * (c[11] * c[11] + c[12] * c[12])
+    potential = params.gravity * (params.total_mass * params.radius + sx * n[0] + sz * n[2])
     return kinetic, potential
 
 
@@ -295,17 +369,20 @@ def _components(state):
 def mass_matrix(state, params: RobotParams, model: str):
     """The 5x5 generalised mass matrix for the speeds (Omega, phi_1dot, phi_2dot), shape (..., 5, 5)."""
     state = np.asarray(state, dtype=float)
-    t = _Terms(_components(state), params, rotation_point_depth(model, params))
+    comps = _components(state)
+    k = constants(params, rotation_point_depth(model, params))
+    n = _up_vector(comps[2], comps[3], comps[4], comps[5])
+    _, _, _, m_omega, coupling = _configuration(comps[6], comps[7], n, k)
     out = np.zeros(state.shape[:-1] + (5, 5))
     idx = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-    for (i, j), v in zip(idx, t.m_omega):
+    for (i, j), v in zip(idx, m_omega):
         out[..., i, j] = v
         out[..., j, i] = v
     for k_leg in range(2):
         for i in range(3):
-            out[..., i, 3 + k_leg] = t.coupling[k_leg][i]
-            out[..., 3 + k_leg, i] = t.coupling[k_leg][i]
-        out[..., 3 + k_leg, 3 + k_leg] = t.leg_mass
+            out[..., i, 3 + k_leg] = coupling[k_leg][i]
+            out[..., 3 + k_leg, i] = coupling[k_leg][i]
+        out[..., 3 + k_leg, 3 + k_leg] = k[6]
     return out
 
 

@@ -1,8 +1,14 @@
-"""Integrating the RRRobot: fixed-step RK4 for stepping, solve_ivp as the reference.
+"""Integrating the RRRobot: fixed-step RK4 (or RK3) for stepping, solve_ivp as the reference.
 
-Both paths evaluate :func:`rrrobot_gym.dynamics.state_derivative`; the leg servo is
-evaluated inside every derivative call (a continuous-time PD controller), so a
-scripted gait's targets are tracked between steps, not sampled once per step.
+Both paths evaluate :func:`rrrobot_gym.dynamics.derivative_kernel` (the one
+implementation behind ``state_derivative``); the leg servo is evaluated inside
+every derivative call (a continuous-time PD controller), so a scripted gait's
+targets are tracked between steps, not sampled once per step.
+
+Options that skip work a scene does not need (``SimConfig``): ``legs="kinematic"``
+(the legs follow a smooth path exactly; the stiff servo leaves the integration) and
+``timestep="auto"`` (a step derived from the gains, masses and model). A step beyond
+the servo's stability limit is refused at construction.
 
 States are arrays shaped (13,) for one robot or (N, 13) for a batch (layout in
 :data:`rrrobot_gym.dynamics.STATE_FIELDS`). Internally a batch is integrated
@@ -12,8 +18,9 @@ integrated on Python floats, which is several times faster than numpy at N = 1.
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -21,14 +28,20 @@ from . import dynamics
 from .control import pd_torque
 from .params import PDGains, RobotParams, check_model, rotation_point_depth
 
-INTEGRATORS = ("rk4",)
-"""Fixed-step integrators for stepping (``SimConfig.integrator``)."""
+INTEGRATORS = ("rk4", "rk3")
+"""Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
+Runge-Kutta (4 derivative evaluations a step); "rk3", Kutta's third-order method
+(3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark)."""
+
+LEG_MODES = ("servo", "kinematic")
+"""How the legs move (``SimConfig.legs``): "servo" integrates the PD servo with the
+body (the paper's model); "kinematic" makes the legs follow a smooth path to their
+targets exactly, so the stiff servo leaves the integration (see :func:`advance`)."""
 
 DEFAULT_TIMESTEP = 1.0 / 300.0
 """s, RK4 step of the defaults; keeps the contact point within 1 mm of the
 rtol=1e-10 reference after 50 s of every Table II gait on both models
 (``tests/test_accuracy.py``; ``python -m benchmarks.work_precision``)."""
-
 
 @dataclass(frozen=True)
 class SimConfig:
@@ -38,23 +51,47 @@ class SimConfig:
     robot: RobotParams = field(default_factory=RobotParams)
     gains: PDGains = field(default_factory=PDGains)
     integrator: str = "rk4"
-    timestep: float = DEFAULT_TIMESTEP  # s, the fixed integration step
+    timestep: float | str = DEFAULT_TIMESTEP  # s, the fixed integration step, or "auto" (see `step`)
+    legs: str = "servo"  # "servo" (PD servo dynamics) or "kinematic" (legs follow a smooth path exactly)
 
     def __post_init__(self):
         check_model(self.model)
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}: expected one of {', '.join(INTEGRATORS)}")
+        if self.legs not in LEG_MODES:
+            raise ValueError(f"unknown leg mode {self.legs!r}: expected one of {', '.join(LEG_MODES)}")
         if not isinstance(self.robot, RobotParams):
             raise TypeError(f"SimConfig.robot must be a RobotParams, got {type(self.robot).__name__}")
         if not isinstance(self.gains, PDGains):
             raise TypeError(f"SimConfig.gains must be a PDGains, got {type(self.gains).__name__}")
+        if isinstance(self.timestep, str):
+            if self.timestep != "auto":
+                raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
+            object.__setattr__(self, "_step", scene_timestep(self.model, self.robot, self.gains, self.legs, self.integrator))
+            return
         try:
             step = float(self.timestep)
         except (TypeError, ValueError):
-            raise TypeError(f"SimConfig.timestep must be a number, got {self.timestep!r}") from None
+            raise TypeError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}") from None
         if not (math.isfinite(step) and step > 0.0):
             raise ValueError(f"SimConfig.timestep must be a positive finite number of seconds, got {self.timestep}")
         object.__setattr__(self, "timestep", step)
+        object.__setattr__(self, "_step", step)
+        if self.legs == "servo":
+            limit = stable_step_limit(self.model, self.robot, self.gains, self.integrator)
+            if step > limit:
+                raise ValueError(
+                    f"SimConfig.timestep {step:.4g} s is beyond the stability limit {limit:.4g} s of "
+                    f"{self.integrator} for the leg servo (kp={self.gains.kp}, kd={self.gains.kd}, tip mass "
+                    f"{self.robot.mass_tip} kg, model {self.model!r}; fastest servo pole "
+                    f"{servo_fastest_rate(self.model, self.robot, self.gains):.4g} 1/s): the run would blow up. "
+                    f"Use a smaller timestep, timestep='auto', or legs='kinematic'"
+                )
+
+    @property
+    def step(self) -> float:
+        """s, the step actually used: ``timestep``, or the scene-derived step when it is "auto"."""
+        return self._step
 
     @property
     def depth(self) -> float:
@@ -102,63 +139,449 @@ def check_state(state):
     return arr
 
 
-def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
-    """f(t, y) for a component-first state y: shape (13,) (one robot) or (13, N)."""
-    params, depth, gains = config.robot, config.depth, config.gains
+# ---------------------------------------------------------------------------
+# The scene's time scales: a step derived from gains, masses and model.
 
-    def f(t, y):
-        comps = y.tolist() if y.ndim == 1 else y
-        target = targets.leg_targets(t)
-        if kinematic_legs:
-            deriv = dynamics.state_derivative(comps, None, params, depth, leg_accel=target[2])
+
+@functools.lru_cache(maxsize=64)
+def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
+    """1/kg m^2, the largest eigenvalue of the legs' block of M^-1 over attitudes and leg angles.
+
+    The legs' effective inertia is the Schur complement D - C^T M_omega^-1 C: the body
+    recoils when a leg is driven, so a leg is lighter than Ml l^2 (on a plane about
+    a quarter of it). The maximum sits on a grid of tilts (up to the limit) and leg angles.
+    """
+    angles = np.linspace(-math.pi, math.pi, 13)
+    tilts = np.linspace(0.0, dynamics.TILT_LIMIT, 7)
+    phi1, phi2, tilt_angle, axis_angle = np.meshgrid(angles, angles, tilts, np.linspace(0, math.pi, 5), indexing="ij")
+    states = np.zeros(phi1.shape + (dynamics.STATE_SIZE,))
+    states[..., 2] = np.cos(0.5 * tilt_angle)
+    states[..., 3] = np.sin(0.5 * tilt_angle) * np.cos(axis_angle)
+    states[..., 4] = np.sin(0.5 * tilt_angle) * np.sin(axis_angle)
+    states[..., 6], states[..., 7] = phi1, phi2
+    mass = dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model)
+    # Skip configurations where M is singular (e.g. no bottom mass and every mass on one
+    # line): the dynamics is undefined there and no step size helps.
+    eig = np.linalg.eigvalsh(mass)
+    regular = eig[:, 0] > 1e-9 * eig[:, -1]
+    if not np.any(regular):
+        raise ValueError(
+            f"the generalised mass matrix of {robot} ({model} model) is singular in every configuration: "
+            f"some motion moves no mass (e.g. with mass_bottom = 0 the pivoting shell has no inertia about "
+            f"the legs' axis), so the dynamics is undefined"
+        )
+    inverse = np.linalg.inv(mass[regular])
+    return float(np.linalg.eigvalsh(inverse[:, 3:, 3:]).max())
+
+
+def servo_poles(model: str, robot: RobotParams, gains: PDGains) -> tuple:
+    """1/s, the two poles of the stiffest leg-servo mode over all configurations.
+
+    Each leg obeys I_eff phi'' + kd phi' + kp phi = ... with I_eff as small as
+    1/max eig(M^-1 legs block): poles (-kd mu +- sqrt((kd mu)^2 - 4 kp mu)) / 2, mu = 1/I_eff.
+    """
+    mu = _effective_leg_inverse_inertia(model, robot)
+    disc = complex((gains.kd * mu) ** 2 - 4.0 * gains.kp * mu)
+    root = disc**0.5
+    return (0.5 * (-gains.kd * mu - root), 0.5 * (-gains.kd * mu + root))
+
+
+def servo_fastest_rate(model: str, robot: RobotParams, gains: PDGains) -> float:
+    """1/s, |lambda| of the fastest pole of the leg servo, over all configurations."""
+    return max(abs(p) for p in servo_poles(model, robot, gains))
+
+
+def _amplification(integrator: str, z: complex) -> float:
+    """|R(z)|, the integrator's growth factor per step on y' = lambda y, z = h lambda."""
+    poly = 1.0 + z + z * z / 2.0 + z**3 / 6.0
+    if integrator == "rk4":
+        poly += z**4 / 24.0
+    return abs(poly)
+
+
+def stable_step_limit(model: str, robot: RobotParams, gains: PDGains, integrator: str = "rk4") -> float:
+    """s, the largest step at which ``integrator`` stays stable on the leg servo's fastest poles."""
+    poles = [p for p in servo_poles(model, robot, gains) if p != 0]
+    lo, hi = 0.0, 10.0 / max(abs(p) for p in poles)
+    for _ in range(60):  # bisection on the first step where some pole is amplified
+        mid = 0.5 * (lo + hi)
+        if all(_amplification(integrator, mid * p) <= 1.0 + 1e-12 for p in poles):
+            lo = mid
         else:
-            tau = pd_torque(gains, (comps[6], comps[7]), (comps[11], comps[12]), target)
-            deriv = dynamics.state_derivative(comps, tau, params, depth)
-        return np.array(deriv)
+            hi = mid
+    return lo
+
+
+SERVO_STEP_FACTOR = {("rk4", "plane"): 1.28, ("rk4", "pivot"): 1.08, ("rk3", "plane"): 1.13, ("rk3", "pivot"): 0.95}
+"""h |lambda_servo| of the auto step for servo legs, per integrator and model (RK4 is
+stable up to 2.785 on the real axis, RK3 up to 2.513). Calibrated by
+``benchmarks.work_precision`` to the cheapest step under 1 mm of contact error after
+50 s on every gait: plane RK4 1/300 s, pivot RK4 1/140 s, plane RK3 1/340 s (pivot
+RK3 is scaled from pivot RK4, not swept). The models differ: the same h |lambda|
+costs the pivot model more contact error than the plane model."""
+
+KINEMATIC_STEP = 1.0 / 40.0
+"""s, the auto step with kinematic legs: the fastest remaining motion is the body
+rocking (~7 rad/s) driven at the gait frequency (8 rad/s). At 1/40 s the contact error
+after 50 s is ~0.03 mm (1/20 s: ~0.4 mm; ``benchmarks.work_precision``)."""
+
+
+def scene_timestep(model: str, robot: RobotParams, gains: PDGains, legs: str = "servo", integrator: str = "rk4") -> float:
+    """s, a step derived from the scene rather than one fixed number (``timestep="auto"``).
+
+    Servo legs: the stiffest motion is the overdamped leg servo, |lambda| =
+    :func:`servo_fastest_rate`; h = SERVO_STEP_FACTOR[integrator, model] / |lambda|, and never
+    more than 0.8 of the stability limit (:func:`stable_step_limit`). Kinematic legs:
+    the servo is gone and the body's rocking sets the step (:data:`KINEMATIC_STEP`).
+    """
+    if legs == "kinematic":
+        return KINEMATIC_STEP
+    return min(
+        SERVO_STEP_FACTOR[integrator, model] / servo_fastest_rate(model, robot, gains),
+        0.8 * stable_step_limit(model, robot, gains, integrator),
+        KINEMATIC_STEP,
+    )
+
+
+# ---------------------------------------------------------------------------
+# Leg paths for the kinematic-legs mode.
+
+
+def _blend_coefficients(offset, rate_offset, duration):
+    """Quintic b(s), s in [0, duration], with b(0) = offset, b'(0) = rate_offset, b''(0) = 0
+    and b = b' = b'' = 0 at the end (a minimum-jerk transition)."""
+    return offset, rate_offset * duration, duration
+
+
+def _blend(coeffs, s):
+    """b, b', b'' of :func:`_blend_coefficients` at time s after its start."""
+    b0, v0d, dur = coeffs
+    tau = min(max(s / dur, 0.0), 1.0) if isinstance(s, float) else np.clip(s / dur, 0.0, 1.0)
+    t2 = tau * tau
+    t3 = t2 * tau
+    # Hermite quintic basis: H0 = 1 - 10t^3 + 15t^4 - 6t^5, H1 = t - 6t^3 + 8t^4 - 3t^5.
+    h0 = 1.0 + t3 * (-10.0 + tau * (15.0 - 6.0 * tau))
+    h0d = t2 * (-30.0 + tau * (60.0 - 30.0 * tau))
+    h0dd = tau * (-60.0 + tau * (180.0 - 120.0 * tau))
+    h1 = tau + t3 * (-6.0 + tau * (8.0 - 3.0 * tau))
+    h1d = 1.0 + t2 * (-18.0 + tau * (32.0 - 15.0 * tau))
+    h1dd = tau * (-36.0 + tau * (96.0 - 60.0 * tau))
+    return (b0 * h0 + v0d * h1, (b0 * h0d + v0d * h1d) / dur, (b0 * h0dd + v0d * h1dd) / (dur * dur))
+
+
+class SmoothStart:
+    """A leg-target source that starts at given leg angles and rates and blends into ``targets``.
+
+    path(t) = targets(t) + b(t - t_start), b a minimum-jerk quintic from the start's
+    offset to zero over ``blend_time`` seconds. Used by the kinematic-legs mode, where
+    the legs follow their path exactly, so a path must start where the legs are.
+    """
+
+    def __init__(self, targets, leg_angles, leg_rates, t_start: float = 0.0, blend_time: float = 0.2):
+        if not (math.isfinite(blend_time) and blend_time > 0.0):
+            raise ValueError(f"blend_time must be a positive number of seconds, got {blend_time}")
+        self.targets = targets
+        self.t_start = float(t_start)
+        (a1, a2), (r1, r2), _ = targets.leg_targets(self.t_start)
+        self._coeffs = (
+            _blend_coefficients(leg_angles[0] - a1, leg_rates[0] - r1, blend_time),
+            _blend_coefficients(leg_angles[1] - a2, leg_rates[1] - r2, blend_time),
+        )
+
+    def leg_targets(self, t):
+        (a1, a2), (r1, r2), (c1, c2) = self.targets.leg_targets(t)
+        s = t - self.t_start
+        b1, v1, acc1 = _blend(self._coeffs[0], s)
+        b2, v2, acc2 = _blend(self._coeffs[1], s)
+        return (a1 + b1, a2 + b2), (r1 + v1, r2 + v2), (c1 + acc1, c2 + acc2)
+
+
+# ---------------------------------------------------------------------------
+# Fixed-step integration.
+
+_heap_kept = 0
+
+
+def _keep_freed_heap(num_robots: int):
+    """Stop glibc from handing freed heap back to the OS after every batch of temporaries.
+
+    A derivative evaluation on N robots allocates and frees ~250 temporary arrays of
+    8N bytes. With glibc's default trim threshold (128 KiB) the top of the heap is
+    returned to the OS and faulted back in page by page on the next evaluation:
+    at N = 4096 that makes an evaluation ~3.7x slower (1.5 ms instead of 0.4 ms).
+    Raising the threshold to the batch's working set (process-wide, monotone: the
+    heap keeps up to that much freed memory) removes the faults. No-op elsewhere.
+    """
+    global _heap_kept
+    wanted = max(64 << 20, 4096 * num_robots)
+    if wanted <= _heap_kept:
+        return
+    _heap_kept = wanted
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):  # not glibc: nothing to tune
+        return
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    mallopt(m_trim_threshold, ctypes.c_int(min(wanted, 2**31 - 1)))
+    mallopt(m_mmap_threshold, ctypes.c_int(32 << 20))
+
+
+def _stage_fn(config: SimConfig, targets, blend=None):
+    """f(t, comps) -> 13 derivative components, for components (floats or (N,) arrays).
+
+    ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets (kinematic legs).
+    """
+    k = dynamics.constants(config.robot, config.depth)
+    kernel = dynamics.derivative_kernel
+    leg_targets = targets.leg_targets
+    if config.legs == "kinematic":
+        if blend is None:
+
+            def f(t, c):
+                return kernel(c, None, k, leg_targets(t)[2])
+
+        else:
+            t_blend, coeffs1, coeffs2 = blend
+
+            def f(t, c):
+                acc1, acc2 = leg_targets(t)[2]
+                s = t - t_blend
+                return kernel(c, None, k, (acc1 + _blend(coeffs1, s)[2], acc2 + _blend(coeffs2, s)[2]))
+
+        return f
+    gains = config.gains
+
+    def f(t, c):
+        return kernel(c, pd_torque(gains, (c[6], c[7]), (c[11], c[12]), leg_targets(t)), k)
 
     return f
 
 
-def _normalize_quat(y):
-    y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
+    """f(t, y) for a component-first state y: shape (13,) (one robot) or (13, N), as an array."""
+    if kinematic_legs and config.legs != "kinematic":
+        config = replace(config, legs="kinematic")
+    f = _stage_fn(config, targets)
+
+    def g(t, y):
+        return np.array(f(t, y.tolist() if y.ndim == 1 else y))
+
+    return g
 
 
-def _rk4_steps(f, t, y, h, n_steps):
-    """n_steps classical Runge-Kutta steps of size h, renormalising the quaternion after each."""
-    half = 0.5 * h
+def _rk4_floats(f, t, y, h, n_steps):
+    """RK4 on one robot as a list of 13 Python floats (numpy costs more than it saves at N = 1)."""
+    half, sixth = 0.5 * h, h / 6.0
     for _ in range(n_steps):
         k1 = f(t, y)
-        k2 = f(t + half, y + half * k1)
-        k3 = f(t + half, y + half * k2)
-        k4 = f(t + h, y + h * k3)
-        y = y + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        _normalize_quat(y)
+        k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
+        k3 = f(t + half, [a + half * b for a, b in zip(y, k2)])
+        k4 = f(t + h, [a + h * b for a, b in zip(y, k3)])
+        y = [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)]
+        inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        y[2] *= inv
+        y[3] *= inv
+        y[4] *= inv
+        y[5] *= inv
         t += h
     return y
+
+
+def _rk4_arrays(f, t, y, h, n_steps):
+    """RK4 on a component-first batch y (13, N), in place, with preallocated stage buffers."""
+    half, sixth = 0.5 * h, h / 6.0
+    slope = np.empty_like(y)
+    total = np.empty_like(y)
+    stage_a = np.empty_like(y)
+    stage_b = np.empty_like(y)
+
+    def load(deriv):
+        # The derivative's leg-angle rows are views of its input's leg-rate rows: copy first.
+        for i, v in enumerate(deriv):
+            slope[i] = v
+
+    for _ in range(n_steps):
+        load(f(t, y))
+        np.copyto(total, slope)
+        np.multiply(slope, half, out=stage_a)
+        stage_a += y
+        load(f(t + half, stage_a))
+        total += 2.0 * slope
+        np.multiply(slope, half, out=stage_b)
+        stage_b += y
+        load(f(t + half, stage_b))
+        total += 2.0 * slope
+        np.multiply(slope, h, out=stage_a)
+        stage_a += y
+        load(f(t + h, stage_a))
+        total += slope
+        total *= sixth
+        y += total
+        y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        t += h
+    return y
+
+
+def _rk3_floats(f, t, y, h, n_steps):
+    """Kutta's third-order method on one robot (list of 13 floats)."""
+    half, sixth = 0.5 * h, h / 6.0
+    for _ in range(n_steps):
+        k1 = f(t, y)
+        k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
+        k3 = f(t + h, [a + h * (2.0 * b2 - b1) for a, b1, b2 in zip(y, k1, k2)])
+        y = [a + sixth * (b1 + 4.0 * b2 + b3) for a, b1, b2, b3 in zip(y, k1, k2, k3)]
+        inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        y[2] *= inv
+        y[3] *= inv
+        y[4] *= inv
+        y[5] *= inv
+        t += h
+    return y
+
+
+def _rk3_arrays(f, t, y, h, n_steps):
+    """Kutta's third-order method on a component-first batch y (13, N), in place."""
+    half, sixth = 0.5 * h, h / 6.0
+    slope1 = np.empty_like(y)
+    slope2 = np.empty_like(y)
+    stage_a = np.empty_like(y)
+    stage_b = np.empty_like(y)
+
+    def load(deriv, slope):
+        for i, v in enumerate(deriv):
+            slope[i] = v
+
+    for _ in range(n_steps):
+        load(f(t, y), slope1)
+        np.multiply(slope1, half, out=stage_a)
+        stage_a += y
+        load(f(t + half, stage_a), slope2)
+        np.multiply(slope2, 2.0 * h, out=stage_b)
+        stage_b -= h * slope1
+        stage_b += y
+        slope1 += 4.0 * slope2
+        load(f(t + h, stage_b), slope2)
+        slope1 += slope2
+        slope1 *= sixth
+        y += slope1
+        y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        t += h
+    return y
+
+
+_STEPPERS = {"rk4": (_rk4_floats, _rk4_arrays), "rk3": (_rk3_floats, _rk3_arrays)}
+
+
+def _leg_path_end(targets, blend, t_end):
+    """Leg angles and rates of the kinematic path at t_end: where the legs must be."""
+    (a1, a2), (r1, r2), _ = targets.leg_targets(t_end)
+    if blend is not None:
+        t_blend, coeffs1, coeffs2 = blend
+        b1, v1, _ = _blend(coeffs1, t_end - t_blend)
+        b2, v2, _ = _blend(coeffs2, t_end - t_blend)
+        a1, a2, r1, r2 = a1 + b1, a2 + b2, r1 + v1, r2 + v2
+    return a1, a2, r1, r2
+
+
+AUTO_RATE_FACTOR = 0.3
+"""With ``timestep="auto"``, h x (fastest rate at the start of an advance) stays below this:
+the body's spin and the legs' rates (or, kinematic, the peak rate of their path) set
+a limit of their own that gains and masses cannot predict (bang-bang kinematic
+targets, a top-heavy robot falling over)."""
+
+
+def _rate_limited_step(state, path_rate: float) -> float:
+    body = float(np.max(np.linalg.norm(np.atleast_2d(state)[:, dynamics.BODY_RATE], axis=-1)))
+    legs = float(np.max(np.abs(state[..., dynamics.LEG_RATES])))
+    fastest = max(body, legs, path_rate)
+    return AUTO_RATE_FACTOR / fastest if fastest > 0.0 else math.inf
+
+
+def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) -> str:
+    """The message of a NumericalFailure: what blew up and the likely cause, from the start state."""
+    state = np.atleast_2d(state)
+    with np.errstate(all="ignore"):
+        body_rate = float(np.max(np.linalg.norm(state[:, dynamics.BODY_RATE], axis=-1)))
+        leg_rate = float(np.max(np.abs(state[:, dynamics.LEG_RATES])))
+        tilt = float(np.max(dynamics.tilt(state)))
+    causes = []
+    if config.legs == "servo":
+        limit = stable_step_limit(config.model, config.robot, config.gains, config.integrator)
+        if h > 0.8 * limit:
+            causes.append(f"the step {h:.3g} s is near or past the leg servo's stability limit {limit:.3g} s")
+    # Gyroscopic and leg-swing motion at rate w needs h w well below ~2.8 for RK4.
+    fastest = max(body_rate, leg_rate)
+    if h * fastest > 1.0:
+        causes.append(f"the robot turns too fast for the step (|Omega| up to {body_rate:.3g} rad/s, leg rates up to "
+                      f"{leg_rate:.3g} rad/s; h x rate = {h * fastest:.2g}, keep it below ~1)")  # fmt: skip
+    if tilt >= dynamics.TILT_LIMIT:
+        causes.append(f"the tilt {math.degrees(tilt):.1f} deg is past the rim limit of 90 deg, where the model ends")
+    if not causes:
+        causes.append("no single cause found: try a smaller timestep; check masses and gains for extreme ratios")
+    return (
+        f"non-finite state after integrating {duration} s from t={t0} with step {h:.3g} s "
+        f"({config.integrator}, model {config.model!r}, {config.legs} legs): " + "; ".join(causes)
+    )
 
 
 def advance(config: SimConfig, state, t0: float, duration: float, targets, *, check=True):
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
     The step is the largest that divides ``duration`` evenly and is no larger than
-    ``config.timestep``. Returns the new state (same shape as ``state``).
+    ``config.step``. Returns the new state (same shape as ``state``).
+
+    With ``config.legs == "kinematic"`` the legs follow a path exactly: the targets'
+    own path (their angles, rates and accelerations) when the legs are on it at t0,
+    else a minimum-jerk quintic from the legs' current angles and rates onto that path
+    over ``duration`` (for held targets: onto the held angles, at rest). The body
+    reacts to whatever torque that takes; only the body's equations are integrated.
+
     Raises :class:`NumericalFailure` if the result is not finite.
     """
     if check:
         state = check_state(state)
     if duration < 0.0 or not math.isfinite(duration):
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
-    n_steps = max(1, math.ceil(duration / config.timestep - 1e-9)) if duration > 0 else 0
-    if n_steps == 0:
+    if duration == 0.0:
         return np.array(state)
-    y = np.ascontiguousarray(state.T)
-    y = _rk4_steps(_derivative_fn(config, targets), t0, y, duration / n_steps, n_steps)
-    out = y.T.copy()
+    blend = None
+    path_rate = 0.0
+    if config.legs == "kinematic":
+        (a1, a2), (r1, r2), _ = targets.leg_targets(t0)
+        legs = state[..., dynamics.LEG_ANGLES]
+        rates = state[..., dynamics.LEG_RATES]
+        off = (legs[..., 0] - a1, legs[..., 1] - a2, rates[..., 0] - r1, rates[..., 1] - r2)
+        if max(float(np.max(np.abs(v))) for v in off) > 1e-9:
+            blend = (t0, _blend_coefficients(off[0], off[2], duration), _blend_coefficients(off[1], off[3], duration))
+            # A minimum-jerk move of b0 in T peaks at 1.875 b0 / T.
+            path_rate = float(np.max(np.abs(off[:2]))) * 1.875 / duration + float(np.max(np.abs(off[2:])))
+        path_rate += float(np.max(np.abs(np.asarray([r1, r2], dtype=float))))
+    step = config.step
+    if config.timestep == "auto":
+        step = min(step, _rate_limited_step(state, path_rate))
+    n_steps = max(1, math.ceil(duration / step - 1e-9))
+    h = duration / n_steps
+    f = _stage_fn(config, targets, blend)
+    step_floats, step_arrays = _STEPPERS[config.integrator]
+    if state.ndim == 1:
+        try:
+            out = np.array(step_floats(f, t0, state.tolist(), h, n_steps))
+        except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
+            raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
+    else:
+        if state.shape[0] >= 1024:
+            _keep_freed_heap(state.shape[0])
+        with np.errstate(all="ignore"):  # a blow-up is reported below, by name, not as warnings
+            out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
+    if config.legs == "kinematic":
+        # The legs' path is known exactly: remove the integrator's tiny drift from it.
+        a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
+        out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
     if not np.all(np.isfinite(out)):
-        raise NumericalFailure(
-            f"non-finite state after integrating {duration} s from t={t0} with step {duration / n_steps:.3g} s "
-            f"(model {config.model!r}); reduce the timestep or the gains"
-        )
+        raise NumericalFailure(_diagnose(config, state, t0, duration, h))
     return out
 
 
@@ -215,12 +638,22 @@ def _sample_times(duration: float, sample_dt: float):
     return np.linspace(0.0, duration, n + 1)
 
 
+def _kinematic_path(config: SimConfig, targets, state):
+    """With kinematic legs, a scripted run's legs follow the targets blended in from the start state."""
+    if config.legs != "kinematic":
+        return targets
+    legs, rates = state[..., dynamics.LEG_ANGLES], state[..., dynamics.LEG_RATES]
+    return SmoothStart(targets, (legs[..., 0], legs[..., 1]), (rates[..., 0], rates[..., 1]))
+
+
 def simulate(config: SimConfig, targets, duration: float, *, state=None, sample_dt: float = 0.01):
     """Run the fixed-step integrator and sample the state every ``sample_dt`` seconds.
 
-    ``state`` defaults to :func:`initial_state` (one robot). Time starts at 0.
+    ``state`` defaults to :func:`initial_state` (one robot). Time starts at 0. With
+    kinematic legs the legs follow :class:`SmoothStart` from the start state into the targets.
     """
     state = check_state(initial_state() if state is None else state)
+    targets = _kinematic_path(config, targets, state)
     times = _sample_times(duration, sample_dt)
     out = np.empty((len(times),) + state.shape)
     out[0] = state
@@ -250,7 +683,7 @@ def simulate_reference(
     state = check_state(initial_state() if state is None else state)
     times = _sample_times(duration, sample_dt)
     shape = state.shape
-    f = _derivative_fn(config, targets)
+    f = _derivative_fn(config, _kinematic_path(config, targets, state))
     if state.ndim == 1:
         fun = f
     else:
