@@ -48,8 +48,11 @@ class Args:
     gae_lambda: float = field(default=0.95, metadata={"help": "GAE lambda"})
     clip_range: float = field(default=0.2, metadata={"help": "PPO clip range"})
     ent_coef: float = field(default=0.0, metadata={"help": "entropy bonus coefficient"})
-    log_std_init: float = field(default=-1.0, metadata={"help": "initial log std of the Gaussian policy"})
+    log_std_init: float = field(default=-2.0, metadata={"help": "initial log std of the Gaussian policy"})
     net_arch: str = field(default="128,128", metadata={"help": "hidden layer sizes of policy and value nets"})
+    healthy_reward: float = field(
+        default=0.2, metadata={"help": "env reward per step that stays inside the model (teaches smooth legs early)"}
+    )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=200_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
@@ -89,7 +92,7 @@ def parse_args(argv=None) -> Args:
 
 def env_kwargs(args: Args) -> dict:
     direction = None if args.direction is None else math.radians(args.direction)
-    return {"model": args.model, "target_direction": direction}
+    return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward}
 
 
 def make_env(args: Args, num_envs: int, seed: int):

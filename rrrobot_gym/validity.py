@@ -91,8 +91,8 @@ def envelope(states, leg_targets, config):
     ``config`` is a :class:`rrrobot_gym.simulation.SimConfig`; ``leg_targets`` (N, 2) rad are
     the servo targets acting (target rate 0). Returns ``normal_force`` (N, the ground's push
     on the shell; for the pivot model the joint's), ``friction_ratio`` (the friction
-    coefficient the no-slip contact needs) and ``leg_clearance`` (m, the lower leg tip's
-    height above the ground).
+    coefficient the no-slip contact needs), ``tangential_force`` (N) and ``leg_clearance``
+    (m, the lower leg tip's height above the ground).
     """
     from .control import pd_torque
 
@@ -111,6 +111,19 @@ def envelope(states, leg_targets, config):
     force, normal = ground_force(states, derivative, params, config.model)
     return {
         "normal_force": normal,
+        "tangential_force": np.sqrt(np.maximum(np.einsum("nj,nj->n", force, force) - normal**2, 0.0)),
         "friction_ratio": friction_ratio(force, normal),
         "leg_clearance": leg_clearance(states, params).min(axis=1),
     }
+
+
+def unprovided_force(normal, tangential, friction_coefficient):
+    """N: the part of the needed ground force a floor cannot give (0 while the model holds).
+
+    A pull (normal < 0: the shell would hop) and grip beyond ``friction_coefficient`` times
+    the push (it would slip). None: unlimited grip (the paper's no-slip contact).
+    """
+    pull = np.maximum(-normal, 0.0)
+    if friction_coefficient is None:
+        return pull
+    return pull + np.maximum(tangential - friction_coefficient * np.maximum(normal, 0.0), 0.0)

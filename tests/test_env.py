@@ -98,7 +98,13 @@ def test_same_seed_same_actions_give_identical_episodes_and_other_seeds_differ()
 
 
 def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions():
-    env = RRRobotEnv(forward_reward_weight=1.5, ctrl_cost_weight=0.2, exclude_current_positions_from_observation=False)
+    env = RRRobotEnv(
+        forward_reward_weight=1.5,
+        ctrl_cost_weight=0.2,
+        healthy_reward=0.3,
+        terminate_outside_model=False,
+        exclude_current_positions_from_observation=False,
+    )
     obs, info = env.reset(seed=5)
     assert set(info) == set(RESET_INFO_KEYS)
     heading = np.array([math.cos(info["target_direction"]), math.sin(info["target_direction"])])
@@ -107,11 +113,12 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         action = rng.uniform(-1.5, 1.5, 2)
         contact_before = np.array([info["x_position"], info["y_position"]])
         upright_before = np.array([info["x_upright"], info["y_upright"]])
-        obs, reward, _, _, info = env.step(action)
+        obs, reward, terminated, _, info = env.step(action)
         assert set(info) == set(STEP_INFO_KEYS)
+        assert info["reward_survive"] == (0.0 if terminated else 0.3)
         contact = np.array([info["x_position"], info["y_position"]])
         upright = np.array([info["x_upright"], info["y_upright"]])
-        assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"], abs=1e-12)
+        assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], abs=1e-12)
         assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
         assert info["reward_forward"] == pytest.approx(1.5 * 100.0 * info["forward_velocity"], rel=1e-12)  # cm/s
         assert info["reward_ctrl"] == pytest.approx(-0.2 * np.sum(np.clip(action, -1, 1) ** 2), rel=1e-12)

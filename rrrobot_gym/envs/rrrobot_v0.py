@@ -112,7 +112,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
     measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
     ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
-    contact needs), `leg_clearance` (m, the lower leg tip's height) and `outside_model` (bool). `reset()` returns
+    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s) and
+    `outside_model` (bool), each the worst over the step. `reset()` returns
     `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
@@ -136,13 +137,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
 
     3. The robot left the model (`info["outside_model"]`, when `terminate_outside_model` is
        True, the default): a leg tip reached the ground (leg-ground contact is not
-       modelled), or, on a plane, the ground would have to pull the shell down (a hop:
-       normal force <= 0) or hold it with more friction than `friction_coefficient`
-       (default 1.0; None for unlimited grip; checked from 0.1 s into the episode, since the
-       paper's own start, legs leaving vertical abruptly, needs up to 9 for an instant).
-       The rolling model assumes none of these happen; without this check a policy free
-       to whip its legs earns speeds no real robot could reach. Checked when an action
-       starts to act and after every integration step.
+       modelled), or, on a plane, the floor could not give the force rolling needs, a pull
+       (hop) or grip beyond `friction_coefficient` (default 1.0; None: unlimited), for long
+       enough in one step that the shell would slip or hop at more than `max_slip_velocity`
+       (default 0.05 m/s; `info["slip_velocity"]` is the missing impulse over the step per
+       unit mass, sampled when the action starts to act and after every integration step).
+       A servo kick makes millisecond spikes that slip the shell by microns and do not
+       count; sustained overdemand does. Slip is allowed for the first 0.1 s: the paper's
+       own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s there.
+       Without this check a policy free to whip its legs earns speeds no real robot could
+       reach.
 
     ### Truncation
     The registered `max_episode_steps` is 1000 control steps: 50 s of robot time at the
@@ -172,7 +176,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | `reset_noise_scale`                          | **float**           | `0.01`       | half-width of the uniform start noise (>= 0) |
     | `exclude_current_positions_from_observation` | **bool**            | `True`       | leave the contact point (x, y) out of the observation |
     | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
-    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor: needing more ends the episode (plane); None: unlimited |
+    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor (plane); None: unlimited |
+    | `max_slip_velocity`                          | **float**           | `0.05`       | m/s: a step whose slip or hop exceeds this leaves the model |
+    | `healthy_reward`                             | **float**           | `0.0`        | reward for each step that does not end the episode (`reward_survive`) |
     | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
     | `action_hold`                                | **str**             | `"linear"`   | "linear": targets ramp over each step; "zero_order": jump and hold |
     | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
@@ -204,6 +210,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
+        max_slip_velocity: float = 0.05,
+        healthy_reward: float = 0.0,
         terminate_outside_model: bool = True,
         action_hold: str = "linear",
         render_mode: str | None = None,
@@ -226,6 +234,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
+            max_slip_velocity=max_slip_velocity,
+            healthy_reward=healthy_reward,
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
             render_mode=render_mode,
@@ -247,6 +257,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
+            max_slip_velocity=max_slip_velocity,
+            healthy_reward=healthy_reward,
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
         )

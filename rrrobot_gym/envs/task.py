@@ -66,10 +66,12 @@ STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "forward_velocity",
     "reward_forward",
     "reward_ctrl",
+    "reward_survive",
     "numerical_failure",
     "normal_force",
     "friction_ratio",
     "leg_clearance",
+    "slip_velocity",
     "outside_model",
 )
 """Keys of the info ``step()`` returns."""
@@ -132,13 +134,15 @@ class TaskConfig:
     exclude_current_positions_from_observation: bool = True
     target_direction: float | None = None  # rad; None draws one per episode
     friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
+    max_slip_velocity: float = 0.05  # m/s, slip or hop in one step that ends the episode
+    healthy_reward: float = 0.0  # reward per step that does not end the episode
     terminate_outside_model: bool = True  # end the episode where the model stops holding
     action_hold: str = "linear"  # "linear": targets ramp over a step; "zero_order": jump and hold
 
     @property
     def dt(self) -> float:
         """s, one control step: frame_skip integrator steps of sim.timestep."""
-        return self.frame_skip * self.sim.timestep
+        return self.frame_skip * self.sim.step
 
     @property
     def observation_size(self) -> int:
@@ -161,6 +165,8 @@ def make_task_config(
     exclude_current_positions_from_observation=True,
     target_direction=None,
     friction_coefficient=1.0,
+    max_slip_velocity=0.05,
+    healthy_reward=0.0,
     terminate_outside_model=True,
     action_hold="linear",
 ) -> TaskConfig:
@@ -197,6 +203,8 @@ def make_task_config(
         friction_coefficient=None
         if friction_coefficient is None
         else _real("friction_coefficient", friction_coefficient, positive=True),
+        max_slip_velocity=_real("max_slip_velocity", max_slip_velocity, positive=True),
+        healthy_reward=_real("healthy_reward", healthy_reward, minimum=0.0),
         terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
         action_hold=_choice("action_hold", action_hold, ACTION_HOLDS),
     )
@@ -425,10 +433,11 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
         terminated |= info["outside_model"]
-    return info["reward_forward"] + info["reward_ctrl"], terminated, info
+    info["reward_survive"] = np.where(terminated, 0.0, config.healthy_reward)
+    return info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], terminated, info
 
 
-FAILED_MEASURES = {"normal_force": np.nan, "friction_ratio": np.nan, "leg_clearance": np.nan}
+FAILED_MEASURES = {"normal_force": np.nan, "friction_ratio": np.nan, "leg_clearance": np.nan, "slip_velocity": np.nan}
 """Validity measures reported for a robot whose step failed numerically (it terminates anyway)."""
 
 
@@ -452,7 +461,7 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
         held = RampTargets(previous_targets, leg_targets, t, config.dt)
     else:
         held = HeldTargets(leg_targets)
-    step = config.sim.timestep
+    step = config.sim.step
     visited = [states]
     for k in range(config.frame_skip):
         states = advance(config.sim, states, t + k * step, step, held, check=False)
@@ -461,37 +470,46 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
     repeated = np.broadcast_to(leg_targets, (config.frame_skip + 1,) + np.shape(leg_targets)).reshape(-1, 2)
     with np.errstate(all="ignore"):
         measures = validity.envelope(visited, repeated, config.sim)
+        missing = validity.unprovided_force(
+            measures["normal_force"], measures["tangential_force"], config.friction_coefficient
+        )
     n = len(visited) // (config.frame_skip + 1)
+    # The floor's missing impulse over the step (trapezoid over the samples), per unit mass:
+    # the velocity the shell would slip or hop with. A servo kick makes millisecond spikes
+    # of needed grip that slip it by microns; sustained overdemand adds up.
+    weights = np.full(config.frame_skip + 1, step)
+    weights[0] = weights[-1] = 0.5 * step
+    slip = weights @ missing.reshape(-1, n) / config.sim.robot.total_mass
     worst = {
         "normal_force": measures["normal_force"].reshape(-1, n).min(axis=0),
         "friction_ratio": measures["friction_ratio"].reshape(-1, n).max(axis=0),
         "leg_clearance": measures["leg_clearance"].reshape(-1, n).min(axis=0),
+        "slip_velocity": slip if config.sim.model == "plane" else np.zeros(n),
     }
     return states, worst
 
 
-FRICTION_GRACE = 0.1
-"""s: the friction limit applies from this time into an episode. At the paper's start the legs
-leave vertical abruptly, and even the Table II gaits need a friction coefficient up to 9
-for the first 0.1 s (a real robot slips a little there), and at most 0.86 after it."""
+STARTUP_GRACE = 0.1
+"""s: slipping is allowed for this long into an episode. At the paper's start the legs leave
+vertical abruptly, and even the Table II gaits would slip at up to 0.63 m/s for an instant
+(and never again: 0 after it)."""
 
 
 def outside_model(info, config: TaskConfig, elapsed):
     """True where a robot left the model's validity envelope (:mod:`rrrobot_gym.validity`).
 
-    A leg tip at or below the ground (leg contact is not modelled), and on a plane a shell
-    the ground would have to pull down (a hop) or one that needs more grip than
-    ``friction_coefficient`` (it would slip; from :data:`FRICTION_GRACE` into the episode:
-    ``elapsed`` (N,) is the time in s at the start of the step). The pivot model has no ground contact: only
-    its legs are checked. ``info`` holds the worst measures over the control step
-    (:func:`advance_and_check`).
+    A leg tip at or below the ground (leg contact is not modelled), or, on a plane, a step in
+    which the floor could not give the force the rolling model needs (a pull, or grip beyond
+    ``friction_coefficient``) for long enough that the shell would slip or hop at more than
+    ``max_slip_velocity`` (``info["slip_velocity"]``: missing impulse over the step / mass;
+    from :data:`STARTUP_GRACE` into the episode, ``elapsed`` (N,) being the time in s at
+    the start of the step). The pivot model has no ground contact: only its legs are
+    checked. ``info`` holds the worst measures over the control step (:func:`advance_and_check`).
     """
     out = info["leg_clearance"] <= 0.0
     if config.sim.model == "plane":
-        out |= info["normal_force"] <= 0.0
-        if config.friction_coefficient is not None:
-            started = np.asarray(elapsed, dtype=float) >= FRICTION_GRACE - 1e-9
-            out |= started & (info["friction_ratio"] > config.friction_coefficient)
+        started = np.asarray(elapsed, dtype=float) >= STARTUP_GRACE - 1e-9
+        out |= started & (info["slip_velocity"] > config.max_slip_velocity)
     return out
 
 

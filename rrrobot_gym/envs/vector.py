@@ -64,6 +64,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
+        max_slip_velocity: float = 0.05,
+        healthy_reward: float = 0.0,
         terminate_outside_model: bool = True,
         action_hold: str = "linear",
         render_mode: str | None = None,
@@ -85,6 +87,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             exclude_current_positions_from_observation=exclude_current_positions_from_observation,
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
+            max_slip_velocity=max_slip_velocity,
+            healthy_reward=healthy_reward,
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
         )
