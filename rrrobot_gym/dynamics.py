@@ -227,7 +227,10 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None):
 
     # Attitude products; rows 0 and 1 of R give the world rate for the contact
     # kinematics (eq. 2 and 4: xdot = r w_y, ydot = -r w_x), row 2 is n.
-    tqx, tqy, tqz = qx + qx, qy + qy, qz + qz
+    # 2 / |q|^2 rather than 2: RK4's stage quaternions are slightly off unit length, and this
+    # keeps R a rotation there, so the contact kinematics stay exactly symmetric under yaw.
+    two_over_norm = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    tqx, tqy, tqz = qx * two_over_norm, qy * two_over_norm, qz * two_over_norm
     xx, yy, zz = qx * tqx, qy * tqy, qz * tqz
     xy, xz, yz = qx * tqy, qx * tqz, qy * tqz
     wx, wy, wz = qw * tqx, qw * tqy, qw * tqz

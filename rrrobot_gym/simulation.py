@@ -41,7 +41,7 @@ targets exactly, so the stiff servo leaves the integration (see :func:`advance`)
 DEFAULT_TIMESTEP = 1.0 / 300.0
 """s, RK4 step of the defaults; keeps the contact point within 1 mm of the
 rtol=1e-10 reference after 50 s of every Table II gait on both models
-(``tests/test_accuracy.py``; ``python -m benchmarks.work_precision``)."""
+(``tests/test_paper_results.py``; ``python -m benchmarks.work_precision``)."""
 
 @dataclass(frozen=True)
 class SimConfig:
