@@ -372,6 +372,15 @@ def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
     return g
 
 
+def _normalize_quat_floats(y):
+    """Scale the quaternion (entries 2:6) of a list-of-floats state to unit length, in place."""
+    inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    y[2] *= inv
+    y[3] *= inv
+    y[4] *= inv
+    y[5] *= inv
+
+
 def _rk4_floats(f, t, y, h, n_steps):
     """RK4 on one robot as a list of 13 Python floats (numpy costs more than it saves at N = 1)."""
     half, sixth = 0.5 * h, h / 6.0
@@ -381,11 +390,7 @@ def _rk4_floats(f, t, y, h, n_steps):
         k3 = f(t + half, [a + half * b for a, b in zip(y, k2)])
         k4 = f(t + h, [a + h * b for a, b in zip(y, k3)])
         y = [a + sixth * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4)]
-        inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
-        y[2] *= inv
-        y[3] *= inv
-        y[4] *= inv
-        y[5] *= inv
+        _normalize_quat_floats(y)
         t += h
     return y
 
@@ -433,11 +438,7 @@ def _rk3_floats(f, t, y, h, n_steps):
         k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
         k3 = f(t + h, [a + h * (2.0 * b2 - b1) for a, b1, b2 in zip(y, k1, k2)])
         y = [a + sixth * (b1 + 4.0 * b2 + b3) for a, b1, b2, b3 in zip(y, k1, k2, k3)]
-        inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
-        y[2] *= inv
-        y[3] *= inv
-        y[4] *= inv
-        y[5] *= inv
+        _normalize_quat_floats(y)
         t += h
     return y
 

@@ -218,31 +218,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         width: int = 800,
         height: int = 400,
     ):
-        EzPickle.__init__(
-            self,
-            frame_skip=frame_skip,
-            timestep=timestep,
-            integrator=integrator,
-            model=model,
-            robot=robot,
-            kp=kp,
-            kd=kd,
-            damping=damping,
-            forward_reward_weight=forward_reward_weight,
-            ctrl_cost_weight=ctrl_cost_weight,
-            reset_noise_scale=reset_noise_scale,
-            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
-            target_direction=target_direction,
-            friction_coefficient=friction_coefficient,
-            max_slip_velocity=max_slip_velocity,
-            healthy_reward=healthy_reward,
-            terminate_outside_model=terminate_outside_model,
-            action_hold=action_hold,
-            render_mode=render_mode,
-            width=width,
-            height=height,
-        )
-        self.config = task.make_task_config(
+        task_kwargs = dict(
             frame_skip=frame_skip,
             timestep=timestep,
             integrator=integrator,
@@ -262,6 +238,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
         )
+        EzPickle.__init__(self, render_mode=render_mode, width=width, height=height, **task_kwargs)
+        self.config = task.make_task_config(**task_kwargs)
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")
         self.render_mode = render_mode
