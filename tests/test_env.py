@@ -120,7 +120,9 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         upright = np.array([info["x_upright"], info["y_upright"]])
         assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], abs=1e-12)
         assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
-        assert info["reward_forward"] == pytest.approx(1.5 * 100.0 * info["forward_velocity"], rel=1e-12)  # cm/s
+        earned = info["slip_velocity"] <= env.config.max_slip_velocity  # slipping travel earns nothing
+        expected_forward = 1.5 * 100.0 * info["forward_velocity"] if earned else 0.0
+        assert info["reward_forward"] == pytest.approx(expected_forward, rel=1e-12, abs=1e-15)  # cm/s
         assert info["reward_ctrl"] == pytest.approx(-0.2 * np.sum(np.clip(action, -1, 1) ** 2), rel=1e-12)
         assert (info["x_velocity"], info["y_velocity"]) == pytest.approx(tuple((contact - contact_before) / env.dt))
         np.testing.assert_allclose(obs[15:17], contact, rtol=1e-6)

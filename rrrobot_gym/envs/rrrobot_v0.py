@@ -143,8 +143,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        (default 0.05 m/s; `info["slip_velocity"]` is the missing impulse over the step per
        unit mass, sampled when the action starts to act and after every integration step).
        A servo kick makes millisecond spikes that slip the shell by microns and do not
-       count; sustained overdemand does. Slip is allowed for the first 0.1 s: the paper's
-       own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s there.
+       count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
+       the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
+       there. A step that slips or hops past `max_slip_velocity` earns no forward reward,
+       in those 0.1 s too.
        Without this check a policy free to whip its legs earns speeds no real robot could
        reach.
 

@@ -430,6 +430,11 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     info["numerical_failure"] = np.array(failed, dtype=bool)
     info.update({key: np.array(value, dtype=np.float64) for key, value in measures.items()})
     info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
+    # Travel the floor could not have given earns nothing, within the start-up grace too
+    # (else a policy learns to kick off the start and fall).
+    if config.sim.model == "plane":
+        unearned = info["slip_velocity"] > config.max_slip_velocity
+        info["reward_forward"] = np.where(unearned, 0.0, info["reward_forward"])
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
         terminated |= info["outside_model"]
