@@ -109,8 +109,10 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
     assert set(info) == set(RESET_INFO_KEYS)
     heading = np.array([math.cos(info["target_direction"]), math.sin(info["target_direction"])])
     rng = np.random.default_rng(0)
-    for _ in range(40):
-        action = rng.uniform(-1.5, 1.5, 2)
+    earned_steps = 0
+    for step in range(40):
+        # mostly gentle legs (travel the floor can give), every fourth step a wild kick
+        action = rng.uniform(-1.5, 1.5, 2) if step % 4 == 3 else 0.5 + rng.uniform(-0.03, 0.03, 2)
         contact_before = np.array([info["x_position"], info["y_position"]])
         upright_before = np.array([info["x_upright"], info["y_upright"]])
         obs, reward, terminated, _, info = env.step(action)
@@ -122,10 +124,12 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
         earned = info["slip_velocity"] <= env.config.max_slip_velocity  # slipping travel earns nothing
         expected_forward = 1.5 * 100.0 * info["forward_velocity"] if earned else 0.0
+        earned_steps += earned
         assert info["reward_forward"] == pytest.approx(expected_forward, rel=1e-12, abs=1e-15)  # cm/s
         assert info["reward_ctrl"] == pytest.approx(-0.2 * np.sum(np.clip(action, -1, 1) ** 2), rel=1e-12)
         assert (info["x_velocity"], info["y_velocity"]) == pytest.approx(tuple((contact - contact_before) / env.dt))
         np.testing.assert_allclose(obs[15:17], contact, rtol=1e-6)
+    assert 5 <= earned_steps <= 35  # both branches of the forward term were exercised
 
 
 def test_rocking_in_place_moves_the_contact_point_but_not_the_upright_contact_point():
