@@ -51,7 +51,7 @@ class Args:
     log_std_init: float = field(default=-2.0, metadata={"help": "initial log std of the Gaussian policy"})
     net_arch: str = field(default="128,128", metadata={"help": "hidden layer sizes of policy and value nets"})
     healthy_reward: float = field(
-        default=0.2, metadata={"help": "env reward per step that stays inside the model (teaches smooth legs early)"}
+        default=1.0, metadata={"help": "env reward per step that stays inside the model (survival first, then speed)"}
     )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=200_000, metadata={"help": "evaluate every this many env steps"})

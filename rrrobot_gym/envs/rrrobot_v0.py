@@ -145,8 +145,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        A servo kick makes millisecond spikes that slip the shell by microns and do not
        count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
        the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
-       there. A step that slips or hops past `max_slip_velocity` earns no forward reward,
-       in those 0.1 s too.
+       there. A step that slips or hops past `max_slip_velocity`, and any step in those
+       0.1 s, earns no forward reward.
        Without this check a policy free to whip its legs earns speeds no real robot could
        reach.
 

@@ -430,10 +430,12 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     info["numerical_failure"] = np.array(failed, dtype=bool)
     info.update({key: np.array(value, dtype=np.float64) for key, value in measures.items()})
     info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
-    # Travel the floor could not have given earns nothing, within the start-up grace too
-    # (else a policy learns to kick off the start and fall).
+    # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
     if config.sim.model == "plane":
-        unearned = info["slip_velocity"] > config.max_slip_velocity
+        # Nor does travel in the start-up grace, where slip is forgiven (a kick off the start).
+        unearned = (info["slip_velocity"] > config.max_slip_velocity) | (
+            np.asarray(elapsed, dtype=float) < STARTUP_GRACE - 1e-9
+        )
         info["reward_forward"] = np.where(unearned, 0.0, info["reward_forward"])
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
