@@ -123,14 +123,15 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], abs=1e-12)
         assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
         # travel while slipping, or in the start-up grace (first 0.1 s), earns nothing
-        earned = info["slip_velocity"] <= env.config.max_slip_velocity and step * env.dt >= 0.1 - 1e-9
+        # (with terminate_outside_model=False slip is not measured: NaN, and travel earns)
+        earned = not info["slip_velocity"] > env.config.max_slip_velocity and step * env.dt >= 0.1 - 1e-9
         expected_forward = 1.5 * 100.0 * info["forward_velocity"] if earned else 0.0
         earned_steps += earned
         assert info["reward_forward"] == pytest.approx(expected_forward, rel=1e-12, abs=1e-15)  # cm/s
         assert info["reward_ctrl"] == pytest.approx(-0.2 * np.sum(np.clip(action, -1, 1) ** 2), rel=1e-12)
         assert (info["x_velocity"], info["y_velocity"]) == pytest.approx(tuple((contact - contact_before) / env.dt))
         np.testing.assert_allclose(obs[15:17], contact, rtol=1e-6)
-    assert 5 <= earned_steps <= 35  # both branches of the forward term were exercised
+    assert 5 <= earned_steps <= 38  # both branches of the forward term were exercised
 
 
 def test_rocking_in_place_moves_the_contact_point_but_not_the_upright_contact_point():
@@ -438,3 +439,15 @@ def test_table2_gaits_stay_inside_the_model_for_a_whole_episode():
         # after the start-up (the legs leave vertical abruptly at t = 0) they need less than
         # a friction coefficient of 1, and the ground always pushes
         assert min(clearance) > 0.01 and max(friction[2:]) < 1.0 and min(normal) > 0.0
+
+
+def test_a_kick_that_would_slip_the_shell_earns_no_forward_reward_and_ends_the_episode():
+    env = RRRobotEnv(reset_noise_scale=0.0, target_direction=0.0)
+    env.reset(seed=0)
+    for _ in range(3):  # past the 0.1 s start-up grace, legs still
+        _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
+        assert not terminated and info["slip_velocity"] < 1e-6
+    _, reward, terminated, _, info = env.step(np.array([1.0, -1.0], dtype=np.float32))
+    assert info["slip_velocity"] > env.config.max_slip_velocity
+    assert info["outside_model"] and terminated
+    assert info["reward_forward"] == 0.0

@@ -461,6 +461,8 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
     after every integration step, because the servo settles within a control step: a
     check at the step's end alone misses the hop or slip a jump causes, and a policy
     learns to exploit exactly that.
+    With ``config.terminate_outside_model`` False nothing ends an episode on them, so the step
+    is integrated in one call and measured at its end only (``slip_velocity`` NaN).
     Raises the simulator's numerical failures (:data:`NUMERICAL_FAILURES`).
     """
     leg_targets = action_to_leg_targets(actions)
@@ -469,6 +471,18 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
     else:
         held = HeldTargets(leg_targets)
     step = config.sim.step
+    if not config.terminate_outside_model:
+        # Skip what the scene does not need: one integration call, measures at the step's end
+        # only, and no slip estimate (NaN: not measured).
+        states = advance(config.sim, states, t, config.dt, held, check=False)
+        with np.errstate(all="ignore"):
+            measures = validity.envelope(states, np.atleast_2d(leg_targets), config.sim)
+        return states, {
+            "normal_force": measures["normal_force"],
+            "friction_ratio": measures["friction_ratio"],
+            "leg_clearance": measures["leg_clearance"],
+            "slip_velocity": np.full(len(measures["normal_force"]), np.nan),
+        }
     visited = [states]
     for k in range(config.frame_skip):
         states = advance(config.sim, states, t + k * step, step, held, check=False)
