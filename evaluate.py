@@ -26,13 +26,14 @@ import numpy as np
 from agents import GAIT_AGENT_NAMES, gait_agent, load_ppo_agent
 from rrrobot_gym.envs.task import action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
+from rrrobot_gym.simulation import DEFAULT_TIMESTEP
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
 COMPASS_DEG = tuple(range(0, 360, 45))
 
 
-def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0):
+def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, **env_kwargs):
     """Run every agent once along each heading (degrees), all in one batched env.
 
     ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
@@ -43,8 +44,12 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     """
     names = list(agents)
     n_head = len(headings_deg)
+    for agent in agents.values():  # the observation a learned policy was trained with (gaits ignore it)
+        env_kwargs = {**getattr(agent, "env_kwargs", {}), **env_kwargs}
     headings = np.tile(np.radians(np.asarray(headings_deg, dtype=float)), len(names))
-    env = RRRobotVectorEnv(num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0)
+    env = RRRobotVectorEnv(
+        num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
+    )
     steps = int(round(duration / env.dt))
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
     gains = env.config.sim.gains
@@ -133,6 +138,21 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0):
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
     return records, runs
+
+
+def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = 10):
+    """The agent's speed along the compass headings at the default step and at a ``refine``
+    times finer one (same control step): a learned speed that depends on the step is an
+    artefact of the integrator, not locomotion."""
+    coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG, duration)
+    fine_run = run_episodes(
+        {"agent": agent}, model, COMPASS_DEG, duration, seed, timestep=DEFAULT_TIMESTEP / refine, frame_skip=15 * refine
+    )["agent"]
+    fine = score(fine_run, COMPASS_DEG, duration)
+    return [
+        {"heading_deg": c["heading_deg"], "speed_mps": c["speed_mps"], "fine_step_speed_mps": f["speed_mps"]}
+        for c, f in zip(coarse, fine)
+    ]
 
 
 def ratios(records, model="plane"):
@@ -271,6 +291,8 @@ def main(argv=None):
     parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
+    parser.add_argument("--check-accuracy", action="store_true",
+                        help="also run the policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
@@ -284,11 +306,20 @@ def main(argv=None):
     records, runs = evaluate(agents, args.models, args.duration, args.seed)
     ratio_list = [ratios(records, model) for model in args.models]
     text = markdown(records, ratio_list)
+    accuracy = None
+    if args.check_accuracy and "ppo" in agents:
+        accuracy = accuracy_check(agents["ppo"], "plane", args.duration, args.seed)
+        text += "\nPPO speed (mm/s) at the default step and at a 10x finer one (plane):\n\n"
+        text += "| heading | " + " | ".join(f"{int(a['heading_deg'])} deg" for a in accuracy) + " |\n"
+        text += "|---" * (len(accuracy) + 1) + "|\n"
+        text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in accuracy) + " |\n"
+        text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in accuracy) + " |\n"
     print(text)
     if args.markdown:
         args.markdown.write_text(text + "\n")
     if args.json:
-        args.json.write_text(json.dumps({"records": records, "ratios": ratio_list, "command": " ".join(sys.argv)}, indent=1))
+        payload = {"records": records, "ratios": ratio_list, "accuracy_check": accuracy, "command": " ".join(sys.argv)}
+        args.json.write_text(json.dumps(payload, indent=1))
     if args.plots:
         plot(runs, args.plots, args.models)
     return records

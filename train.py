@@ -53,6 +53,9 @@ class Args:
     healthy_reward: float = field(
         default=1.0, metadata={"help": "env reward per step that stays inside the model (survival first, then speed)"}
     )
+    clock_frequency: float = field(
+        default=8.0, metadata={"help": "rad/s of the gait clock the policy observes (the paper's gaits: 8)"}
+    )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=200_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
@@ -92,7 +95,13 @@ def parse_args(argv=None) -> Args:
 
 def env_kwargs(args: Args) -> dict:
     direction = None if args.direction is None else math.radians(args.direction)
-    return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward}
+    return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
+            **observation_kwargs(args)}
+
+
+def observation_kwargs(args: Args) -> dict:
+    """Env keywords that shape the observation: a policy needs the same ones to run (saved as env_kwargs.json)."""
+    return {"clock_frequency": args.clock_frequency}
 
 
 def make_env(args: Args, num_envs: int, seed: int):
@@ -129,7 +138,9 @@ def make_eval_env(args: Args, seed: int):
             self.set_options({"target_direction": headings})
             return super().reset()
 
-    venv = _FixedHeadings(num_envs=len(headings), max_episode_steps=1000, model=args.model, reset_noise_scale=0.0)
+    venv = _FixedHeadings(
+        num_envs=len(headings), max_episode_steps=1000, model=args.model, reset_noise_scale=0.0, **observation_kwargs(args)
+    )
     venv.seed(seed)
     return VecMonitor(venv)
 
@@ -157,6 +168,7 @@ def main(argv=None) -> Path:
     run_dir.mkdir(parents=True, exist_ok=False)
     (run_dir / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
     (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
+    (run_dir / "env_kwargs.json").write_text(json.dumps(observation_kwargs(args)))
 
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)

@@ -6,6 +6,7 @@ statistics both use pickle): load only files you trust.
 
 from __future__ import annotations
 
+import json
 import pickle
 from pathlib import Path
 
@@ -21,8 +22,9 @@ class PPOAgent:
 
     name = "ppo"
 
-    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8):
+    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8, env_kwargs=None):
         self.model = model
+        self.env_kwargs = dict(env_kwargs or {})  # env keywords the policy's observation needs
         self.obs_mean = None if obs_mean is None else np.asarray(obs_mean, dtype=np.float64)
         self.obs_var = None if obs_var is None else np.asarray(obs_var, dtype=np.float64)
         self.clip_obs = float(clip_obs)
@@ -63,8 +65,9 @@ def normalization_path(model_path) -> Path:
 
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
     """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
-    (:func:`normalization_path`), its VecNormalize statistics. Unpickles both files:
-    trusted files only.
+    (:func:`normalization_path`), its VecNormalize statistics, and ``env_kwargs.json``
+    beside it (the env keywords its observation needs, e.g. the gait clock). Unpickles the
+    model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
 
@@ -75,8 +78,10 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     if vecnormalize_path is None:
         candidate = normalization_path(model_path)
         vecnormalize_path = candidate if candidate.exists() else None
+    kwargs_path = model_path.with_name("env_kwargs.json")
+    env_kwargs = json.loads(kwargs_path.read_text()) if kwargs_path.exists() else {}
     if vecnormalize_path is None:
-        return PPOAgent(model)
+        return PPOAgent(model, env_kwargs=env_kwargs)
     with open(vecnormalize_path, "rb") as handle:
         stats = pickle.load(handle)
-    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon)
+    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_kwargs)

@@ -209,3 +209,19 @@ def test_async_vector_env_rebuilds_the_env_in_fresh_subprocesses():
             np.testing.assert_array_equal(trunc_a, trunc_b)
     finally:
         async_env.close()
+
+
+def test_the_gait_clock_is_observed_alike_by_the_single_and_the_vector_env():
+    kwargs = dict(clock_frequency=8.0, reset_noise_scale=0.0, target_direction=0.0)
+    single = gymnasium.make("RRRobot-v0", **kwargs)
+    vector = RRRobotVectorEnv(num_envs=2, **kwargs)
+    obs, _ = single.reset(seed=0)
+    vobs, _ = vector.reset(seed=0)
+    assert obs.shape == (17,) and vobs.shape == (2, 17)
+    np.testing.assert_allclose(obs[15:17], [0.0, 1.0])
+    for k in range(1, 4):
+        obs, *_ = single.step(np.zeros(2, dtype=np.float32))
+        vobs, *_ = vector.step(np.zeros((2, 2), dtype=np.float32))
+        expected = [np.sin(8.0 * 0.05 * k), np.cos(8.0 * 0.05 * k)]
+        np.testing.assert_allclose(obs[15:17], expected, atol=1e-6)
+        np.testing.assert_allclose(vobs[:, 15:17], [expected, expected], atol=1e-6)

@@ -181,6 +181,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor (plane); None: unlimited |
     | `max_slip_velocity`                          | **float**           | `0.05`       | m/s: a step whose slip or hop exceeds this leaves the model |
     | `healthy_reward`                             | **float**           | `0.0`        | reward for each step that does not end the episode (`reward_survive`) |
+    | `clock_frequency`                            | **float \| None**   | `None`       | rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation |
     | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
     | `action_hold`                                | **str**             | `"linear"`   | "linear": targets ramp over each step; "zero_order": jump and hold |
     | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
@@ -214,6 +215,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         friction_coefficient: float | None = 1.0,
         max_slip_velocity: float = 0.05,
         healthy_reward: float = 0.0,
+        clock_frequency: float | None = None,
         terminate_outside_model: bool = True,
         action_hold: str = "linear",
         render_mode: str | None = None,
@@ -237,6 +239,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             friction_coefficient=friction_coefficient,
             max_slip_velocity=max_slip_velocity,
             healthy_reward=healthy_reward,
+            clock_frequency=clock_frequency,
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
         )
@@ -318,7 +321,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             after, measures = task.advance_and_check(state, action, self.time, self.config, self.leg_targets)
         except task.NUMERICAL_FAILURES:
             return None, None, None
-        observation = self._observe(after)
+        observation = self._observe(after, self.time + self.dt)
         if not task.finite_rows(after[None], observation[None])[0]:
             return None, None, None
         return after, observation, measures
@@ -326,8 +329,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     def _targets_array(self):
         return np.array([self.episode_target_direction])
 
-    def _observe(self, state):
-        return task.observe(state[None], self._targets_array(), self.config)[0]
+    def _observe(self, state, time=0.0):
+        return task.observe(state[None], self._targets_array(), self.config, np.array([time]))[0]
 
     def _reset_info(self):
         infos = task.reset_info(self.state[None], self._targets_array(), self.config)

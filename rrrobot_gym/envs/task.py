@@ -136,6 +136,7 @@ class TaskConfig:
     friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
     max_slip_velocity: float = 0.05  # m/s, slip or hop in one step that ends the episode
     healthy_reward: float = 0.0  # reward per step that does not end the episode
+    clock_frequency: float | None = None  # rad/s: observe (sin, cos)(clock_frequency t); None: no clock
     terminate_outside_model: bool = True  # end the episode where the model stops holding
     action_hold: str = "linear"  # "linear": targets ramp over a step; "zero_order": jump and hold
 
@@ -146,7 +147,8 @@ class TaskConfig:
 
     @property
     def observation_size(self) -> int:
-        return 15 if self.exclude_current_positions_from_observation else 17
+        size = 15 if self.exclude_current_positions_from_observation else 17
+        return size + (2 if self.clock_frequency is not None else 0)
 
 
 def make_task_config(
@@ -167,6 +169,7 @@ def make_task_config(
     friction_coefficient=1.0,
     max_slip_velocity=0.05,
     healthy_reward=0.0,
+    clock_frequency=None,
     terminate_outside_model=True,
     action_hold="linear",
 ) -> TaskConfig:
@@ -205,6 +208,7 @@ def make_task_config(
         else _real("friction_coefficient", friction_coefficient, positive=True),
         max_slip_velocity=_real("max_slip_velocity", max_slip_velocity, positive=True),
         healthy_reward=_real("healthy_reward", healthy_reward, minimum=0.0),
+        clock_frequency=None if clock_frequency is None else _real("clock_frequency", clock_frequency, positive=True),
         terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
         action_hold=_choice("action_hold", action_hold, ACTION_HOLDS),
     )
@@ -223,6 +227,8 @@ def single_observation_space(config: TaskConfig) -> spaces.Box:
     low = np.full(config.observation_size, -np.inf, dtype=np.float32)
     high = np.full(config.observation_size, np.inf, dtype=np.float32)
     bounded = np.r_[0:6, 13:15]
+    if config.clock_frequency is not None:
+        bounded = np.r_[bounded, config.observation_size - 2 : config.observation_size]
     low[bounded], high[bounded] = -1.0, 1.0
     return spaces.Box(low, high, dtype=np.float32)
 
@@ -340,8 +346,9 @@ def parse_reset_options(options, num_envs: int | None):
 # Observation, reward, termination
 
 
-def observe(states, targets, config: TaskConfig) -> np.ndarray:
-    """Observations (N, 15) or (N, 17) float32 of states (N, 13) and targets (N,) rad.
+def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
+    """Observations (N, config.observation_size) float32 of states (N, 13), targets (N,) rad
+    and the time since each episode began, ``times`` (N,) s (used by the clock only).
 
     Layout in :data:`OBSERVATION_FIELDS`. The attitude enters as two unit vectors seen from
     the body, world up and the commanded heading: together they fix the body's attitude
@@ -364,8 +371,15 @@ def observe(states, targets, config: TaskConfig) -> np.ndarray:
         obs[:, 11:13] = states[:, dynamics.LEG_RATES]
         obs[:, 13] = cos_t
         obs[:, 14] = sin_t
+        end = 15
         if not config.exclude_current_positions_from_observation:
             obs[:, 15:17] = states[:, 0:2]
+            end = 17
+        if config.clock_frequency is not None:
+            # A gait clock: with it a sinusoidal gait is a linear function of the observation.
+            phase = config.clock_frequency * (np.zeros(len(states)) if times is None else np.asarray(times, dtype=float))
+            obs[:, end] = np.sin(phase)
+            obs[:, end + 1] = np.cos(phase)
     return obs
 
 

@@ -66,6 +66,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         friction_coefficient: float | None = 1.0,
         max_slip_velocity: float = 0.05,
         healthy_reward: float = 0.0,
+        clock_frequency: float | None = None,
         terminate_outside_model: bool = True,
         action_hold: str = "linear",
         render_mode: str | None = None,
@@ -89,6 +90,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             friction_coefficient=friction_coefficient,
             max_slip_velocity=max_slip_velocity,
             healthy_reward=healthy_reward,
+            clock_frequency=clock_frequency,
             terminate_outside_model=terminate_outside_model,
             action_hold=action_hold,
         )
@@ -154,7 +156,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.leg_targets = self.states[:, 6:8].copy()
         self.episode_target_directions = targets if option_targets is None else option_targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
-        self._observations = task.observe(self.states, self.episode_target_directions, self.config)
+        self._observations = task.observe(self.states, self.episode_target_directions, self.config, np.zeros(self.num_envs))
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
@@ -194,7 +196,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         before = self.states
         targets = self.episode_target_directions
         after, measures, failed = self._advance(before, actions, self.leg_targets)
-        observations = task.observe(after, targets, self.config)
+        observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt)
         failed |= ~task.finite_rows(after, observations)
         # A failed robot keeps its last finite state and observation (never NaN out).
         after[failed] = before[failed]
@@ -257,7 +259,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.leg_targets[indices] = states[:, 6:8]
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
-        observations[indices] = task.observe(states, targets, self.config)
+        observations[indices] = task.observe(states, targets, self.config, np.zeros(len(indices)))
         self._observations[indices] = observations[indices]
         if self._paths is not None:
             for i in indices:
