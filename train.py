@@ -34,7 +34,7 @@ ENV_ID = "RRRobot-v0"
 class Args:
     exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
     seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
-    total_timesteps: int = field(default=6_000_000, metadata={"help": "env steps (control steps) to train for"})
+    total_timesteps: int = field(default=10_000_000, metadata={"help": "env steps (control steps) to train for"})
     model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
     direction: float | None = field(
         default=None, metadata={"help": "commanded heading in degrees for a specialist; default: any heading"}
@@ -53,11 +53,11 @@ class Args:
     healthy_reward: float = field(
         default=1.0, metadata={"help": "env reward per step that stays inside the model (survival first, then speed)"}
     )
-    clock_frequency: float = field(
-        default=8.0, metadata={"help": "rad/s of the gait clock the policy observes (the paper's gaits: 8)"}
+    clock_frequency: float | None = field(
+        default=None, metadata={"help": "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none"}
     )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
-    eval_freq: int = field(default=200_000, metadata={"help": "evaluate every this many env steps"})
+    eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
     resume: str | None = field(default=None, metadata={"help": "a model zip to continue from (its vecnormalize.pkl beside it)"})
     runs_dir: str = field(default="runs", metadata={"help": "where runs are written"})
@@ -72,7 +72,7 @@ def parse_args(argv=None) -> Args:
         help_text = f"{f.metadata['help']} (default: {f.default})"
         if f.type in ("bool",):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
-        elif f.name == "direction":
+        elif f.name in ("direction", "clock_frequency"):
             parser.add_argument(flag, type=float, default=None, help=help_text)
         elif f.name == "resume":
             parser.add_argument(flag, type=str, default=None, help=help_text)
@@ -84,6 +84,8 @@ def parse_args(argv=None) -> Args:
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
     if args.direction is not None and not math.isfinite(args.direction):
         parser.error("--direction must be a finite number of degrees")
+    if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
+        parser.error("--clock-frequency must be a positive number of rad/s")
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
