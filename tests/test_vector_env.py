@@ -225,3 +225,29 @@ def test_the_gait_clock_is_observed_alike_by_the_single_and_the_vector_env():
         expected = [np.sin(8.0 * 0.05 * k), np.cos(8.0 * 0.05 * k)]
         np.testing.assert_allclose(obs[15:17], expected, atol=1e-6)
         np.testing.assert_allclose(vobs[:, 15:17], [expected, expected], atol=1e-6)
+
+
+def test_single_and_vector_env_keywords_share_the_task_defaults():
+    """Both envs spell out the task keywords; a default changed in one place only would make
+    gymnasium.make and make_vec simulate different robots."""
+    import inspect
+
+    from rrrobot_gym.envs.rrrobot_v0 import RRRobotEnv
+    from rrrobot_gym.envs.task import make_task_config
+
+    def defaults(callable_):
+        return {
+            name: p.default
+            for name, p in inspect.signature(callable_).parameters.items()
+            if p.default is not inspect.Parameter.empty
+        }
+
+    task = defaults(make_task_config)
+    single = defaults(RRRobotEnv.__init__)
+    vector = defaults(RRRobotVectorEnv.__init__)
+    for name, value in task.items():
+        assert single[name] == value, f"RRRobot-v0 default {name}={single[name]!r}, task's {value!r}"
+        assert vector[name] == value, f"vector env default {name}={vector[name]!r}, task's {value!r}"
+    assert {k: v for k, v in single.items() if k not in task} == {
+        k: v for k, v in vector.items() if k not in task and k not in ("num_envs", "max_episode_steps")
+    }
