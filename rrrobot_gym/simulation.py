@@ -395,6 +395,16 @@ def _rk4_floats(f, t, y, h, n_steps):
     return y
 
 
+def _load_slope(deriv, slope):
+    """Copy the 13 derivative components into the (13, N) buffer ``slope``.
+
+    Copy, not keep: the derivative's leg-angle rows are views of its input's leg-rate rows,
+    which the next stage overwrites.
+    """
+    for i, v in enumerate(deriv):
+        slope[i] = v
+
+
 def _rk4_arrays(f, t, y, h, n_steps):
     """RK4 on a component-first batch y (13, N), in place, with preallocated stage buffers."""
     half, sixth = 0.5 * h, h / 6.0
@@ -402,26 +412,20 @@ def _rk4_arrays(f, t, y, h, n_steps):
     total = np.empty_like(y)
     stage_a = np.empty_like(y)
     stage_b = np.empty_like(y)
-
-    def load(deriv):
-        # The derivative's leg-angle rows are views of its input's leg-rate rows: copy first.
-        for i, v in enumerate(deriv):
-            slope[i] = v
-
     for _ in range(n_steps):
-        load(f(t, y))
+        _load_slope(f(t, y), slope)
         np.copyto(total, slope)
         np.multiply(slope, half, out=stage_a)
         stage_a += y
-        load(f(t + half, stage_a))
+        _load_slope(f(t + half, stage_a), slope)
         total += 2.0 * slope
         np.multiply(slope, half, out=stage_b)
         stage_b += y
-        load(f(t + half, stage_b))
+        _load_slope(f(t + half, stage_b), slope)
         total += 2.0 * slope
         np.multiply(slope, h, out=stage_a)
         stage_a += y
-        load(f(t + h, stage_a))
+        _load_slope(f(t + h, stage_a), slope)
         total += slope
         total *= sixth
         y += total
@@ -450,21 +454,16 @@ def _rk3_arrays(f, t, y, h, n_steps):
     slope2 = np.empty_like(y)
     stage_a = np.empty_like(y)
     stage_b = np.empty_like(y)
-
-    def load(deriv, slope):
-        for i, v in enumerate(deriv):
-            slope[i] = v
-
     for _ in range(n_steps):
-        load(f(t, y), slope1)
+        _load_slope(f(t, y), slope1)
         np.multiply(slope1, half, out=stage_a)
         stage_a += y
-        load(f(t + half, stage_a), slope2)
+        _load_slope(f(t + half, stage_a), slope2)
         np.multiply(slope2, 2.0 * h, out=stage_b)
         stage_b -= h * slope1
         stage_b += y
         slope1 += 4.0 * slope2
-        load(f(t + h, stage_b), slope2)
+        _load_slope(f(t + h, stage_b), slope2)
         slope1 += slope2
         slope1 *= sixth
         y += slope1
