@@ -14,16 +14,22 @@ MODELS = ("plane", "pivot")
 """The two dynamic models: rolling on a plane, and the Pivoting Dynamics model."""
 
 
+def real_number(label: str, value) -> float:
+    """``float(value)``, or an error naming ``label``: TypeError if it is not a real number,
+    ValueError if it is NaN or infinite."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{label} must be a real number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{label} must be finite, got {value!r}")
+    return number
+
+
 def _require_finite(obj, names):
+    """Make each named field of a frozen dataclass a finite float, or raise naming it."""
     for name in names:
-        value = getattr(obj, name)
-        try:
-            value = float(value)
-        except (TypeError, ValueError):
-            raise TypeError(f"{type(obj).__name__}.{name} must be a real number, got {value!r}") from None
-        if not math.isfinite(value):
-            raise ValueError(f"{type(obj).__name__}.{name} must be finite, got {value}")
-        object.__setattr__(obj, name, value)
+        object.__setattr__(obj, name, real_number(f"{type(obj).__name__}.{name}", getattr(obj, name)))
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import dynamics, validity
-from ..params import PDGains, RobotParams
+from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
 from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, advance, check_state
 
@@ -90,12 +90,7 @@ calling ``advance``, so an error of these types from inside it is a blow-up, not
 def _real(name, value, *, minimum=None, positive=False):
     if isinstance(value, bool):
         raise TypeError(f"{name} must be a real number, got {value!r}")
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+    number = real_number(name, value)
     if positive and number <= 0.0:
         raise ValueError(f"{name} must be positive, got {value!r}")
     if minimum is not None and number < minimum:
