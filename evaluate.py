@@ -31,6 +31,8 @@ from rrrobot_gym.simulation import DEFAULT_TIMESTEP
 HERE = Path(__file__).resolve().parent
 DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
 COMPASS_DEG = tuple(range(0, 360, 45))
+EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
+"""Per-step summaries of the integrator's step record that the evaluation keeps (env info keys)."""
 
 
 def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, **env_kwargs):
@@ -38,9 +40,12 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
 
     ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
     Returns {name: run}, each run a dict of arrays: ``times`` (T+1,), ``xy`` (T+1, H, 2)
-    contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``torque``
-    (T, H, 2) the servo torque at the end of each control step (N m), ``terminated`` (H,).
-    After a robot reaches the tilt limit its path holds its last position, then NaN.
+    contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``terminated``
+    (H,), and per control step (T, H) the step record's summaries from the env's info
+    (``rrrobot_gym.validity.step_measures``: the torques the integrator applied, not a
+    rebuilt servo law): ``torque_rms``, ``torque_peak`` (N m), ``leg_rate_peak`` (rad/s),
+    ``liftoff_fraction``. After a robot's episode ends its path holds its last position,
+    then NaN (and its step summaries NaN).
     """
     names = list(agents)
     n_head = len(headings_deg)
@@ -52,8 +57,8 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     )
     steps = int(round(duration / env.dt))
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
-    gains = env.config.sim.gains
-    xy, legs, targets, torque = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], [], []
+    xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
+    effort = {key: [] for key in EFFORT_KEYS}
     agent_states = {name: None for name in names}
     episode_start = np.ones(n_head, dtype=bool)
     ended = np.zeros(len(headings), dtype=bool)
@@ -68,21 +73,28 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         obs, _, terminated, _, info = env.step(actions)
         leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
         current = env.states.copy()
+        step_effort = {key: np.array(info[key], dtype=float) for key in EFFORT_KEYS}
         if np.any(terminated):
             # SAME_STEP autoreset has already restarted a finished robot: take its last
-            # position from final_info and mark the rest of its episode as missing.
+            # position and step summaries from final_info and mark the rest of its episode as missing.
             final = info["final_info"]
             for i in np.flatnonzero(terminated & ~ended):
                 current[i, :] = np.nan
                 current[i, 0:2] = final["x_position"][i], final["y_position"][i]
+                for key in EFFORT_KEYS:
+                    step_effort[key][i] = final[key][i]
             ended |= terminated
-        current[ended & ~terminated] = np.nan
+        gone = ended & ~terminated
+        current[gone] = np.nan
         targets.append(leg_target)
         xy.append(current[:, 0:2])
         legs.append(current[:, 6:8])
-        torque.append(gains.kp * (leg_target - current[:, 6:8]) - gains.kd * current[:, 11:13])
+        for key in EFFORT_KEYS:
+            step_effort[key][gone] = np.nan
+            effort[key].append(step_effort[key])
     env.close()
-    arrays = {"xy": np.array(xy), "leg_angles": np.array(legs), "leg_targets": np.array(targets), "torque": np.array(torque)}
+    arrays = {"xy": np.array(xy), "leg_angles": np.array(legs), "leg_targets": np.array(targets)}
+    arrays.update({key: np.array(values) for key, values in effort.items()})
     runs = {}
     for a, name in enumerate(names):
         rows = slice(a * n_head, (a + 1) * n_head)
@@ -93,7 +105,9 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
 
 
 def score(run, headings_deg, duration):
-    """Per heading: speed along it (m/s), lateral drift (m), RMS servo torque (N m)."""
+    """Per heading: speed along it (m/s), lateral drift (m), and from the step record the RMS
+    and peak leg torque applied (N m), the peak leg rate (rad/s) and the share of time
+    without ground contact."""
     records = []
     for i, heading in enumerate(headings_deg):
         direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
@@ -102,14 +116,18 @@ def score(run, headings_deg, duration):
         end = path[valid][-1] - path[0]
         along = float(end @ direction)
         lateral = float(direction[0] * end[1] - direction[1] * end[0])
-        torque = run["torque"][:, i]
         records.append(
             {
                 "heading_deg": float(heading),
                 "speed_mps": along / duration,
                 "lateral_drift_m": lateral,
                 "displacement_m": [float(end[0]), float(end[1])],
-                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(torque**2))),
+                # Every step has the same number of substep samples, so the episode's RMS is
+                # the root of the mean of the steps' mean squares.
+                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
+                "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
+                "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
+                "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
                 "terminated": bool(run["terminated"][i]),
             }
         )
@@ -197,13 +215,23 @@ def markdown(records, ratio_list):
                 cells.append(f"{r['speed_mps'] * 1e3:.2f}" + (" (T)" if r["terminated"] else ""))
             lines.append(f"| {agent} | " + " | ".join(cells) + f" | {own_text} |")
         lines.append("")
-        lines.append(f"Lateral drift (m) and RMS servo torque (N m), {model}:\n")
+        lines.append(f"Lateral drift (m) and RMS leg torque applied (N m, from the step record), {model}:\n")
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " |")
         lines.append("|---" * (len(COMPASS_DEG) + 1) + "|")
         for agent in agents:
             rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
             cells = [f"{rows[float(h)]['lateral_drift_m']:+.3f} / {rows[float(h)]['effort_rms_torque_nm']:.3f}" for h in COMPASS_DEG]
             lines.append(f"| {agent} | " + " | ".join(cells) + " |")
+        lines.append("")
+        lines.append(f"Effort over the compass headings (worst heading), {model}:\n")
+        lines.append("| agent | peak torque (N m) | peak leg rate (rad/s) | time without ground contact | episodes ended |")
+        lines.append("|---|---|---|---|---|")
+        for agent in agents:
+            rows = [r for r in records if r["model"] == model and r["agent"] == agent and r["compass"]]
+            lines.append(
+                f"| {agent} | {max(r['peak_torque_nm'] for r in rows):.3f} | {max(r['peak_leg_rate_radps'] for r in rows):.1f} | "
+                f"{max(r['liftoff_fraction'] for r in rows):.2%} | {sum(r['terminated'] for r in rows)} of {len(rows)} |"
+            )
         lines.append("")
     for ratio in ratio_list:
         if "ppo_over_gait1_by_heading" not in ratio:

@@ -101,6 +101,32 @@ def pd_torque(gains, leg_angles, leg_rates, targets):
     )
 
 
+def limit_torque(torque, leg_rates, torque_limit, rate_limit=None):
+    """The torques a leg motor can give, per leg: at most ``torque_limit`` (N m) either way,
+    and, with a no-load speed ``rate_limit`` (rad/s), no more than the torque-speed line of
+    a DC motor at full voltage allows: tau in [-T (1 + w / W), T (1 - w / W)], w the leg's
+    rate. So the motor pushes ever less as the leg speeds up and cannot drive it past W;
+    it can always brake with up to T. With ``torque_limit`` None, ``torque`` unchanged
+    (the paper's ideal servo).
+    """
+    if torque_limit is None:
+        return torque
+    limited = []
+    for tau, rate in zip(torque, leg_rates):
+        high = low = torque_limit
+        if rate_limit is not None:
+            drop = torque_limit * rate / rate_limit
+            if isinstance(drop, float):
+                high, low = min(high, torque_limit - drop), min(low, torque_limit + drop)
+            else:
+                high, low = np.minimum(high, torque_limit - drop), np.minimum(low, torque_limit + drop)
+        if isinstance(tau, float) and isinstance(high, float):
+            limited.append(min(max(tau, -low), high))
+        else:
+            limited.append(np.minimum(np.maximum(tau, -low), high))
+    return tuple(limited)
+
+
 class RampTargets:
     """Leg targets ramped linearly from ``start`` to ``end`` over [t0, t0 + duration], then held.
 

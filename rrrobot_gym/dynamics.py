@@ -54,6 +54,7 @@ The public array helpers at the bottom take states shaped (..., 13).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -214,11 +215,13 @@ def _sym_solve(m, b0, b1, b2):
     )
 
 
-def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None):
+def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None):
     """:func:`state_derivative` with the constants precomputed by :func:`constants`.
 
     This is the implementation; the integrators call it directly to skip the
-    per-call parameter arithmetic.
+    per-call parameter arithmetic. With ``leg_accel`` (kinematic legs), a list
+    ``torque_out`` receives the two leg torques that motion takes (from the legs' rows,
+    D phi'' + c_k . Omega' = f_leg + tau).
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
@@ -322,7 +325,93 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None):
         od0, od1, od2 = _sym_solve(
             m_omega, f0 - (c1x * acc1 + c2x * acc2), f1 - (c1y * acc1 + c2y * acc2), f2 - (c1z * acc1 + c2z * acc2)
         )
+        if torque_out is not None:
+            inertia_leg = k[6]
+            torque_out[:] = (
+                inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
+                inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
+            )
     return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
+
+
+class ContactConstants(NamedTuple):
+    """What :func:`contact_kernel` needs of a configuration (made by :func:`contact_constants`)."""
+
+    radius: float  # m
+    leg_length: float  # m
+    mass_tip: float  # kg
+    depth: float  # m, h
+    gravity: float  # m/s^2
+    total_mass: float  # kg
+    mb_r: float  # kg m, Mb r
+
+
+def contact_constants(params: RobotParams, depth: float) -> ContactConstants:
+    return ContactConstants(
+        params.radius, params.leg_length, params.mass_tip, float(depth), params.gravity,
+        params.total_mass, params.mass_bottom * params.radius,
+    )  # fmt: skip
+
+
+def contact_kernel(c, d, k: ContactConstants):
+    """The ground's force on the shell and the legs' clearance, from a state and its derivative.
+
+    ``c`` and ``d`` are the 13 state and derivative components (floats or (N,) arrays; ``d``
+    from :func:`derivative_kernel` with the torques that acted). Newton's second law for the
+    whole robot gives the force the ground (pivot model: the spherical joint) applies to
+    the shell, body coordinates: F = m a_com + m g n, with
+
+        m a_com = Omega' x (m h n + S) + Omega x (Omega x S)
+                  + sum_k Ml (e_k phi_k'' + 2 phi_k' Omega x e_k + a_k phi_k'^2)
+
+    (S = sum m p, the first moment about the centre; S_y = 0). Kinematics only: the
+    accelerations are the derivative's, so this is no second copy of the dynamics.
+
+    Returns (F_x, F_y, F_z, normal, clearance_1, clearance_2): body-frame force (N), its
+    component along world up (N), and each leg tip's height above the ground (m).
+    """
+    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
+    ox, oy, oz = c[8], c[9], c[10]
+    rate1, rate2 = c[11], c[12]
+    dox, doy, doz = d[8], d[9], d[10]
+    acc1, acc2 = d[11], d[12]
+    r, l, ml, h, g = k.radius, k.leg_length, k.mass_tip, k.depth, k.gravity
+    two_over_norm = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    tqx, tqy = qx * two_over_norm, qy * two_over_norm
+    nx = qz * tqx - qw * tqy
+    ny = qz * tqy + qw * tqx
+    nz = 1.0 - (qx * tqx + qy * tqy)
+    cos1, sin1, cos2, sin2 = _leg_trig(c[6], c[7])
+    lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
+    sx = ml * (lc1 + lc2)
+    sz = ml * (ls1 + ls2) - k.mb_r
+    # Omega' x (m h n + S)
+    mh = k.total_mass * h
+    ax, ay, az = mh * nx + sx, mh * ny, mh * nz + sz
+    fx = doy * az - doz * ay
+    fy = doz * ax - dox * az
+    fz = dox * ay - doy * ax
+    # Omega x (Omega x S) = Omega (Omega.S) - S |Omega|^2
+    o_s = ox * sx + oz * sz
+    o_sq = ox * ox + oy * oy + oz * oz
+    fx = fx + ox * o_s - sx * o_sq
+    fy = fy + oy * o_s
+    fz = fz + oz * o_s - sz * o_sq
+    # Legs: e = (-ls, 0, lc), Omega x e = (oy lc, -(oz ls + ox lc)... ) written out, a = -(lc, 0, ls).
+    for lc, ls, rate, acc in ((lc1, ls1, rate1, acc1), (lc2, ls2, rate2, acc2)):
+        two_rate = 2.0 * rate
+        rate_sq = rate * rate
+        fx = fx + ml * (-ls * acc + two_rate * (oy * lc) - lc * rate_sq)
+        fy = fy + ml * (two_rate * (oz * (-ls) - ox * lc))
+        fz = fz + ml * (lc * acc + two_rate * (-oy * (-ls)) - ls * rate_sq)
+    mg = k.total_mass * g
+    fx = fx + mg * nx
+    fy = fy + mg * ny
+    fz = fz + mg * nz
+    normal = fx * nx + fy * ny + fz * nz
+    clearance1 = r + lc1 * nx - r * ny + ls1 * nz
+    clearance2 = r + lc2 * nx + r * ny + ls2 * nz
+    return fx, fy, fz, normal, clearance1, clearance2
 
 
 def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):

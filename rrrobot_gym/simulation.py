@@ -25,8 +25,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import dynamics
-from .control import pd_torque
-from .params import PDGains, RobotParams, check_model, rotation_point_depth
+from .control import limit_torque, pd_torque
+from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth
 
 INTEGRATORS = ("rk4", "rk3")
 """Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
@@ -53,9 +53,25 @@ class SimConfig:
     integrator: str = "rk4"
     timestep: float | str = DEFAULT_TIMESTEP  # s, the fixed integration step, or "auto" (see `step`)
     legs: str = "servo"  # "servo" (PD servo dynamics) or "kinematic" (legs follow a smooth path exactly)
+    torque_limit: float | None = None  # N m, the leg motors' stall torque; None: unlimited (the paper's servo)
+    leg_rate_limit: float | None = None  # rad/s, the motors' no-load speed (needs torque_limit); None: unlimited
 
     def __post_init__(self):
         check_model(self.model)
+        for name in ("torque_limit", "leg_rate_limit"):
+            value = getattr(self, name)
+            if value is not None:
+                value = real_number(f"SimConfig.{name}", value)
+                if value <= 0.0:
+                    raise ValueError(f"SimConfig.{name} must be positive or None, got {value}")
+                object.__setattr__(self, name, value)
+        if self.leg_rate_limit is not None and self.torque_limit is None:
+            raise ValueError(
+                "SimConfig.leg_rate_limit needs a torque_limit: the motor model's torque falls linearly "
+                "from the stall torque (torque_limit) to 0 at the no-load speed (leg_rate_limit)"
+            )
+        if self.legs == "kinematic" and self.torque_limit is not None:
+            raise ValueError("SimConfig.torque_limit applies to servo legs; kinematic legs follow their path whatever it takes")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}: expected one of {', '.join(INTEGRATORS)}")
         if self.legs not in LEG_MODES:
@@ -329,9 +345,12 @@ def _keep_freed_heap(num_robots: int):
     mallopt(m_mmap_threshold, ctypes.c_int(32 << 20))
 
 
-def _stage_fn(config: SimConfig, targets, blend=None):
-    """f(t, comps) -> 13 derivative components, for components (floats or (N,) arrays).
+def _stage_fns(config: SimConfig, targets, blend=None):
+    """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
+    components; first(t, c) -> (the same, the two leg torques applied).
 
+    The steppers call ``first`` at the start of every substep and ``f`` at the other stages,
+    so the torques the integrator applied come from the evaluation it makes anyway.
     ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets (kinematic legs).
     """
     k = dynamics.constants(config.robot, config.depth)
@@ -340,31 +359,53 @@ def _stage_fn(config: SimConfig, targets, blend=None):
     if config.legs == "kinematic":
         if blend is None:
 
-            def f(t, c):
-                return kernel(c, None, k, leg_targets(t)[2])
+            def accel(t):
+                return leg_targets(t)[2]
 
         else:
             t_blend, coeffs1, coeffs2 = blend
 
-            def f(t, c):
+            def accel(t):
                 acc1, acc2 = leg_targets(t)[2]
                 s = t - t_blend
-                return kernel(c, None, k, (acc1 + _blend(coeffs1, s)[2], acc2 + _blend(coeffs2, s)[2]))
+                return acc1 + _blend(coeffs1, s)[2], acc2 + _blend(coeffs2, s)[2]
 
-        return f
-    gains = config.gains
+        def f(t, c):
+            return kernel(c, None, k, accel(t))
+
+        def first(t, c):
+            torque = [0.0, 0.0]
+            return kernel(c, None, k, accel(t), torque), tuple(torque)
+
+        return f, first
+    gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
+
+    if torque_limit is None:
+
+        def torque(t, c):
+            return pd_torque(gains, (c[6], c[7]), (c[11], c[12]), leg_targets(t))
+
+    else:
+
+        def torque(t, c):
+            rates = (c[11], c[12])
+            return limit_torque(pd_torque(gains, (c[6], c[7]), rates, leg_targets(t)), rates, torque_limit, rate_limit)
 
     def f(t, c):
-        return kernel(c, pd_torque(gains, (c[6], c[7]), (c[11], c[12]), leg_targets(t)), k)
+        return kernel(c, torque(t, c), k)
 
-    return f
+    def first(t, c):
+        applied = torque(t, c)
+        return kernel(c, applied, k), applied
+
+    return f, first
 
 
 def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
     """f(t, y) for a component-first state y: shape (13,) (one robot) or (13, N), as an array."""
     if kinematic_legs and config.legs != "kinematic":
         config = replace(config, legs="kinematic")
-    f = _stage_fn(config, targets)
+    f, _ = _stage_fns(config, targets)
 
     def g(t, y):
         return np.array(f(t, y.tolist() if y.ndim == 1 else y))
@@ -381,11 +422,16 @@ def _normalize_quat_floats(y):
     y[5] *= inv
 
 
-def _rk4_floats(f, t, y, h, n_steps):
-    """RK4 on one robot as a list of 13 Python floats (numpy costs more than it saves at N = 1)."""
+def _rk4_floats(f, t, y, h, n_steps, first=None):
+    """RK4 on one robot as a list of 13 Python floats (numpy costs more than it saves at N = 1).
+
+    ``first``, if given, evaluates the derivative at the start of each substep (the
+    recorder of :func:`advance`); every stepper takes it.
+    """
     half, sixth = 0.5 * h, h / 6.0
+    first = first or f
     for _ in range(n_steps):
-        k1 = f(t, y)
+        k1 = first(t, y)
         k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
         k3 = f(t + half, [a + half * b for a, b in zip(y, k2)])
         k4 = f(t + h, [a + h * b for a, b in zip(y, k3)])
@@ -405,15 +451,16 @@ def _load_slope(deriv, slope):
         slope[i] = v
 
 
-def _rk4_arrays(f, t, y, h, n_steps):
+def _rk4_arrays(f, t, y, h, n_steps, first=None):
     """RK4 on a component-first batch y (13, N), in place, with preallocated stage buffers."""
     half, sixth = 0.5 * h, h / 6.0
+    first = first or f
     slope = np.empty_like(y)
     total = np.empty_like(y)
     stage_a = np.empty_like(y)
     stage_b = np.empty_like(y)
     for _ in range(n_steps):
-        _load_slope(f(t, y), slope)
+        _load_slope(first(t, y), slope)
         np.copyto(total, slope)
         np.multiply(slope, half, out=stage_a)
         stage_a += y
@@ -434,11 +481,12 @@ def _rk4_arrays(f, t, y, h, n_steps):
     return y
 
 
-def _rk3_floats(f, t, y, h, n_steps):
+def _rk3_floats(f, t, y, h, n_steps, first=None):
     """Kutta's third-order method on one robot (list of 13 floats)."""
     half, sixth = 0.5 * h, h / 6.0
+    first = first or f
     for _ in range(n_steps):
-        k1 = f(t, y)
+        k1 = first(t, y)
         k2 = f(t + half, [a + half * b for a, b in zip(y, k1)])
         k3 = f(t + h, [a + h * (2.0 * b2 - b1) for a, b1, b2 in zip(y, k1, k2)])
         y = [a + sixth * (b1 + 4.0 * b2 + b3) for a, b1, b2, b3 in zip(y, k1, k2, k3)]
@@ -447,15 +495,16 @@ def _rk3_floats(f, t, y, h, n_steps):
     return y
 
 
-def _rk3_arrays(f, t, y, h, n_steps):
+def _rk3_arrays(f, t, y, h, n_steps, first=None):
     """Kutta's third-order method on a component-first batch y (13, N), in place."""
     half, sixth = 0.5 * h, h / 6.0
+    first = first or f
     slope1 = np.empty_like(y)
     slope2 = np.empty_like(y)
     stage_a = np.empty_like(y)
     stage_b = np.empty_like(y)
     for _ in range(n_steps):
-        _load_slope(f(t, y), slope1)
+        _load_slope(first(t, y), slope1)
         np.multiply(slope1, half, out=stage_a)
         stage_a += y
         _load_slope(f(t + half, stage_a), slope2)
@@ -484,6 +533,72 @@ def _leg_path_end(targets, blend, t_end):
         b2, v2, _ = _blend(coeffs2, t_end - t_blend)
         a1, a2, r1, r2 = a1 + b1, a2 + b2, r1 + v1, r2 + v2
     return a1, a2, r1, r2
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What an :func:`advance` did, sampled at the start of every integration substep.
+
+    Made by the integrator from the derivative it evaluates there anyway (the first stage
+    of each substep), so the torques are the ones it applied (the servo law on the targets
+    and their rate, after any motor limit; with kinematic legs, the torques the prescribed
+    motion took) and the force is Newton's for the motion it integrated
+    (:func:`rrrobot_gym.dynamics.contact_kernel`). Nothing downstream rebuilds them.
+
+    Shapes: S samples; one robot: (S,), (S, 2), (S, 3); a batch of N: (S, N), (S, N, 2), (S, N, 3).
+    """
+
+    times: np.ndarray  # (S,) s, the substep starts
+    step: float  # s, the substep length: each sample stands for this much time
+    torque: np.ndarray  # (S, [N,] 2) N m, leg torques applied (shell on leg)
+    force: np.ndarray  # (S, [N,] 3) N, the ground's force on the shell, body frame (pivot: the joint's)
+    normal: np.ndarray  # (S, [N]) N, its component along world up
+    leg_clearance: np.ndarray  # (S, [N,] 2) m, each leg tip's height above the ground
+    leg_rates: np.ndarray  # (S, [N,] 2) rad/s
+
+    @property
+    def tangential(self) -> np.ndarray:
+        """(S, [N]) N, the force's magnitude along the ground (the grip rolling needs)."""
+        return np.sqrt(np.maximum(np.einsum("...j,...j->...", self.force, self.force) - self.normal**2, 0.0))
+
+
+_RECORD_ROWS = 10  # torque (2), force (3), normal, clearance (2), leg rates (2)
+
+
+class _Recorder:
+    """The steppers' ``first``: evaluates a substep's first stage and keeps what it applied."""
+
+    def __init__(self, first, config: SimConfig, n_steps: int, num_robots: int | None):
+        self._first = first
+        self._contact = dynamics.contact_kernel
+        self._k = dynamics.contact_constants(config.robot, config.depth)
+        self._rows = [] if num_robots is None else np.empty((n_steps, _RECORD_ROWS, num_robots))
+        self._i = 0
+
+    def __call__(self, t, c):
+        derivative, torque = self._first(t, c)
+        fx, fy, fz, normal, clear1, clear2 = self._contact(c, derivative, self._k)
+        row = (torque[0], torque[1], fx, fy, fz, normal, clear1, clear2, c[11], c[12])
+        if isinstance(self._rows, list):
+            self._rows.append(row)
+        else:
+            self._rows[self._i] = row
+            self._i += 1
+        return derivative
+
+    def record(self, t0: float, h: float) -> StepRecord:
+        rows = np.asarray(self._rows, dtype=float)
+        if rows.ndim == 3:  # (S, 10, N) -> fields with the robot axis before the vector axis
+            rows = rows.transpose(0, 2, 1)
+        return StepRecord(
+            times=t0 + h * np.arange(len(rows)),
+            step=h,
+            torque=rows[..., 0:2],
+            force=rows[..., 2:5],
+            normal=rows[..., 5],
+            leg_clearance=rows[..., 6:8],
+            leg_rates=rows[..., 8:10],
+        )
 
 
 AUTO_RATE_FACTOR = 0.3
@@ -527,11 +642,13 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
     )
 
 
-def advance(config: SimConfig, state, t0: float, duration: float, targets, *, check=True):
+def advance(config: SimConfig, state, t0: float, duration: float, targets, *, check=True, record=False):
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
     The step is the largest that divides ``duration`` evenly and is no larger than
-    ``config.step``. Returns the new state (same shape as ``state``).
+    ``config.step``. Returns the new state (same shape as ``state``), and with
+    ``record=True`` also a :class:`StepRecord` of the torques applied and the ground force
+    at the start of every substep: ``(state, record)``.
 
     With ``config.legs == "kinematic"`` the legs follow a path exactly: the targets'
     own path (their angles, rates and accelerations) when the legs are on it at t0,
@@ -546,6 +663,8 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
     if duration < 0.0 or not math.isfinite(duration):
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
     if duration == 0.0:
+        if record:
+            raise ValueError("advance(record=True) needs a positive duration: a record of no substeps is empty")
         return np.array(state)
     blend = None
     path_rate = 0.0
@@ -564,24 +683,27 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps = max(1, math.ceil(duration / step - 1e-9))
     h = duration / n_steps
-    f = _stage_fn(config, targets, blend)
+    f, first = _stage_fns(config, targets, blend)
+    recorder = _Recorder(first, config, n_steps, None if state.ndim == 1 else state.shape[0]) if record else None
     step_floats, step_arrays = _STEPPERS[config.integrator]
     if state.ndim == 1:
         try:
-            out = np.array(step_floats(f, t0, state.tolist(), h, n_steps))
+            out = np.array(step_floats(f, t0, state.tolist(), h, n_steps, recorder))
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
             raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
     else:
         if state.shape[0] >= 1024:
             _keep_freed_heap(state.shape[0])
         with np.errstate(all="ignore"):  # a blow-up is reported below, by name, not as warnings
-            out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps).T.copy()
+            out = step_arrays(f, t0, np.array(state.T, order="C"), h, n_steps, recorder).T.copy()
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
         out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
     if not np.all(np.isfinite(out)):
         raise NumericalFailure(_diagnose(config, state, t0, duration, h))
+    if record:
+        return out, recorder.record(t0, h)
     return out
 
 

@@ -1,20 +1,16 @@
 """Where the model stops describing a real robot: contact force and leg clearance.
 
-The RRRobot model (``shared/MODEL.md``) assumes a shell that rolls without slip and never
+The RRRobot model assumes a shell that rolls without slip and never
 leaves the ground, and legs that never touch it. The equations of motion hold these
 true by construction, so they cannot tell when a motion needs an impossible force: a
 controller free to whip the legs can demand a pull from the ground (a hop), more grip
 than a floor gives, or push a leg through the floor. These functions measure that.
 
-Kinematics only: the accelerations come from :func:`rrrobot_gym.dynamics.state_derivative`
-(the one implementation of the equations of motion). With the speeds of ``dynamics``
-(body-frame Omega, leg rates; glossary there), the centre of mass accelerates as
-
-    m a_com = Omega' x (m h n + S) + Omega x (Omega x S)
-              + sum_k Ml (e_k phi_k'' + 2 phi_k' Omega x e_k + a_k phi_k'^2),
-
-in body coordinates (S = sum m p, the first moment about the centre), and the ground
-pushes on the shell with F = m a_com + m g n. Its normal part is N = F . n.
+The force comes from Newton's second law for the whole robot, with the accelerations of
+the motion actually integrated (:func:`rrrobot_gym.dynamics.contact_kernel`, kinematics
+only): the integrator records it at the start of every substep, together with the torques
+it applied (:class:`rrrobot_gym.simulation.StepRecord`), and :func:`step_measures` turns a
+record into the measures an environment checks. Nothing here rebuilds a servo input.
 """
 
 from __future__ import annotations
@@ -43,12 +39,19 @@ def up_in_body(quat):
     return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)
 
 
+def _contact(states, derivatives, params: RobotParams, model: str):
+    states = np.atleast_2d(np.asarray(states, dtype=float))
+    derivatives = np.broadcast_to(np.asarray(derivatives, dtype=float), states.shape)
+    k = dynamics.contact_constants(params, rotation_point_depth(model, params))
+    return dynamics.contact_kernel(
+        [states[:, i] for i in range(dynamics.STATE_SIZE)], [derivatives[:, i] for i in range(dynamics.STATE_SIZE)], k
+    )
+
+
 def leg_clearance(states, params: RobotParams):
     """Height of each leg tip above the ground (m), shape (N, 2); the centre is at height r."""
-    states = np.atleast_2d(np.asarray(states, dtype=float))
-    tips, _, _ = _leg_vectors(states[:, dynamics.LEG_ANGLES], params)
-    n = up_in_body(states[:, dynamics.QUAT])
-    return params.radius + np.einsum("nkj,nj->nk", tips, n)
+    *_, low, high = _contact(states, 0.0, params, "plane")
+    return np.stack([low, high], axis=-1)
 
 
 def ground_force(states, derivatives, params: RobotParams, model: str):
@@ -56,65 +59,73 @@ def ground_force(states, derivatives, params: RobotParams, model: str):
 
     ``derivatives`` are the state derivatives (N, 13) at ``states`` (from
     :func:`rrrobot_gym.dynamics.state_derivative` with the torques that acted). For the
-    pivot model this is the force of the spherical joint instead.
+    pivot model this is the force of the spherical joint instead. The integrator records
+    the same quantity from the same function (:func:`rrrobot_gym.dynamics.contact_kernel`)
+    at every substep: see :class:`rrrobot_gym.simulation.StepRecord`.
     """
-    states = np.atleast_2d(np.asarray(states, dtype=float))
-    derivatives = np.atleast_2d(np.asarray(derivatives, dtype=float))
-    h = rotation_point_depth(model, params)
-    omega = states[:, dynamics.BODY_RATE]
-    omega_dot = derivatives[:, dynamics.BODY_RATE]
-    rates = states[:, dynamics.LEG_RATES]
-    accels = derivatives[:, dynamics.LEG_RATES]
-    tips, e, a = _leg_vectors(states[:, dynamics.LEG_ANGLES], params)
-    n = up_in_body(states[:, dynamics.QUAT])
-    first_moment = params.mass_tip * tips.sum(axis=1)
-    first_moment[:, 2] -= params.mass_bottom * params.radius
-    mass_accel = np.cross(omega_dot, params.total_mass * h * n + first_moment)
-    mass_accel += np.cross(omega, np.cross(omega, first_moment))
-    leg_accel = e * accels[..., None] + 2 * rates[..., None] * np.cross(omega[:, None, :], e) + a * rates[..., None] ** 2
-    mass_accel += params.mass_tip * leg_accel.sum(axis=1)
-    force = mass_accel + params.total_mass * params.gravity * n
-    return force, np.einsum("nj,nj->n", force, n)
+    fx, fy, fz, normal, _, _ = _contact(states, derivatives, params, model)
+    return np.stack([fx, fy, fz], axis=-1), normal
 
 
-def friction_ratio(force, normal):
-    """|tangential| / normal force: the friction coefficient the no-slip contact needs (inf if N <= 0)."""
-    n_hat_part = np.linalg.norm(force, axis=-1) ** 2 - normal**2
-    tangential = np.sqrt(np.maximum(n_hat_part, 0.0))
+def friction_ratio(force, normal, tangential=None):
+    """|tangential| / normal force: the friction coefficient the no-slip contact needs (inf if N <= 0).
+
+    ``tangential`` (the force's part along the ground), if given, is used instead of ``force``.
+    """
+    if tangential is None:
+        tangential = np.sqrt(np.maximum(np.linalg.norm(force, axis=-1) ** 2 - normal**2, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(normal > 0, tangential / np.where(normal > 0, normal, 1.0), np.inf)
 
 
-def envelope(states, leg_targets, config):
-    """The model-validity measures of robots under held leg targets, each (N,).
+def step_measures(record, config, friction_coefficient, contact_lost=None):
+    """Per robot, what a :class:`rrrobot_gym.simulation.StepRecord` says about the model's validity.
 
-    ``config`` is a :class:`rrrobot_gym.simulation.SimConfig`; ``leg_targets`` (N, 2) rad are
-    the servo targets acting (target rate 0). Returns ``normal_force`` (N, the ground's push
-    on the shell; for the pivot model the joint's), ``friction_ratio`` (the friction
-    coefficient the no-slip contact needs), ``tangential_force`` (N) and ``leg_clearance``
-    (m, the lower leg tip's height above the ground).
+    ``config`` is the :class:`rrrobot_gym.simulation.SimConfig` the record was made with;
+    ``friction_coefficient`` the floor's grip (None: unlimited); ``contact_lost`` (N,) s, how
+    long the contact had been lost (normal force <= 0) at the record's start (0 if None).
+
+    Returns ``(measures, contact_lost_after)``: measures is a dict of (N,) arrays,
+    ``normal_force`` (N, the least), ``friction_ratio`` (the largest grip the no-slip contact
+    needs, inf where the floor would have to pull), ``liftoff_fraction`` (the share of the
+    record's time without contact), ``liftoff_time`` (s, the longest spell without contact,
+    counting one carried in), ``slip_velocity`` (m/s, the impulse the floor could not give,
+    a pull or grip beyond friction, per unit mass: the velocity the shell would slip or hop
+    with), ``leg_clearance`` (m, the lower leg tip's least height), ``torque_rms`` and
+    ``torque_peak`` (N m, over both legs), ``leg_rate_peak`` (rad/s). The pivot model's joint
+    holds any force: its lift-off and slip measures are 0 (its force is still reported).
+    ``contact_lost_after`` (N,) s is the spell without contact still going at the end.
     """
-    from .control import pd_torque
-
-    states = np.atleast_2d(np.asarray(states, dtype=float))
-    leg_targets = np.atleast_2d(np.asarray(leg_targets, dtype=float))
-    params = config.robot
-    comps = [states[:, i] for i in range(dynamics.STATE_SIZE)]
-    zero = np.zeros(len(states))
-    torque = pd_torque(
-        config.gains,
-        (comps[6], comps[7]),
-        (comps[11], comps[12]),
-        ((leg_targets[:, 0], leg_targets[:, 1]), (zero, zero), (zero, zero)),
-    )
-    derivative = np.stack(dynamics.state_derivative(comps, torque, params, config.depth), axis=-1)
-    force, normal = ground_force(states, derivative, params, config.model)
-    return {
-        "normal_force": normal,
-        "tangential_force": np.sqrt(np.maximum(np.einsum("nj,nj->n", force, force) - normal**2, 0.0)),
-        "friction_ratio": friction_ratio(force, normal),
-        "leg_clearance": leg_clearance(states, params).min(axis=1),
+    samples = record.normal.shape[0]
+    normal = record.normal.reshape(samples, -1)
+    num_robots = normal.shape[1]
+    tangential = record.tangential.reshape(samples, num_robots)
+    torque = np.abs(record.torque.reshape(samples, num_robots, 2))
+    lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
+    measures = {
+        "normal_force": normal.min(axis=0),
+        "friction_ratio": friction_ratio(None, normal, tangential).max(axis=0),
+        "leg_clearance": record.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
+        "torque_rms": np.sqrt(np.mean(torque**2, axis=(0, 2))),
+        "torque_peak": torque.max(axis=(0, 2)),
+        "leg_rate_peak": np.abs(record.leg_rates.reshape(samples, num_robots, 2)).max(axis=(0, 2)),
     }
+    if config.model != "plane":
+        zero = np.zeros(num_robots)
+        measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
+        return measures, zero.copy()
+    off = normal <= 0.0
+    longest = lost.copy()
+    for row in off:
+        lost = np.where(row, lost + record.step, 0.0)
+        np.maximum(longest, lost, out=longest)
+    missing = unprovided_force(normal, tangential, friction_coefficient)
+    measures.update(
+        liftoff_fraction=off.mean(axis=0),
+        liftoff_time=longest,
+        slip_velocity=missing.sum(axis=0) * record.step / config.robot.total_mass,
+    )
+    return measures, lost
 
 
 def unprovided_force(normal, tangential, friction_coefficient):

@@ -213,7 +213,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
-        max_slip_velocity: float = 0.05,
+        max_slip_velocity: float = 0.02,
+        max_liftoff_time: float = 0.005,
         healthy_reward: float = 0.0,
         clock_frequency: float | None = None,
         terminate_outside_model: bool = True,
@@ -238,6 +239,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
             max_slip_velocity=max_slip_velocity,
+            max_liftoff_time=max_liftoff_time,
             healthy_reward=healthy_reward,
             clock_frequency=clock_frequency,
             terminate_outside_model=terminate_outside_model,
@@ -259,6 +261,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.episode_target_direction = None  # rad, this episode's commanded heading
         self.time = 0.0  # s since the episode began
         self.leg_targets = None  # (2,) rad, the servo targets at the end of the last step
+        self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
         self._observation = None  # the last observation returned, float32
         self._path = None  # contact points so far, kept only when rendering
         self._viewer = None
@@ -276,6 +279,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.episode_target_direction = target if option_target is None else option_target
         self.time = 0.0
         self.leg_targets = self.state[6:8].copy()
+        self.contact_lost = 0.0
         self._observation = self._observe(self.state)
         if self.render_mode is not None:
             self._path = [(float(self.state[0]), float(self.state[1]))]
@@ -288,10 +292,12 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             raise RuntimeError("RRRobotEnv.step() called before reset()")
         action = task.check_actions(action, (2,))
         before = self.state
-        after, observation, measures = self._advance(before, action)
+        after, observation, measures, contact_lost = self._advance(before, action)
         failed = after is None
         if failed:
             after, observation, measures = before, self._observation, task.FAILED_MEASURES
+        else:
+            self.contact_lost = float(contact_lost[0])
         rewards, terminations, infos = task.step_outcome(
             before[None],
             after[None],
@@ -315,16 +321,18 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
 
     def _advance(self, state, action):
-        """(new state, observation, validity measures) after one control step, or Nones on a numerical failure."""
+        """(new state, observation, step measures, contact_lost) after one control step, or Nones on a numerical failure."""
         try:
             # A (13,) state takes the simulator's fast Python-float path.
-            after, measures = task.advance_and_check(state, action, self.time, self.config, self.leg_targets)
+            after, measures, contact_lost = task.advance_and_check(
+                state, action, self.time, self.config, self.leg_targets, self.contact_lost
+            )
         except task.NUMERICAL_FAILURES:
-            return None, None, None
+            return None, None, None, None
         observation = self._observe(after, self.time + self.dt)
         if not task.finite_rows(after[None], observation[None])[0]:
-            return None, None, None
-        return after, observation, measures
+            return None, None, None, None
+        return after, observation, measures, contact_lost
 
     def _targets_array(self):
         return np.array([self.episode_target_direction])

@@ -70,8 +70,13 @@ STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "numerical_failure",
     "normal_force",
     "friction_ratio",
-    "leg_clearance",
+    "liftoff_fraction",
+    "liftoff_time",
     "slip_velocity",
+    "leg_clearance",
+    "torque_rms",
+    "torque_peak",
+    "leg_rate_peak",
     "outside_model",
 )
 """Keys of the info ``step()`` returns."""
@@ -129,7 +134,8 @@ class TaskConfig:
     exclude_current_positions_from_observation: bool = True
     target_direction: float | None = None  # rad; None draws one per episode
     friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
-    max_slip_velocity: float = 0.05  # m/s, slip or hop in one step that ends the episode
+    max_slip_velocity: float = 0.02  # m/s, estimated slip or hop in one step that ends the episode
+    max_liftoff_time: float = 0.005  # s, a spell without ground contact longer than this ends the episode
     healthy_reward: float = 0.0  # reward per step that does not end the episode
     clock_frequency: float | None = None  # rad/s: observe (sin, cos)(clock_frequency t); None: no clock
     terminate_outside_model: bool = True  # end the episode where the model stops holding
@@ -162,7 +168,8 @@ def make_task_config(
     exclude_current_positions_from_observation=True,
     target_direction=None,
     friction_coefficient=1.0,
-    max_slip_velocity=0.05,
+    max_slip_velocity=0.02,
+    max_liftoff_time=0.005,
     healthy_reward=0.0,
     clock_frequency=None,
     terminate_outside_model=True,
@@ -202,6 +209,7 @@ def make_task_config(
         if friction_coefficient is None
         else _real("friction_coefficient", friction_coefficient, positive=True),
         max_slip_velocity=_real("max_slip_velocity", max_slip_velocity, positive=True),
+        max_liftoff_time=_real("max_liftoff_time", max_liftoff_time, minimum=0.0),
         healthy_reward=_real("healthy_reward", healthy_reward, minimum=0.0),
         clock_frequency=None if clock_frequency is None else _real("clock_frequency", clock_frequency, positive=True),
         terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
@@ -442,9 +450,7 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
     if config.sim.model == "plane":
         # Nor does travel in the start-up grace, where slip is forgiven (a kick off the start).
-        unearned = (info["slip_velocity"] > config.max_slip_velocity) | (
-            np.asarray(elapsed, dtype=float) < STARTUP_GRACE - 1e-9
-        )
+        unearned = left_the_floor(info, config) | (np.asarray(elapsed, dtype=float) < STARTUP_GRACE - 1e-9)
         info["reward_forward"] = np.where(unearned, 0.0, info["reward_forward"])
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
@@ -453,70 +459,38 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     return info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], terminated, info
 
 
-FAILED_MEASURES = {"normal_force": np.nan, "friction_ratio": np.nan, "leg_clearance": np.nan, "slip_velocity": np.nan}
-"""Validity measures reported for a robot whose step failed numerically (it terminates anyway)."""
+MEASURE_KEYS = (
+    "normal_force", "friction_ratio", "liftoff_fraction", "liftoff_time", "slip_velocity",
+    "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
+)  # fmt: skip
+"""The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
+FAILED_MEASURES = {key: np.nan for key in MEASURE_KEYS}
+"""Measures reported for a robot whose step failed numerically (it terminates anyway)."""
 
 
-def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets=None):
+def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost):
     """One control step of ``states`` ((13,) or (N, 13)) under ``actions``.
 
     With ``config.action_hold == "linear"`` the leg targets ramp from ``previous_targets``
     (rad, the last step's targets) to the action's over the step; with "zero_order" they
-    jump to the action's and are held with target rate 0.
+    jump to the action's and are held with target rate 0. ``contact_lost`` (N,) s is how
+    long each robot's shell had been off the ground when the step began.
 
-    Returns (states after the step, the worst of each validity measure over the step: an
-    (N,) dict as :func:`rrrobot_gym.validity.envelope`). The measures are taken when the
-    new targets start to act (a target jump gives the servo's largest torque at once) and
-    after every integration step, because the servo settles within a control step: a
-    check at the step's end alone misses the hop or slip a jump causes, and a policy
-    learns to exploit exactly that.
-    With ``config.terminate_outside_model`` False nothing ends an episode on them, so the step
-    is integrated in one call and measured at its end only (``slip_velocity`` NaN).
-    Raises the simulator's numerical failures (:data:`NUMERICAL_FAILURES`).
+    One integration call, whose :class:`rrrobot_gym.simulation.StepRecord` (the torques
+    applied and the ground force at every substep start) gives the step's measures.
+    Returns (states after the step, measures: an (N,) dict keyed :data:`MEASURE_KEYS`,
+    contact_lost after the step). Raises the simulator's numerical failures
+    (:data:`NUMERICAL_FAILURES`).
     """
     leg_targets = action_to_leg_targets(actions)
     if config.action_hold == "linear":
         held = RampTargets(previous_targets, leg_targets, t, config.dt)
     else:
         held = HeldTargets(leg_targets)
-    step = config.sim.step
-    if not config.terminate_outside_model:
-        # Skip what the scene does not need: one integration call, measures at the step's end
-        # only, and no slip estimate (NaN: not measured).
-        states = advance(config.sim, states, t, config.dt, held, check=False)
-        with np.errstate(all="ignore"):
-            measures = validity.envelope(states, np.atleast_2d(leg_targets), config.sim)
-        return states, {
-            "normal_force": measures["normal_force"],
-            "friction_ratio": measures["friction_ratio"],
-            "leg_clearance": measures["leg_clearance"],
-            "slip_velocity": np.full(len(measures["normal_force"]), np.nan),
-        }
-    visited = [states]
-    for k in range(config.frame_skip):
-        states = advance(config.sim, states, t + k * step, step, held, check=False)
-        visited.append(states)
-    visited = np.asarray(visited).reshape(-1, dynamics.STATE_SIZE)
-    repeated = np.broadcast_to(leg_targets, (config.frame_skip + 1,) + np.shape(leg_targets)).reshape(-1, 2)
+    states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True)
     with np.errstate(all="ignore"):
-        measures = validity.envelope(visited, repeated, config.sim)
-        missing = validity.unprovided_force(
-            measures["normal_force"], measures["tangential_force"], config.friction_coefficient
-        )
-    n = len(visited) // (config.frame_skip + 1)
-    # The floor's missing impulse over the step (trapezoid over the samples), per unit mass:
-    # the velocity the shell would slip or hop with. A servo kick makes millisecond spikes
-    # of needed grip that slip it by microns; sustained overdemand adds up.
-    weights = np.full(config.frame_skip + 1, step)
-    weights[0] = weights[-1] = 0.5 * step
-    slip = weights @ missing.reshape(-1, n) / config.sim.robot.total_mass
-    worst = {
-        "normal_force": measures["normal_force"].reshape(-1, n).min(axis=0),
-        "friction_ratio": measures["friction_ratio"].reshape(-1, n).max(axis=0),
-        "leg_clearance": measures["leg_clearance"].reshape(-1, n).min(axis=0),
-        "slip_velocity": slip if config.sim.model == "plane" else np.zeros(n),
-    }
-    return states, worst
+        measures, contact_lost = validity.step_measures(record, config.sim, config.friction_coefficient, contact_lost)
+    return states, measures, contact_lost
 
 
 STARTUP_GRACE = 0.1
@@ -528,19 +502,25 @@ vertical abruptly, and even the Table II gaits would slip at up to 0.63 m/s for 
 def outside_model(info, config: TaskConfig, elapsed):
     """True where a robot left the model's validity envelope (:mod:`rrrobot_gym.validity`).
 
-    A leg tip at or below the ground (leg contact is not modelled), or, on a plane, a step in
-    which the floor could not give the force the rolling model needs (a pull, or grip beyond
-    ``friction_coefficient``) for long enough that the shell would slip or hop at more than
-    ``max_slip_velocity`` (``info["slip_velocity"]``: missing impulse over the step / mass;
-    from :data:`STARTUP_GRACE` into the episode, ``elapsed`` (N,) being the time in s at
-    the start of the step). The pivot model has no ground contact: only its legs are
-    checked. ``info`` holds the worst measures over the control step (:func:`advance_and_check`).
+    A leg tip at or below the ground (leg contact is not modelled), or, on a plane, a floor
+    that could not give the force rolling needs: the normal force stayed <= 0 (the shell
+    would lift off) for longer than ``max_liftoff_time``, or the impulse the floor could not
+    give over the step (a pull, or grip beyond ``friction_coefficient``), per unit mass,
+    exceeds ``max_slip_velocity`` (the shell would slip or hop that fast); from
+    :data:`STARTUP_GRACE` into the episode, ``elapsed`` (N,) being the time in s at the
+    start of the step. The pivot model has no ground contact: only its legs are checked.
+    ``info`` holds the step's measures (:func:`advance_and_check`).
     """
     out = info["leg_clearance"] <= 0.0
     if config.sim.model == "plane":
         started = np.asarray(elapsed, dtype=float) >= STARTUP_GRACE - 1e-9
-        out |= started & (info["slip_velocity"] > config.max_slip_velocity)
+        out |= started & left_the_floor(info, config)
     return out
+
+
+def left_the_floor(info, config: TaskConfig):
+    """True where a step lifted off or slipped beyond the task's tolerances (plane model)."""
+    return (info["slip_velocity"] > config.max_slip_velocity) | (info["liftoff_time"] > config.max_liftoff_time)
 
 
 def tilt_reached_limit(tilts):

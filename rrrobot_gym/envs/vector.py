@@ -64,7 +64,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         exclude_current_positions_from_observation: bool = True,
         target_direction: float | None = None,
         friction_coefficient: float | None = 1.0,
-        max_slip_velocity: float = 0.05,
+        max_slip_velocity: float = 0.02,
+        max_liftoff_time: float = 0.005,
         healthy_reward: float = 0.0,
         clock_frequency: float | None = None,
         terminate_outside_model: bool = True,
@@ -89,6 +90,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             target_direction=target_direction,
             friction_coefficient=friction_coefficient,
             max_slip_velocity=max_slip_velocity,
+            max_liftoff_time=max_liftoff_time,
             healthy_reward=healthy_reward,
             clock_frequency=clock_frequency,
             terminate_outside_model=terminate_outside_model,
@@ -130,6 +132,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
         self.states = None
         self.leg_targets = None  # (N, 2) rad, the servo targets at the end of the last step
+        self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = None
@@ -154,6 +157,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         states, targets = self._draw_starts(np.arange(self.num_envs))
         self.states = states if option_states is None else option_states
         self.leg_targets = self.states[:, 6:8].copy()
+        self.contact_lost = np.zeros(self.num_envs)
         self.episode_target_directions = targets if option_targets is None else option_targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = task.observe(self.states, self.episode_target_directions, self.config, np.zeros(self.num_envs))
@@ -195,7 +199,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         actions = task.check_actions(actions, (self.num_envs, 2))
         before = self.states
         targets = self.episode_target_directions
-        after, measures, failed = self._advance(before, actions, self.leg_targets)
+        after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
         observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt)
         failed |= ~task.finite_rows(after, observations)
         # A failed robot keeps its last finite state and observation (never NaN out).
@@ -211,6 +215,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             truncated = self.episode_steps >= self.max_episode_steps
         self.states = after
         self.leg_targets = np.where(failed[:, None], self.leg_targets, task.action_to_leg_targets(actions))
+        self.contact_lost = np.where(failed, self.contact_lost, contact_lost)
         self._observations = observations
         if self._paths is not None:
             for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
@@ -221,8 +226,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             observations = self._autoreset(done, observations, info, masks)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
-    def _advance(self, states, actions, previous_targets):
-        """(new states, validity measures, failed mask): one control step for every robot, isolating failures.
+    def _advance(self, states, actions, previous_targets, contact_lost):
+        """(new states, step measures, failed mask, contact_lost): one control step for every robot, isolating failures.
 
         ``advance`` raises on any non-finite result, which would lose the whole batch for
         one bad robot. The rows are independent, so on a failure the batch is split in
@@ -231,17 +236,26 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         try:
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
-                after, measures = task.advance_and_check(states, actions, 0.0, self.config, previous_targets)
-            return after, measures, np.zeros(len(states), dtype=bool)
+                after, measures, lost = task.advance_and_check(
+                    states, actions, 0.0, self.config, previous_targets, contact_lost
+                )
+            return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
             if len(states) == 1:
                 failed = {key: np.reshape(value, (1,)) for key, value in task.FAILED_MEASURES.items()}
-                return states.copy(), failed, np.ones(1, dtype=bool)
+                return states.copy(), failed, np.ones(1, dtype=bool), contact_lost.copy()
         half = len(states) // 2
-        first, first_measures, first_failed = self._advance(states[:half], actions[:half], previous_targets[:half])
-        second, second_measures, second_failed = self._advance(states[half:], actions[half:], previous_targets[half:])
-        measures = {key: np.concatenate([first_measures[key], second_measures[key]]) for key in first_measures}
-        return np.concatenate([first, second]), measures, np.concatenate([first_failed, second_failed])
+        parts = [
+            self._advance(states[rows], actions[rows], previous_targets[rows], contact_lost[rows])
+            for rows in (slice(None, half), slice(half, None))
+        ]
+        measures = {key: np.concatenate([part[1][key] for part in parts]) for key in parts[0][1]}
+        return (
+            np.concatenate([part[0] for part in parts]),
+            measures,
+            np.concatenate([part[2] for part in parts]),
+            np.concatenate([part[3] for part in parts]),
+        )
 
     def _autoreset(self, done, observations, info, masks):
         """Reset the finished sub-envs in place (SAME_STEP); returns the new observations."""
@@ -257,6 +271,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         states, targets = self._draw_starts(indices)
         self.states[indices] = states
         self.leg_targets[indices] = states[:, 6:8]
+        self.contact_lost[indices] = 0.0
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
         observations[indices] = task.observe(states, targets, self.config, np.zeros(len(indices)))

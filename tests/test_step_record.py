@@ -1,0 +1,196 @@
+"""The integrator's step record: torques it applied and the ground force, checked against
+things that do not share its code (finite differences of the centre of mass, the servo law
+written out by hand), and the env's model checks that read it."""
+
+import math
+
+import gymnasium
+import numpy as np
+import pytest
+
+import rrrobot_gym  # noqa: F401  (registers the env)
+from rrrobot_gym import dynamics
+from rrrobot_gym.control import Gait, RampTargets
+from rrrobot_gym.simulation import SimConfig, advance, initial_state, simulate
+
+FAST_LEGS = Gait(amplitude=1.0, frequency=30.0, phase=(0.0, 2.0), offset=(1.2, 1.4), name="fast")
+"""Legs swung at 30 rad/s, 1 rad: the ground force swings between about -2 and +3 m g."""
+
+
+def _centre_of_mass(states, params, model):
+    """World position of the centre of mass, written out from the five point masses."""
+    r, l = params.radius, params.leg_length
+    rot = dynamics.rotation_matrix(states[:, dynamics.QUAT])
+    phi = states[:, dynamics.LEG_ANGLES]
+    bodies = [
+        (params.mass_bottom, np.broadcast_to([0.0, 0.0, -r], (len(states), 3))),
+        (params.mass_pin, np.broadcast_to([0.0, -r, 0.0], (len(states), 3))),
+        (params.mass_pin, np.broadcast_to([0.0, r, 0.0], (len(states), 3))),
+        (params.mass_tip, np.stack([l * np.cos(phi[:, 0]), np.full(len(states), -r), l * np.sin(phi[:, 0])], 1)),
+        (params.mass_tip, np.stack([l * np.cos(phi[:, 1]), np.full(len(states), r), l * np.sin(phi[:, 1])], 1)),
+    ]
+    moment = sum(mass * np.einsum("nij,nj->ni", rot, body) for mass, body in bodies)
+    # The centre sits above the contact point on a plane; the pivot's joint holds it still.
+    xy = states[:, 0:2] if model == "plane" else np.zeros((len(states), 2))
+    centre = np.column_stack([xy, np.full(len(states), r)])
+    return centre + moment / params.total_mass
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_recorded_ground_force_is_mass_times_centre_of_mass_acceleration_plus_weight(model):
+    """Newton's second law for the whole robot, a_com by finite differences of its path."""
+    h = 1e-4
+    config = SimConfig(model=model, timestep=h)
+    params = config.robot
+    trajectory = simulate(config, FAST_LEGS, 0.3, sample_dt=h)  # the states at every substep start
+    _, record = advance(config, trajectory.states[0], 0.0, 0.3, FAST_LEGS, record=True)
+    assert record.force.shape == (3000, 3) and record.times[1] == pytest.approx(h)
+    com = _centre_of_mass(trajectory.states, params, model)
+    accel = (com[2:] - 2.0 * com[1:-1] + com[:-2]) / h**2
+    expected = params.total_mass * (accel + np.array([0.0, 0.0, params.gravity]))
+    rot = dynamics.rotation_matrix(trajectory.states[1:-1, dynamics.QUAT])
+    recorded = np.einsum("nij,nj->ni", rot, record.force[1 : len(trajectory.states) - 1])
+    weight = params.total_mass * params.gravity
+    assert np.abs(expected).max() > 2.0 * weight  # the legs are fast: far from the resting load
+    np.testing.assert_allclose(recorded, expected, rtol=0, atol=0.01 * weight)
+    # the normal part is the world-vertical one
+    np.testing.assert_allclose(record.normal[1 : len(trajectory.states) - 1], expected[:, 2], rtol=0, atol=0.01 * weight)
+
+
+def test_recorded_torque_is_the_servo_law_on_the_ramp_and_its_rate_at_mid_step():
+    config = SimConfig(timestep=0.05 / 16)
+    kp, kd = config.gains.kp, config.gains.kd
+    state = initial_state()
+    state[dynamics.LEG_RATES] = (0.7, -1.1)
+    start, end = np.array([1.5, 1.6]), np.array([2.3, 0.4])
+    ramp = RampTargets(start, end, 0.0, 0.05)
+    _, record = advance(config, state, 0.0, 0.05, ramp, record=True)
+    middle = advance(config, state, 0.0, 0.025, ramp)  # the same 8 substeps: the state at sample 8
+    assert record.times[8] == pytest.approx(0.025)
+    by_hand = kp * (0.5 * (start + end) - middle[dynamics.LEG_ANGLES]) + kd * ((end - start) / 0.05 - middle[dynamics.LEG_RATES])
+    np.testing.assert_allclose(record.torque[8], by_hand, rtol=1e-12, atol=1e-12)
+    # the target rate matters: the law without it (what a held target would give) is far off
+    held = kp * (0.5 * (start + end) - middle[dynamics.LEG_ANGLES]) - kd * middle[dynamics.LEG_RATES]
+    assert np.abs(held - record.torque[8]).max() > 0.5
+    # the leg rates in the record are the state's
+    np.testing.assert_allclose(record.leg_rates[8], middle[dynamics.LEG_RATES], rtol=0, atol=1e-15)
+
+
+def test_one_robot_and_a_batch_record_the_same_step():
+    states = np.tile(initial_state(), (3, 1))
+    states[1, dynamics.LEG_RATES] = (2.0, -3.0)
+    config = SimConfig()
+    _, batch = advance(config, states, 0.0, 0.05, FAST_LEGS, record=True)
+    for i in range(3):
+        _, one = advance(config, states[i], 0.0, 0.05, FAST_LEGS, record=True)
+        for field in ("torque", "force", "normal", "leg_clearance", "leg_rates"):
+            np.testing.assert_allclose(getattr(batch, field)[:, i], getattr(one, field), rtol=1e-11, atol=1e-12)
+
+
+def test_motor_limits_clip_the_torque_inside_the_integration_and_the_record_shows_it():
+    free = SimConfig()
+    limited = SimConfig(torque_limit=0.2, leg_rate_limit=10.0)
+    state = initial_state()
+    _, free_record = advance(free, state, 0.0, 0.2, FAST_LEGS, record=True)
+    out, record = advance(limited, state, 0.0, 0.2, FAST_LEGS, record=True)
+    assert np.abs(free_record.torque).max() > 0.5
+    rates = record.leg_rates
+    # at most the stall torque, and under the motor's torque-speed line: tau in [-T (1 + w/W), T (1 - w/W)]
+    assert np.abs(record.torque).max() == pytest.approx(0.2, rel=1e-12)
+    assert np.all(record.torque <= 0.2 * (1.0 - rates / 10.0) + 1e-12)
+    assert np.all(record.torque >= -0.2 * (1.0 + rates / 10.0) - 1e-12)
+    # the speed limit binds: the legs move differently from a torque limit alone
+    torque_only = advance(SimConfig(torque_limit=0.2), state, 0.0, 0.2, FAST_LEGS)
+    assert np.abs(out[dynamics.LEG_RATES] - torque_only[dynamics.LEG_RATES]).max() > 0.5
+    # and the clipped torque is what moved the legs: they lag far behind the free servo's
+    free_out = advance(free, state, 0.0, 0.2, FAST_LEGS)
+    assert np.abs(out[dynamics.LEG_ANGLES] - free_out[dynamics.LEG_ANGLES]).max() > 0.1
+
+
+def test_kinematic_legs_record_the_torque_their_motion_takes():
+    """The torque recorded for prescribed legs, fed back to the servo-free dynamics as a
+    torque, gives the prescribed leg acceleration."""
+    config = SimConfig(legs="kinematic", timestep=0.01)
+    state = initial_state()
+    state[dynamics.LEG_ANGLES] = FAST_LEGS.leg_targets(0.0)[0]
+    state[dynamics.LEG_RATES] = FAST_LEGS.leg_targets(0.0)[1]
+    _, record = advance(config, state, 0.0, 0.01, FAST_LEGS, record=True)
+    derivative = dynamics.state_derivative(state.tolist(), tuple(record.torque[0]), config.robot, config.depth)
+    np.testing.assert_allclose(derivative[11:13], FAST_LEGS.leg_targets(0.0)[2], rtol=1e-9, atol=1e-9)
+
+
+# ---------------------------------------------------------------------------
+# The env's model checks, read from the record
+
+
+def _env_after_grace(**kwargs):
+    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, **kwargs)
+    env.reset(seed=0)
+    for _ in range(2):  # 0.1 s at rest, legs vertical: past the start-up grace
+        _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
+        assert not terminated and info["slip_velocity"] == 0.0 and info["liftoff_fraction"] == 0.0
+    return env
+
+
+def test_a_held_target_jump_kicks_the_servo_with_the_full_step_at_once():
+    """action_hold="zero_order": the servo sees the whole jump at the first substep."""
+    action = np.array([0.3, 0.3], dtype=np.float32)
+    kicked = _env_after_grace(action_hold="zero_order", terminate_outside_model=False)
+    ramped = _env_after_grace(action_hold="linear", terminate_outside_model=False)
+    jump = 0.3 * 0.75 * math.pi  # rad: action 0.3 from the rest pose
+    kp = kicked.unwrapped.config.sim.gains.kp
+    _, _, _, _, kick = kicked.step(action)
+    _, _, _, _, ramp = ramped.step(action)
+    assert kick["torque_peak"] == pytest.approx(kp * jump, rel=1e-6)  # a float32 action
+    assert ramp["torque_peak"] < 0.6 * kp * jump
+
+
+def test_grip_beyond_friction_ends_the_episode_and_unlimited_grip_does_not():
+    """A target jump that needs 4x the normal force in grip but never pulls on the floor."""
+    action = np.array([0.3, 0.3], dtype=np.float32)
+    results = {}
+    for mu in (1.0, None):
+        env = _env_after_grace(action_hold="zero_order", friction_coefficient=mu)
+        _, reward, terminated, _, info = env.step(action)
+        results[mu] = (terminated, info)
+    slipping, info = results[1.0]
+    assert info["normal_force"] > 0.0 and info["liftoff_time"] == 0.0 and info["friction_ratio"] > 2.0
+    assert info["slip_velocity"] > 0.02 and slipping and info["outside_model"]
+    assert info["reward_forward"] == 0.0
+    holding, info = results[None]
+    assert info["slip_velocity"] == 0.0 and not holding and not info["outside_model"]
+
+
+def test_losing_ground_contact_for_longer_than_the_tolerance_ends_the_episode():
+    env = _env_after_grace(friction_coefficient=None, max_liftoff_time=0.005)
+    _, _, terminated, _, info = env.step(np.array([1.0, 1.0], dtype=np.float32))
+    assert info["normal_force"] < 0.0 and info["liftoff_time"] > 0.005 and 0.0 < info["liftoff_fraction"] <= 1.0
+    assert terminated and info["outside_model"] and info["reward_forward"] == 0.0
+    tolerant = _env_after_grace(friction_coefficient=None, max_liftoff_time=1.0, max_slip_velocity=10.0)
+    _, _, terminated, _, info = tolerant.step(np.array([1.0, 1.0], dtype=np.float32))
+    assert not terminated and info["liftoff_time"] > 0.005
+
+
+def test_the_pivot_joint_holds_any_force_so_nothing_lifts_off_or_slips():
+    env = _env_after_grace(model="pivot")
+    _, _, terminated, _, info = env.step(np.array([1.0, 1.0], dtype=np.float32))
+    assert info["normal_force"] < 0.0  # the joint pulls the shell down, which it may
+    assert info["liftoff_time"] == 0.0 and info["slip_velocity"] == 0.0 and not terminated
+
+
+def test_the_env_measures_come_from_the_same_step_the_env_integrated():
+    """The env's info equals the record of an independent `advance` of the same ramp."""
+    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=False)
+    env.reset(seed=0)
+    action = np.array([0.2, -0.1], dtype=np.float32)
+    before = env.unwrapped.state.copy()
+    _, _, _, _, info = env.step(action)
+    from rrrobot_gym.envs.task import action_to_leg_targets
+
+    config = env.unwrapped.config
+    ramp = RampTargets(before[dynamics.LEG_ANGLES], action_to_leg_targets(action), 0.0, config.dt)
+    after, record = advance(config.sim, before, 0.0, config.dt, ramp, record=True)
+    np.testing.assert_allclose(env.unwrapped.state, after, rtol=0, atol=1e-15)
+    assert info["torque_rms"] == pytest.approx(float(np.sqrt(np.mean(record.torque**2))), rel=1e-12)
+    assert info["normal_force"] == pytest.approx(float(record.normal.min()), rel=1e-12)
+    assert info["leg_rate_peak"] == pytest.approx(float(np.abs(record.leg_rates).max()), rel=1e-12)
