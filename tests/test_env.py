@@ -122,9 +122,12 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
         upright = np.array([info["x_upright"], info["y_upright"]])
         assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], abs=1e-12)
         assert info["forward_velocity"] == pytest.approx((upright - upright_before) @ heading / env.dt, abs=1e-12)
-        # travel while slipping, or in the start-up grace (first 0.1 s), earns nothing
-        # (with terminate_outside_model=False slip is not measured: NaN, and travel earns)
-        earned = not info["slip_velocity"] > env.config.max_slip_velocity and step * env.dt >= 0.1 - 1e-9
+        # travel while slipping or lifted off, or in the start-up grace (first 0.1 s), earns nothing;
+        # terminate_outside_model=False only keeps such a step from ending the episode
+        left_floor = (
+            info["slip_velocity"] > env.config.max_slip_velocity or info["liftoff_time"] > env.config.max_liftoff_time
+        )
+        earned = not left_floor and step * env.dt >= 0.1 - 1e-9
         expected_forward = 1.5 * 100.0 * info["forward_velocity"] if earned else 0.0
         earned_steps += earned
         assert info["reward_forward"] == pytest.approx(expected_forward, rel=1e-12, abs=1e-15)  # cm/s
