@@ -202,26 +202,37 @@ def _configuration(phi1, phi2, n, k):
     return ((lc1, ls1, sy1), (lc2, ls2, sy2)), inertia, (sx, sz), m_omega, (c1, c2)
 
 
-def _sym_solve(m, b0, b1, b2):
-    """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise)."""
+def _sym_inverse(m):
+    """Upper triangle (row-wise) of the inverse of a symmetric 3x3 m, by cofactors."""
     a, bb, c, d, e, f = m
     c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
     c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
     inv_det = 1.0 / (a * c00 + bb * c01 + c * c02)
-    return (
-        (c00 * b0 + c01 * b1 + c02 * b2) * inv_det,
-        (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
-        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
-    )
+    return (c00 * inv_det, c01 * inv_det, c02 * inv_det, c11 * inv_det, c12 * inv_det, c22 * inv_det)
 
 
-def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None):
+def _sym_apply(m, b0, b1, b2):
+    """m b for a symmetric 3x3 m given as its upper triangle (row-wise)."""
+    a, bb, c, d, e, f = m
+    return a * b0 + bb * b1 + c * b2, bb * b0 + d * b1 + e * b2, c * b0 + e * b1 + f * b2
+
+
+def _sym_solve(m, b0, b1, b2):
+    """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise)."""
+    return _sym_apply(_sym_inverse(m), b0, b1, b2)
+
+
+def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None, mobility_out=None):
     """:func:`state_derivative` with the constants precomputed by :func:`constants`.
 
     This is the implementation; the integrators call it directly to skip the
     per-call parameter arithmetic. With ``leg_accel`` (kinematic legs), a list
     ``torque_out`` receives the two leg torques that motion takes (from the legs' rows,
-    D phi'' + c_k . Omega' = f_leg + tau).
+    D phi'' + c_k . Omega' = f_leg + tau). With servo legs, a list ``mobility_out``
+    receives how the accelerations answer the leg torques, the legs' columns of M^-1:
+    (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j, 1/kg m^2, the body's recoil
+    included), then P_1 and P_2 (3 each), the body rows (d Omega' / d tau_k). The
+    linearly implicit integrator builds its servo Jacobian from them.
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
@@ -315,11 +326,21 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=No
             m_omega[4] - (c1y * h1z + c2y * h2z),
             m_omega[5] - (c1z * h1z + c2z * h2z),
         )
-        od0, od1, od2 = _sym_solve(
-            m_red, f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2)
+        m_red_inv = _sym_inverse(m_red)
+        od0, od1, od2 = _sym_apply(
+            m_red_inv, f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2)
         )
         acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
         acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
+        if mobility_out is not None:
+            # Legs' block of M^-1 = 1/D + H^T m_red^-1 H, H = C / D (block inverse by the Schur complement).
+            g1x, g1y, g1z = _sym_apply(m_red_inv, h1x, h1y, h1z)
+            g12 = h2x * g1x + h2y * g1y + h2z * g1z
+            g2x, g2y, g2z = _sym_apply(m_red_inv, h2x, h2y, h2z)
+            mobility_out[:] = (
+                inv_d + h1x * g1x + h1y * g1y + h1z * g1z, g12, inv_d + h2x * g2x + h2y * g2y + h2z * g2z,
+                -g1x, -g1y, -g1z, -g2x, -g2y, -g2z,
+            )  # fmt: skip
     else:
         acc1, acc2 = leg_accel[0], leg_accel[1]
         od0, od1, od2 = _sym_solve(

@@ -28,10 +28,14 @@ from . import dynamics
 from .control import limit_torque, pd_torque
 from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth
 
-INTEGRATORS = ("rk4", "rk3")
+INTEGRATORS = ("rk4", "rk3", "rosw")
 """Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
 Runge-Kutta (4 derivative evaluations a step); "rk3", Kutta's third-order method
-(3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark)."""
+(3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark);
+"rosw", the Rosenbrock-W method ROS34PW2 (4 evaluations and a 2x2 solve a step), linearly
+implicit in the leg servo, so no servo stability limit: it pays for stiff servos (kd = 5,
+kp = 200: 0.09 mm at 1/3000 s where RK4 needs 1/33,000 s), not for the default gains,
+where accuracy, not stability, sets the step (``python -m benchmarks.work_precision``)."""
 
 LEG_MODES = ("servo", "kinematic")
 """How the legs move (``SimConfig.legs``): "servo" integrates the PD servo with the
@@ -80,9 +84,16 @@ class SimConfig:
             raise TypeError(f"SimConfig.robot must be a RobotParams, got {type(self.robot).__name__}")
         if not isinstance(self.gains, PDGains):
             raise TypeError(f"SimConfig.gains must be a PDGains, got {type(self.gains).__name__}")
+        if self.integrator == "rosw" and self.legs != "servo":
+            raise ValueError("integrator 'rosw' treats the leg servo implicitly; kinematic legs have no servo: use 'rk4'")
         if isinstance(self.timestep, str):
             if self.timestep != "auto":
                 raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
+            if self.integrator == "rosw":
+                raise ValueError(
+                    "SimConfig.timestep='auto' is calibrated for the explicit integrators (rk4, rk3); "
+                    "give integrator 'rosw' a fixed step (see benchmarks.work_precision)"
+                )
             object.__setattr__(self, "_step", scene_timestep(self.model, self.robot, self.gains, self.legs, self.integrator))
             return
         try:
@@ -93,7 +104,7 @@ class SimConfig:
             raise ValueError(f"SimConfig.timestep must be a positive finite number of seconds, got {self.timestep}")
         object.__setattr__(self, "timestep", step)
         object.__setattr__(self, "_step", step)
-        if self.legs == "servo":
+        if self.legs == "servo" and self.integrator != "rosw":  # rosw treats the servo implicitly
             limit = stable_step_limit(self.model, self.robot, self.gains, self.integrator)
             if step > limit:
                 raise ValueError(
@@ -347,7 +358,8 @@ def _keep_freed_heap(num_robots: int):
 
 def _stage_fns(config: SimConfig, targets, blend=None):
     """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
-    components; first(t, c) -> (the same, the two leg torques applied).
+    components; first(t, c, mobility_out=None) -> (the same, the two leg torques applied),
+    filling ``mobility_out`` with the legs' block of M^-1 when asked (servo legs).
 
     The steppers call ``first`` at the start of every substep and ``f`` at the other stages,
     so the torques the integrator applied come from the evaluation it makes anyway.
@@ -373,7 +385,7 @@ def _stage_fns(config: SimConfig, targets, blend=None):
         def f(t, c):
             return kernel(c, None, k, accel(t))
 
-        def first(t, c):
+        def first(t, c, mobility_out=None):
             torque = [0.0, 0.0]
             return kernel(c, None, k, accel(t), torque), tuple(torque)
 
@@ -394,9 +406,9 @@ def _stage_fns(config: SimConfig, targets, blend=None):
     def f(t, c):
         return kernel(c, torque(t, c), k)
 
-    def first(t, c):
+    def first(t, c, mobility_out=None):
         applied = torque(t, c)
-        return kernel(c, applied, k), applied
+        return kernel(c, applied, k, mobility_out=mobility_out), applied
 
     return f, first
 
@@ -521,7 +533,152 @@ def _rk3_arrays(f, t, y, h, n_steps, first=None):
     return y
 
 
-_STEPPERS = {"rk4": (_rk4_floats, _rk4_arrays), "rk3": (_rk3_floats, _rk3_arrays)}
+# ROS34PW2 of Rang and Angermann (BIT 45, 2005): a Rosenbrock-W method, 4 stages, order 3 for
+# any approximate Jacobian, L-stable when it is exact, stiffly accurate. Stage i solves
+#     (I - h gamma A) k_i = h f(t + c_i h, y + sum_j a_ij k_j) + h A sum_j g_ij k_j,
+# and y_new = y + sum_i b_i k_i.
+_ROSW_GAMMA = 4.3586652150845900e-01
+_ROSW_A = ((), (8.7173304301691801e-01,), (8.4457060015369423e-01, -1.1299064236484185e-01), (0.0, 0.0, 1.0))
+_ROSW_G = (
+    (),
+    (-8.7173304301691801e-01,),
+    (-9.0338057013044082e-01, 5.4180672388095326e-02),
+    (2.4212380706095346e-01, -1.2232505839045147e00, 5.4526025533510214e-01),
+)
+_ROSW_B = (2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, 4.3586652150845900e-01)
+_ROSW_C = tuple(sum(row) for row in _ROSW_A)
+_LEGS = (6, 7)  # leg angle rows
+_LEG_RATE_ROWS = (11, 12)
+
+
+class _ServoJacobian:
+    """The stiff part of the dynamics that the Rosenbrock-W steps treat implicitly: the leg servo.
+
+    A acts on the leg angles and rates only: phi' = phidot (exact) and
+    phidot' = -G (kp phi + kd phidot), G the legs' block of M^-1 at the substep's start
+    (:func:`rrrobot_gym.dynamics.derivative_kernel`'s ``mobility_out``). The body's rows of A
+    are left out (a W-method keeps its order for any A); the servo's fast pole
+    (about -kd G, up to ~-400 1/s on a plane) is what the explicit steps had to resolve.
+    """
+
+    def __init__(self, gains, h):
+        self.kp, self.kd = gains.kp, gains.kd
+        self.hg = h * _ROSW_GAMMA
+        self.s = self.hg * (self.kd + self.hg * self.kp)
+
+    def set(self, g11, g12, g22, *body):
+        """Freeze A at G (and P, the body's rows) and factor I - h gamma A for the substep."""
+        self.g = (g11, g12, g22)
+        self.p = body
+        s = self.s
+        a, b, d = 1.0 + s * g11, s * g12, 1.0 + s * g22
+        inv_det = 1.0 / (a * d - b * b)
+        self.inv = (d * inv_det, -b * inv_det, a * inv_det)
+
+    def apply(self, w_phi1, w_phi2, w_v1, w_v2):
+        """A w: (leg angle rows, leg rate rows, body rate rows)."""
+        g11, g12, g22 = self.g
+        u1 = self.kp * w_phi1 + self.kd * w_v1
+        u2 = self.kp * w_phi2 + self.kd * w_v2
+        p = self.p
+        return (
+            (w_v1, w_v2),
+            (-(g11 * u1 + g12 * u2), -(g12 * u1 + g22 * u2)),
+            (-(p[0] * u1 + p[3] * u2), -(p[1] * u1 + p[4] * u2), -(p[2] * u1 + p[5] * u2)),
+        )
+
+    def solve(self, r_phi1, r_phi2, r_v1, r_v2, r_o1, r_o2, r_o3):
+        """(I - h gamma A)^-1 r on the leg and body rate rows (the other rows of I - h gamma A
+        are the identity): legs first, then the body rows, which A couples to the legs only."""
+        g11, g12, g22 = self.g
+        hg = self.hg
+        c = hg * self.kp
+        u1, u2 = r_v1 - c * (g11 * r_phi1 + g12 * r_phi2), r_v2 - c * (g12 * r_phi1 + g22 * r_phi2)
+        i11, i12, i22 = self.inv
+        v1, v2 = i11 * u1 + i12 * u2, i12 * u1 + i22 * u2
+        x1, x2 = r_phi1 + hg * v1, r_phi2 + hg * v2
+        t1 = hg * (self.kp * x1 + self.kd * v1)
+        t2 = hg * (self.kp * x2 + self.kd * v2)
+        p = self.p
+        return x1, x2, v1, v2, r_o1 - (p[0] * t1 + p[3] * t2), r_o2 - (p[1] * t1 + p[4] * t2), r_o3 - (p[2] * t1 + p[5] * t2)
+
+
+def _rosw_floats(f, t, y, h, n_steps, first, jacobian):
+    """ROS34PW2 on one robot as a list of 13 Python floats."""
+    mobility = [0.0] * 9
+    for _ in range(n_steps):
+        stages = []
+        for i in range(4):
+            if i == 0:
+                derivative = first(t, y, mobility)
+                jacobian.set(*mobility)
+                point = y
+            else:
+                point = list(y)
+                for a, kj in zip(_ROSW_A[i], stages):
+                    if a:
+                        point = [p + a * q for p, q in zip(point, kj)]
+                derivative = f(t + _ROSW_C[i] * h, point)
+            k = [h * d for d in derivative]
+            if i:
+                w = [sum(g * kj[r] for g, kj in zip(_ROSW_G[i], stages)) for r in (6, 7, 11, 12)]
+                (a1, a2), (b1, b2), (o1, o2, o3) = jacobian.apply(*w)
+                k[6] += h * a1
+                k[7] += h * a2
+                k[11] += h * b1
+                k[12] += h * b2
+                k[8] += h * o1
+                k[9] += h * o2
+                k[10] += h * o3
+            k[6], k[7], k[11], k[12], k[8], k[9], k[10] = jacobian.solve(k[6], k[7], k[11], k[12], k[8], k[9], k[10])
+            stages.append(k)
+        y = [a + sum(b * kj[r] for b, kj in zip(_ROSW_B, stages)) for r, a in enumerate(y)]
+        _normalize_quat_floats(y)
+        t += h
+    return y
+
+
+def _rosw_arrays(f, t, y, h, n_steps, first, jacobian):
+    """ROS34PW2 on a component-first batch y (13, N), in place."""
+    mobility = [None] * 9
+    stages = [np.empty_like(y) for _ in range(4)]
+    point = np.empty_like(y)
+    for _ in range(n_steps):
+        for i in range(4):
+            k = stages[i]
+            if i == 0:
+                derivative = first(t, y, mobility)
+                jacobian.set(*mobility)
+            else:
+                np.copyto(point, y)
+                for a, kj in zip(_ROSW_A[i], stages):
+                    if a == 1.0:
+                        point += kj
+                    elif a:
+                        point += a * kj
+                derivative = f(t + _ROSW_C[i] * h, point)
+            for r, d in enumerate(derivative):
+                np.multiply(d, h, out=k[r])
+            if i:
+                g = _ROSW_G[i]
+                w = [sum(gj * kj[r] for gj, kj in zip(g, stages)) for r in (6, 7, 11, 12)]
+                (a1, a2), (b1, b2), (o1, o2, o3) = jacobian.apply(*w)
+                k[6] += h * a1
+                k[7] += h * a2
+                k[11] += h * b1
+                k[12] += h * b2
+                k[8] += h * o1
+                k[9] += h * o2
+                k[10] += h * o3
+            k[6], k[7], k[11], k[12], k[8], k[9], k[10] = jacobian.solve(k[6], k[7], k[11], k[12], k[8], k[9], k[10])
+        for b, kj in zip(_ROSW_B, stages):
+            y += b * kj
+        y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        t += h
+    return y
+
+
+_STEPPERS = {"rk4": (_rk4_floats, _rk4_arrays), "rk3": (_rk3_floats, _rk3_arrays), "rosw": (_rosw_floats, _rosw_arrays)}
 
 
 def _leg_path_end(targets, blend, t_end):
@@ -575,8 +732,8 @@ class _Recorder:
         self._rows = [] if num_robots is None else np.empty((n_steps, _RECORD_ROWS, num_robots))
         self._i = 0
 
-    def __call__(self, t, c):
-        derivative, torque = self._first(t, c)
+    def __call__(self, t, c, mobility_out=None):
+        derivative, torque = self._first(t, c, mobility_out)
         fx, fy, fz, normal, clear1, clear2 = self._contact(c, derivative, self._k)
         row = (torque[0], torque[1], fx, fy, fz, normal, clear1, clear2, c[11], c[12])
         if isinstance(self._rows, list):
@@ -686,6 +843,16 @@ def advance(config: SimConfig, state, t0: float, duration: float, targets, *, ch
     f, first = _stage_fns(config, targets, blend)
     recorder = _Recorder(first, config, n_steps, None if state.ndim == 1 else state.shape[0]) if record else None
     step_floats, step_arrays = _STEPPERS[config.integrator]
+    if config.integrator == "rosw":
+        start = recorder if recorder is not None else (lambda t, c, mobility: first(t, c, mobility)[0])
+        jacobian = _ServoJacobian(config.gains, h)
+
+        def step_floats(f, t, y, h, n, _first, stepper=step_floats):  # noqa: E306
+            return stepper(f, t, y, h, n, start, jacobian)
+
+        def step_arrays(f, t, y, h, n, _first, stepper=step_arrays):  # noqa: E306
+            return stepper(f, t, y, h, n, start, jacobian)
+
     if state.ndim == 1:
         try:
             out = np.array(step_floats(f, t0, state.tolist(), h, n_steps, recorder))
