@@ -219,7 +219,15 @@ def _sym_apply(m, b0, b1, b2):
 
 def _sym_solve(m, b0, b1, b2):
     """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise)."""
-    return _sym_apply(_sym_inverse(m), b0, b1, b2)
+    a, bb, c, d, e, f = m
+    c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
+    c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
+    inv_det = 1.0 / (a * c00 + bb * c01 + c * c02)
+    return (
+        (c00 * b0 + c01 * b1 + c02 * b2) * inv_det,
+        (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
+        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
+    )
 
 
 def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None, mobility_out=None):
@@ -326,10 +334,12 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=No
             m_omega[4] - (c1y * h1z + c2y * h2z),
             m_omega[5] - (c1z * h1z + c2z * h2z),
         )
-        m_red_inv = _sym_inverse(m_red)
-        od0, od1, od2 = _sym_apply(
-            m_red_inv, f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2)
-        )
+        rhs = (f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2))
+        if mobility_out is None:
+            od0, od1, od2 = _sym_solve(m_red, *rhs)
+        else:
+            m_red_inv = _sym_inverse(m_red)
+            od0, od1, od2 = _sym_apply(m_red_inv, *rhs)
         acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
         acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
         if mobility_out is not None:
