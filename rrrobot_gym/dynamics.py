@@ -97,7 +97,7 @@ class Constants(tuple):
 
 _CONSTANT_NAMES = (
     "radius", "leg_length", "mass_tip", "depth", "gravity", "damping", "leg_inertia", "inv_leg_inertia",
-    "ixx0", "iyy", "izz0", "ml_r", "mb_r", "total_h2", "two_ml", "neg_ml", "neg_ml_l2", "ml_h",
+    "ixx0", "iyy", "izz0", "ml_r", "mb_r", "total_h2", "two_ml", "neg_ml", "neg_ml_l2", "ml_h", "total_h", "weight",
 )  # fmt: skip
 
 
@@ -127,6 +127,8 @@ def constants(params: RobotParams, depth: float) -> Constants:
         "neg_ml": -ml,
         "neg_ml_l2": -ml * l * l,
         "ml_h": ml * h,
+        "total_h": params.total_mass * h,
+        "weight": params.total_mass * params.gravity,
     }
     return Constants(values[name] for name in _CONSTANT_NAMES)
 
@@ -230,7 +232,9 @@ def _sym_solve(m, b0, b1, b2):
     )
 
 
-def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None, mobility_out=None):
+def derivative_kernel(
+    c, leg_torque, k: Constants, leg_accel=None, torque_out=None, mobility_out=None, contact_out=None
+):
     """:func:`state_derivative` with the constants precomputed by :func:`constants`.
 
     This is the implementation; the integrators call it directly to skip the
@@ -240,7 +244,9 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=No
     receives how the accelerations answer the leg torques, the legs' columns of M^-1:
     (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j, 1/kg m^2, the body's recoil
     included), then P_1 and P_2 (3 each), the body rows (d Omega' / d tau_k). The
-    linearly implicit integrator builds its servo Jacobian from them.
+    linearly implicit integrator builds its servo Jacobian from them. A list
+    ``contact_out`` receives :func:`contact_kernel`'s six values for this state and the
+    derivative returned, from the terms already computed here (the integrators' record).
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
@@ -362,7 +368,48 @@ def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=No
                 inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
                 inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
             )
+    if contact_out is not None:
+        contact_out[:] = _contact_force(
+            (nx, ny, nz), legs, (sx, sz), (ox, oy, oz), (rate1, rate2), (od0, od1, od2), (acc1, acc2),
+            r, ml, k[18], k[19],
+        )  # fmt: skip
     return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
+
+
+def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r, ml, total_h, weight):
+    """Newton's second law for the whole robot: the force on the shell from the ground
+    (pivot: the joint) in body coordinates, its part along world up, and each leg tip's
+    height above the ground. See :func:`contact_kernel`; ``legs`` as :func:`_configuration`'s."""
+    nx, ny, nz = n
+    (lc1, ls1, _), (lc2, ls2, _) = legs
+    sx, sz = first_moment
+    ox, oy, oz = omega
+    dox, doy, doz = omega_dot
+    # Omega' x (m h n + S)
+    ax, ay, az = total_h * nx + sx, total_h * ny, total_h * nz + sz
+    fx = doy * az - doz * ay
+    fy = doz * ax - dox * az
+    fz = dox * ay - doy * ax
+    # Omega x (Omega x S) = Omega (Omega.S) - S |Omega|^2
+    o_s = ox * sx + oz * sz
+    o_sq = ox * ox + oy * oy + oz * oz
+    fx = fx + ox * o_s - sx * o_sq
+    fy = fy + oy * o_s
+    fz = fz + oz * o_s - sz * o_sq
+    # Each leg: Ml (e phi'' + 2 phi' Omega x e + a phi'^2), e = (-ls, 0, lc), a = -(lc, 0, ls).
+    for lc, ls, rate, acc in ((lc1, ls1, rates[0], leg_accels[0]), (lc2, ls2, rates[1], leg_accels[1])):
+        two_rate = 2.0 * rate
+        rate_sq = rate * rate
+        fx = fx + ml * (two_rate * (oy * lc) - ls * acc - lc * rate_sq)
+        fy = fy - ml * (two_rate * (oz * ls + ox * lc))
+        fz = fz + ml * (lc * acc + two_rate * (oy * ls) - ls * rate_sq)
+    fx = fx + weight * nx
+    fy = fy + weight * ny
+    fz = fz + weight * nz
+    normal = fx * nx + fy * ny + fz * nz
+    clearance1 = r + lc1 * nx - r * ny + ls1 * nz
+    clearance2 = r + lc2 * nx + r * ny + ls2 * nz
+    return fx, fy, fz, normal, clearance1, clearance2
 
 
 class ContactConstants(NamedTuple):
@@ -402,47 +449,17 @@ def contact_kernel(c, d, k: ContactConstants):
     component along world up (N), and each leg tip's height above the ground (m).
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
-    ox, oy, oz = c[8], c[9], c[10]
-    rate1, rate2 = c[11], c[12]
-    dox, doy, doz = d[8], d[9], d[10]
-    acc1, acc2 = d[11], d[12]
-    r, l, ml, h, g = k.radius, k.leg_length, k.mass_tip, k.depth, k.gravity
+    l, ml = k.leg_length, k.mass_tip
     two_over_norm = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
     tqx, tqy = qx * two_over_norm, qy * two_over_norm
-    nx = qz * tqx - qw * tqy
-    ny = qz * tqy + qw * tqx
-    nz = 1.0 - (qx * tqx + qy * tqy)
+    n = (qz * tqx - qw * tqy, qz * tqy + qw * tqx, 1.0 - (qx * tqx + qy * tqy))
     cos1, sin1, cos2, sin2 = _leg_trig(c[6], c[7])
     lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
-    sx = ml * (lc1 + lc2)
-    sz = ml * (ls1 + ls2) - k.mb_r
-    # Omega' x (m h n + S)
-    mh = k.total_mass * h
-    ax, ay, az = mh * nx + sx, mh * ny, mh * nz + sz
-    fx = doy * az - doz * ay
-    fy = doz * ax - dox * az
-    fz = dox * ay - doy * ax
-    # Omega x (Omega x S) = Omega (Omega.S) - S |Omega|^2
-    o_s = ox * sx + oz * sz
-    o_sq = ox * ox + oy * oy + oz * oz
-    fx = fx + ox * o_s - sx * o_sq
-    fy = fy + oy * o_s
-    fz = fz + oz * o_s - sz * o_sq
-    # Legs: e = (-ls, 0, lc), Omega x e = (oy lc, -(oz ls + ox lc)... ) written out, a = -(lc, 0, ls).
-    for lc, ls, rate, acc in ((lc1, ls1, rate1, acc1), (lc2, ls2, rate2, acc2)):
-        two_rate = 2.0 * rate
-        rate_sq = rate * rate
-        fx = fx + ml * (-ls * acc + two_rate * (oy * lc) - lc * rate_sq)
-        fy = fy + ml * (two_rate * (oz * (-ls) - ox * lc))
-        fz = fz + ml * (lc * acc + two_rate * (-oy * (-ls)) - ls * rate_sq)
-    mg = k.total_mass * g
-    fx = fx + mg * nx
-    fy = fy + mg * ny
-    fz = fz + mg * nz
-    normal = fx * nx + fy * ny + fz * nz
-    clearance1 = r + lc1 * nx - r * ny + ls1 * nz
-    clearance2 = r + lc2 * nx + r * ny + ls2 * nz
-    return fx, fy, fz, normal, clearance1, clearance2
+    first_moment = (ml * (lc1 + lc2), ml * (ls1 + ls2) - k.mb_r)
+    return _contact_force(
+        n, ((lc1, ls1, None), (lc2, ls2, None)), first_moment, (c[8], c[9], c[10]), (c[11], c[12]),
+        (d[8], d[9], d[10]), (d[11], d[12]), k.radius, ml, k.total_mass * k.depth, k.total_mass * k.gravity,
+    )  # fmt: skip
 
 
 def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):

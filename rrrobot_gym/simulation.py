@@ -358,8 +358,9 @@ def _keep_freed_heap(num_robots: int):
 
 def _stage_fns(config: SimConfig, targets, blend=None):
     """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
-    components; first(t, c, mobility_out=None) -> (the same, the two leg torques applied),
-    filling ``mobility_out`` with the legs' block of M^-1 when asked (servo legs).
+    components; first(t, c, mobility_out=None, contact_out=None) -> (the same, the two leg
+    torques applied), filling ``mobility_out`` (servo legs) and ``contact_out`` when asked
+    (:func:`rrrobot_gym.dynamics.derivative_kernel`).
 
     The steppers call ``first`` at the start of every substep and ``f`` at the other stages,
     so the torques the integrator applied come from the evaluation it makes anyway.
@@ -385,9 +386,9 @@ def _stage_fns(config: SimConfig, targets, blend=None):
         def f(t, c):
             return kernel(c, None, k, accel(t))
 
-        def first(t, c, mobility_out=None):
+        def first(t, c, mobility_out=None, contact_out=None):
             torque = [0.0, 0.0]
-            return kernel(c, None, k, accel(t), torque), tuple(torque)
+            return kernel(c, None, k, accel(t), torque, contact_out=contact_out), tuple(torque)
 
         return f, first
     gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
@@ -406,9 +407,9 @@ def _stage_fns(config: SimConfig, targets, blend=None):
     def f(t, c):
         return kernel(c, torque(t, c), k)
 
-    def first(t, c, mobility_out=None):
+    def first(t, c, mobility_out=None, contact_out=None):
         applied = torque(t, c)
-        return kernel(c, applied, k, mobility_out=mobility_out), applied
+        return kernel(c, applied, k, mobility_out=mobility_out, contact_out=contact_out), applied
 
     return f, first
 
@@ -727,14 +728,13 @@ class _Recorder:
 
     def __init__(self, first, config: SimConfig, n_steps: int, num_robots: int | None):
         self._first = first
-        self._contact = dynamics.contact_kernel
-        self._k = dynamics.contact_constants(config.robot, config.depth)
+        self._contact = [None] * 6
         self._rows = [] if num_robots is None else np.empty((n_steps, _RECORD_ROWS, num_robots))
         self._i = 0
 
     def __call__(self, t, c, mobility_out=None):
-        derivative, torque = self._first(t, c, mobility_out)
-        fx, fy, fz, normal, clear1, clear2 = self._contact(c, derivative, self._k)
+        derivative, torque = self._first(t, c, mobility_out, self._contact)
+        fx, fy, fz, normal, clear1, clear2 = self._contact
         row = (torque[0], torque[1], fx, fy, fz, normal, clear1, clear2, c[11], c[12])
         if isinstance(self._rows, list):
             self._rows.append(row)
