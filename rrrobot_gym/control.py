@@ -149,6 +149,7 @@ class RampTargets:
         split = (lambda a: tuple(a.tolist())) if start.ndim == 1 else (lambda a: (a[:, 0].copy(), a[:, 1].copy()))
         self._start, self._end, self._slope = split(start), split(end), split(slope)
         self._still = split(np.zeros_like(start))
+        self._change = split(end - start)
 
     def leg_targets(self, t):
         s = (t - self.t0) / self.duration
@@ -156,6 +157,7 @@ class RampTargets:
         # rate must not depend on which side of it rounding lands.
         if s > 1.0 + 1e-9:
             return self._end, self._still, self._still
-        s = max(s, 0.0)
-        angles = tuple(a + (b - a) * s for a, b in zip(self._start, self._end))
-        return angles, self._slope, self._still
+        if s < 0.0:
+            s = 0.0
+        (a1, a2), (d1, d2) = self._start, self._change
+        return (a1 + d1 * s, a2 + d2 * s), self._slope, self._still
