@@ -30,7 +30,7 @@ import numpy as np
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import HeldTargets, table2_gait
 from rrrobot_gym.params import PDGains, RobotParams
-from rrrobot_gym.simulation import _STEPPERS, SimConfig, _kinematic_path, advance, initial_state
+from rrrobot_gym.simulation import _STEPPERS, SimConfig, _kinematic_path, _ServoJacobian, advance, initial_state
 
 from ._common import (
     attitude_error,
@@ -45,17 +45,21 @@ from ._common import (
 
 ENV_STEP = 0.05
 """s, the control step of the environment; the integration step is ENV_STEP / n."""
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3}
+EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4}
 BUDGET_M = 1e-3
 
 
 def settings(quick: bool):
     """(legs, integrator, n or "auto") to sweep."""
     if quick:
-        servo = {"rk4": (10, 15, 20), "rk3": (17,)}
+        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8)}
         kinematic = {"rk4": (1, 3)}
     else:
-        servo = {"rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30), "rk3": (6, 7, 8, 12, 15, 16, 17, 20, 25, 30)}
+        servo = {
+            "rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30),
+            "rk3": (6, 7, 8, 12, 15, 16, 17, 20, 25, 30),
+            "rosw": (4, 6, 8, 10, 15, 20, 30),
+        }
         kinematic = {"rk4": (1, 2, 3, 5), "rk3": (1, 2, 3, 5)}
     out = [("servo", integ, n) for integ, ns in servo.items() for n in ns]
     out += [("servo", "rk4", "auto")]
@@ -106,10 +110,17 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
 
     stepper = _STEPPERS[integrator][0]
     steps_per_env = round(ENV_STEP / step)
+    extra = ()
+    if integrator == "rosw":  # its Jacobian is the default servo's (a W-method keeps its order for any)
+
+        def first(t, c, mobility_out=None):
+            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
+
+        extra = (first, _ServoJacobian(PDGains(), ENV_STEP / steps_per_env))
     y = state.tolist()
     energies = [float(dynamics.total_energy(state, robot, model))]
     for i in range(round(duration / ENV_STEP)):
-        y = stepper(f, i * ENV_STEP, y, ENV_STEP / steps_per_env, steps_per_env)
+        y = stepper(f, i * ENV_STEP, y, ENV_STEP / steps_per_env, steps_per_env, *extra)
         energies.append(float(dynamics.total_energy(np.array(y), robot, model)))
     energies = np.array(energies)
     return float(np.max(np.abs(energies - energies[0])) / abs(energies[0]))
