@@ -18,6 +18,8 @@ integrated on Python floats, which is several times faster than numpy at N = 1.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import functools
 import math
 from dataclasses import dataclass, field, replace
@@ -326,34 +328,40 @@ class SmoothStart:
 # ---------------------------------------------------------------------------
 # Fixed-step integration.
 
-_heap_kept = 0
+_GLIBC_DEFAULT_TRIM_THRESHOLD = 128 * 1024
+"""bytes, glibc's M_TRIM_THRESHOLD: freed memory at the heap's top beyond this goes back to the OS."""
 
 
-def _keep_freed_heap(num_robots: int):
-    """Stop glibc from handing freed heap back to the OS after every batch of temporaries.
+@contextlib.contextmanager
+def _freed_heap_kept(num_robots: int):
+    """While a batch is integrated, keep glibc from handing freed heap back to the OS.
 
     A derivative evaluation on N robots allocates and frees ~250 temporary arrays of
     8N bytes. With glibc's default trim threshold (128 KiB) the top of the heap is
-    returned to the OS and faulted back in page by page on the next evaluation:
-    at N = 4096 that makes an evaluation ~3.7x slower (1.5 ms instead of 0.4 ms).
-    Raising the threshold to the batch's working set (process-wide, monotone: the
-    heap keeps up to that much freed memory) removes the faults. No-op elsewhere.
+    returned to the OS after every evaluation and faulted back in page by page on the
+    next: at N = 4096 that makes a batch step 2-4x slower. The threshold is raised to
+    the batch's working set for the duration of the call only and put back to glibc's
+    default afterwards (a process that set its own M_TRIM_THRESHOLD gets the default back).
+    Does nothing off glibc.
     """
-    global _heap_kept
-    wanted = max(64 << 20, 4096 * num_robots)
-    if wanted <= _heap_kept:
+    mallopt = _mallopt()
+    if mallopt is None:
+        yield
         return
-    _heap_kept = wanted
+    m_trim_threshold = -1
+    mallopt(m_trim_threshold, ctypes.c_int(min(max(64 << 20, 4096 * num_robots), 2**31 - 1)))
     try:
-        import ctypes
+        yield
+    finally:
+        mallopt(m_trim_threshold, ctypes.c_int(_GLIBC_DEFAULT_TRIM_THRESHOLD))
 
-        libc = ctypes.CDLL(None)
-        mallopt = libc.mallopt
+
+@functools.lru_cache(maxsize=1)
+def _mallopt():
+    try:
+        return ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):  # not glibc: nothing to tune
-        return
-    m_trim_threshold, m_mmap_threshold = -1, -3
-    mallopt(m_trim_threshold, ctypes.c_int(min(wanted, 2**31 - 1)))
-    mallopt(m_mmap_threshold, ctypes.c_int(32 << 20))
+        return None
 
 
 def _stage_fns(config: SimConfig, targets, blend=None):
@@ -867,14 +875,14 @@ def advance(
             raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
         records = [recorder]
     else:
-        if state.shape[0] >= 1024:
-            _keep_freed_heap(state.shape[0])
         blocks = np.array_split(np.arange(state.shape[0]), min(num_threads, state.shape[0]))
-        if len(blocks) == 1:
-            results = [_integrate_block(config, targets, blend, state, t0, h, n_steps, record, None)]
-        else:
-            work = functools.partial(_integrate_block, config, targets, blend, state, t0, h, n_steps, record)
-            results = list(_thread_pool(len(blocks)).map(work, [slice(b[0], b[-1] + 1) for b in blocks]))
+        heap = _freed_heap_kept(state.shape[0]) if state.shape[0] >= 1024 else contextlib.nullcontext()
+        with heap:
+            if len(blocks) == 1:
+                results = [_integrate_block(config, targets, blend, state, t0, h, n_steps, record, None)]
+            else:
+                work = functools.partial(_integrate_block, config, targets, blend, state, t0, h, n_steps, record)
+                results = list(_thread_pool(len(blocks)).map(work, [slice(b[0], b[-1] + 1) for b in blocks]))
         out = np.concatenate([block for block, _ in results]) if len(results) > 1 else results[0][0]
         records = [recorder for _, recorder in results]
     if config.legs == "kinematic":

@@ -55,3 +55,16 @@ def test_rosw_refuses_what_it_cannot_do():
         SimConfig(legs="kinematic", integrator="rosw")
     with pytest.raises(ValueError, match="fixed step"):
         SimConfig(integrator="rosw", timestep="auto")
+
+
+def test_a_large_batch_raises_glibcs_trim_threshold_only_while_it_integrates(monkeypatch):
+    """The malloc tuning that keeps big batches fast is scoped to the call, not left on the process."""
+    calls = []
+    monkeypatch.setattr(simulation, "_mallopt", lambda: lambda option, value: calls.append((option, value.value)))
+    states = simulation.initial_state(1024)
+    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
+    assert [option for option, _ in calls] == [-1, -1]  # M_TRIM_THRESHOLD, raised then put back
+    assert calls[0][1] >= 64 << 20 and calls[1][1] == 128 * 1024
+    calls.clear()
+    simulation.advance(SimConfig(), states[:100], 0.0, 0.01, table2_gait(1))
+    assert calls == []  # small batches leave malloc alone
