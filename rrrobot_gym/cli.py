@@ -65,6 +65,11 @@ def _positive_seconds(text: str) -> float:
     return value
 
 
+def _timestep(text: str):
+    """A positive number of seconds (1/300 is accepted), or "auto": the step SimConfig derives from the scene."""
+    return "auto" if text.strip() == "auto" else _positive_seconds(text)
+
+
 def _robot_param(text: str):
     """NAME=VALUE for a field of RobotParams (other than damping, which has its own option)."""
     names = [f.name for f in fields(RobotParams) if f.name != "damping"]
@@ -133,7 +138,10 @@ def _add_run_options(parser):
     )
     parser.add_argument("--sample-dt", type=_positive_seconds, default=0.01, help="s between samples (default: %(default)g)")
     parser.add_argument(
-        "--timestep", type=_positive_seconds, default=DEFAULT_TIMESTEP, help="s, RK4 step (default: 1/300)"
+        "--timestep",
+        type=_timestep,
+        default=DEFAULT_TIMESTEP,
+        help="s, RK4 step, or 'auto': derived from the gains, masses and model (default: 1/300)",
     )
 
 
@@ -341,7 +349,8 @@ def run_figures(args) -> None:
         "command": args.command_line,
         "duration_s": args.duration,
         "sample_dt_s": args.sample_dt,
-        "timestep_s": args.timestep,
+        "timestep_s": configs["plane"].step,
+        "timestep_option": args.timestep,
         "gains": asdict(configs["plane"].gains),
         "robot": asdict(configs["plane"].robot),
     }
@@ -382,7 +391,8 @@ def format_summary(settings, summaries, table) -> str:
     lines = [
         f"made by: {settings['command']}",
         f"Travel of the Table II gaits, {settings['duration_s']:g} s from rest "
-        f"(RK4 step {settings['timestep_s']:.4g} s, Kp {gains['kp']:g}, Kd {gains['kd']:g}, "
+        f"(RK4 step {settings['timestep_s']:.4g} s{' (auto, plane)' if settings['timestep_option'] == 'auto' else ''}, "
+        f"Kp {gains['kp']:g}, Kd {gains['kd']:g}, "
         f"damping {settings['robot']['damping']:g})",
         "measured on the contact path averaged over each gait period (2 pi / 8 s);",
         "direction of the net displacement from +X, counter-clockwise; turning: signed change of heading, CCW +;",

@@ -148,6 +148,8 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         (("--model", "plane", "--gait", "1", "--param", "mass_tip=-0.1"), "mass_tip"),
         (("--model", "pivot", "--gait", "1", "--param", "mass_bottom=-1"), "mass_bottom"),
         (("--model", "plane", "--gait", "1", "--kp", "-2"), "kp"),
+        (("--model", "plane", "--gait", "1", "--timestep", "automatic"), "--timestep"),
+        (("--model", "plane", "--gait", "1", "--timestep", "1/50"), "stability limit"),
     ],
 )
 def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
@@ -158,6 +160,18 @@ def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
     error_lines = [line for line in result.stderr.splitlines() if "error:" in line]
     assert len(error_lines) == 1 and problem in error_lines[0], result.stderr
     assert not (tmp_path / "run.npz").exists()
+
+
+def test_simulate_takes_the_scene_derived_step(tmp_path):
+    """--timestep auto with 100x stiffer gains: the auto step follows them, where the default
+    1/300 s step would be refused as unstable."""
+    refused = rrrobot("simulate", "--model", "pivot", "--gait", "1", "--duration", "0.05", "--kp", "200", "--kd", "5",
+                      "--out", tmp_path / "fixed.npz", check=False)  # fmt: skip
+    assert refused.returncode == 2 and "timestep='auto'" in refused.stderr
+    rrrobot("simulate", "--model", "pivot", "--gait", "1", "--duration", "0.05", "--kp", "200", "--kd", "5",
+            "--timestep", "auto", "--out", tmp_path / "auto.npz")  # fmt: skip
+    data = np.load(tmp_path / "auto.npz")
+    assert np.all(np.isfinite(data["phi"])) and data["t"][-1] == pytest.approx(0.05)
 
 
 # ---------------------------------------------------------------- figures
