@@ -210,12 +210,60 @@ def test_bad_actions_raise_value_error_naming_the_problem(action, message):
         ({"exclude_current_positions_from_observation": "yes"}, TypeError, "exclude_current_positions"),
         ({"render_mode": "video"}, ValueError, "render_mode"),
         ({"width": 10}, ValueError, "width"),
+        ({"legs": "wheels"}, ValueError, "legs"),
+        ({"timestep": "fast"}, ValueError, "timestep"),
+        ({"torque_limit": 0.0}, ValueError, "torque_limit"),
+        ({"leg_rate_limit": 5.0}, ValueError, "leg_rate_limit"),  # needs a torque_limit
+        ({"legs": "kinematic", "torque_limit": 0.1}, ValueError, "torque_limit"),
     ],
 )
 @pytest.mark.filterwarnings("ignore:.*render_mode='video'")
 def test_bad_keywords_raise_at_construction_naming_the_keyword(kwargs, error, name):
     with pytest.raises(error, match=name):
         gymnasium.make("RRRobot-v0", **kwargs)
+
+
+def short_episode(steps=20, **kwargs):
+    """Positions and infos of ``steps`` steps of Table II's Gait 1, from the same seeded start."""
+    env = gymnasium.make("RRRobot-v0", **kwargs)
+    env.reset(seed=3)
+    gait, rows = table2_gait(1), []
+    for k in range(steps):
+        _, _, terminated, _, info = env.step(leg_targets_to_action(gait.angles((k + 1) * env.unwrapped.dt)))
+        assert not terminated and not info["numerical_failure"], (kwargs, k, info)
+        rows.append(info)
+    return np.array([(i["x_position"], i["y_position"]) for i in rows]), rows
+
+
+@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"integrator": "rk3"}])
+def test_simulator_keywords_run_an_episode_that_differs_from_the_default(kwargs):
+    default, _ = short_episode()
+    other, _ = short_episode(**kwargs)
+    difference = np.max(np.abs(other - default))
+    assert 1e-9 < difference < 1e-2  # m: another simulation of the same motion, not another motion
+
+
+def test_torque_limit_caps_the_leg_torque_the_step_reports():
+    _, free = short_episode()
+    assert max(info["torque_peak"] for info in free) > 0.1  # N m: the gait's start needs more
+    for motor in ({"torque_limit": 0.05}, {"torque_limit": 0.05, "leg_rate_limit": 20.0}):
+        _, limited = short_episode(**motor)
+        assert max(info["torque_peak"] for info in limited) <= 0.05 + 1e-12
+
+
+def test_a_stiff_servo_refused_at_the_default_step_runs_as_the_error_suggests():
+    """SimConfig's message recommends timestep='auto' or legs='kinematic': both are env keywords."""
+    stiff = {"kp": 200.0, "kd": 5.0}
+    with pytest.raises(ValueError, match="timestep='auto', or legs='kinematic'"):
+        gymnasium.make("RRRobot-v0", **stiff)
+    for fix in ({"timestep": "auto"}, {"legs": "kinematic"}):
+        env = gymnasium.make("RRRobot-v0", **stiff, **fix)
+        env.reset(seed=0)
+        assert env.step(np.zeros(2, dtype=np.float32))[-1]["numerical_failure"] is False
+        vector = gymnasium.make_vec("RRRobot-v0", num_envs=2, **stiff, **fix)
+        vector.reset(seed=0)
+        assert not vector.step(np.zeros((2, 2), dtype=np.float32))[-1]["numerical_failure"].any()
+    assert gymnasium.make("RRRobot-v0", timestep="auto").unwrapped.config.sim.timestep == "auto"
 
 
 def test_bad_reset_options_raise():

@@ -6,11 +6,15 @@ import gymnasium
 import numpy as np
 from gymnasium.utils import EzPickle
 
-from ..control import HeldTargets
-from ..simulation import DEFAULT_TIMESTEP, advance
 from . import render, task
 
 RENDER_MODES = ("human", "rgb_array")
+RENDER_ARGUMENTS = (
+    ("render_mode", "str \\| None", "`None`", '`"rgb_array"` or `"human"`'),
+    ("width", "int", "`800`", "pixels of a rendered frame (a top view and a side view)"),
+    ("height", "int", "`400`", "pixels of a rendered frame"),
+)
+"""The envs' own keywords (name, type, default, doc), after the task's in the Arguments table."""
 
 
 class RRRobotEnv(gymnasium.Env, EzPickle):
@@ -140,7 +144,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        modelled), or, on a plane, the floor could not give the force rolling needs, a pull
        (hop) or grip beyond `friction_coefficient` (default 1.0; None: unlimited), for long
        enough in one step that the shell would slip or hop at more than `max_slip_velocity`
-       (default 0.05 m/s; `info["slip_velocity"]` is the missing impulse over the step per
+       (default 0.02 m/s; `info["slip_velocity"]` is the missing impulse over the step per
        unit mass, sampled when the action starts to act and after every integration step).
        A servo kick makes millisecond spikes that slip the shell by microns and do not
        count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
@@ -163,29 +167,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     env = gym.make("RRRobot-v0", model="pivot", target_direction=0.5 * 3.14159, ...)
     ```
 
-    | Parameter                                    | Type                | Default      | Description |
-    |----------------------------------------------|---------------------|--------------|-------------|
-    | `frame_skip`                                 | **int**             | `15`         | integrator steps per control step |
-    | `timestep`                                   | **float**           | `1/300`      | s, the RK4 step; `dt` = `frame_skip` x `timestep` |
-    | `integrator`                                 | **str**             | `"rk4"`      | fixed-step integrator (`rrrobot_gym.simulation.INTEGRATORS`) |
-    | `model`                                      | **str**             | `"plane"`    | `"plane"` (rolling on a plane) or `"pivot"` (the paper's Pivoting Dynamics model) |
-    | `robot`                                      | **RobotParams**     | `RobotParams()` | geometry, masses, gravity, damping (`rrrobot_gym.params`) |
-    | `kp`                                         | **float**           | `2.0`        | N m/rad, leg servo stiffness |
-    | `kd`                                         | **float**           | `0.05`       | N m s/rad, leg servo damping |
-    | `damping`                                    | **float \| None**   | `None`       | N m s/rad, body damping k (<= 0); None keeps `robot.damping` (-0.01) |
-    | `forward_reward_weight`                      | **float**           | `1.0`        | weight of the forward term (reward per cm/s) |
-    | `ctrl_cost_weight`                           | **float**           | `0.01`       | weight of the control cost (>= 0) |
-    | `reset_noise_scale`                          | **float**           | `0.01`       | half-width of the uniform start noise (>= 0) |
-    | `exclude_current_positions_from_observation` | **bool**            | `True`       | leave the contact point (x, y) out of the observation |
-    | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
-    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor (plane); None: unlimited |
-    | `max_slip_velocity`                          | **float**           | `0.05`       | m/s: a step whose slip or hop exceeds this leaves the model |
-    | `healthy_reward`                             | **float**           | `0.0`        | reward for each step that does not end the episode (`reward_survive`) |
-    | `clock_frequency`                            | **float \| None**   | `None`       | rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation |
-    | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
-    | `action_hold`                                | **str**             | `"linear"`   | "linear": targets ramp over each step; "zero_order": jump and hold |
-    | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
-    | `width`, `height`                            | **int**             | `800`, `400` | pixels of a rendered frame (a top view and a side view) |
+    The keywords are the fields of `rrrobot_gym.envs.task.TaskConfig` (this table and the
+    signature are generated from them), then the rendering keywords:
+
+    {arguments_table}
 
     Unknown keywords raise a `TypeError`, invalid values a `ValueError`, at construction.
     `gymnasium.make_vec("RRRobot-v0", num_envs=N)` gives the native batched
@@ -197,56 +182,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 20}
 
-    def __init__(
-        self,
-        frame_skip: int = 15,
-        timestep: float = DEFAULT_TIMESTEP,
-        integrator: str = "rk4",
-        model: str = "plane",
-        robot=None,
-        kp: float = 2.0,
-        kd: float = 0.05,
-        damping: float | None = None,
-        forward_reward_weight: float = 1.0,
-        ctrl_cost_weight: float = 0.01,
-        reset_noise_scale: float = 0.01,
-        exclude_current_positions_from_observation: bool = True,
-        target_direction: float | None = None,
-        friction_coefficient: float | None = 1.0,
-        max_slip_velocity: float = 0.02,
-        max_liftoff_time: float = 0.005,
-        healthy_reward: float = 0.0,
-        clock_frequency: float | None = None,
-        terminate_outside_model: bool = True,
-        action_hold: str = "linear",
-        render_mode: str | None = None,
-        width: int = 800,
-        height: int = 400,
-    ):
-        task_kwargs = dict(
-            frame_skip=frame_skip,
-            timestep=timestep,
-            integrator=integrator,
-            model=model,
-            robot=robot,
-            kp=kp,
-            kd=kd,
-            damping=damping,
-            forward_reward_weight=forward_reward_weight,
-            ctrl_cost_weight=ctrl_cost_weight,
-            reset_noise_scale=reset_noise_scale,
-            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
-            target_direction=target_direction,
-            friction_coefficient=friction_coefficient,
-            max_slip_velocity=max_slip_velocity,
-            max_liftoff_time=max_liftoff_time,
-            healthy_reward=healthy_reward,
-            clock_frequency=clock_frequency,
-            terminate_outside_model=terminate_outside_model,
-            action_hold=action_hold,
-        )
-        EzPickle.__init__(self, render_mode=render_mode, width=width, height=height, **task_kwargs)
-        self.config = task.make_task_config(**task_kwargs)
+    def __init__(self, *, render_mode: str | None = None, width: int = 800, height: int = 400, **kwargs):
+        # The env keywords are the fields of task.TaskConfig (see __signature__ below).
+        self.config = task.make_task_config(**kwargs)
+        EzPickle.__init__(self, render_mode=render_mode, width=width, height=height, **kwargs)
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")
         self.render_mode = render_mode
@@ -372,3 +311,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self._viewer.close()
             self._viewer = None
 
+
+
+RRRobotEnv.__init__.__signature__ = task.signature_with_keywords(RRRobotEnv.__init__, after=("render_mode", "width", "height"))
+if RRRobotEnv.__doc__:  # (python -OO strips docstrings)
+    RRRobotEnv.__doc__ = RRRobotEnv.__doc__.replace(
+        "{arguments_table}", task.arguments_table(RENDER_ARGUMENTS).replace("\n", "\n    ")
+    )
