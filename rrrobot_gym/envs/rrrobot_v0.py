@@ -30,8 +30,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     The task is directional locomotion: move the contact point along a commanded heading
     `target_direction` (radians in the world XY plane, from +X towards +Y), fixed by the
     keyword or drawn anew each episode. The paper's three gaits (Table II) move the robot
-    sideways (Gait 1, along -Y from the start), forwards (Gait 2, a little, along X) and on
-    a counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
+    sideways (Gait 1, along -Y from the start), a little (Gait 2: along +X on the pivot
+    model; on the plane its path bends clockwise and ends mostly along -Y) and on a
+    counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
 
     ## Action Space
     The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle
