@@ -29,9 +29,21 @@ def only_run(runs_dir: Path) -> Path:
 
 
 def test_train_then_evaluate_a_tiny_run(tmp_path):
-    trained = run(["train.py", "--total-timesteps", "2048", "--runs-dir", str(tmp_path), "--seed", "3", *TINY])
+    trained = run(["train.py", "--total-timesteps", "2000", "--runs-dir", str(tmp_path), "--seed", "3",
+                   "--healthy-reward", "0.5", *TINY])
     assert trained.returncode == 0, trained.stderr
+    # whole rollouts of 8 x 64: the run (and its progress bar) goes to 2048, and says so
+    assert "training for 2,048 env steps" in trained.stdout
     run_dir = only_run(tmp_path)
+    from agents import load_ppo_agent
+    from rrrobot_gym.envs import RRRobotEnv
+
+    assert load_ppo_agent(run_dir / "final_model.zip").model.num_timesteps == 2048
+    agent = load_ppo_agent(run_dir / "best_model.zip")
+    # env_kwargs.json holds every env keyword: the agent rebuilds the training env's config
+    assert set(json.loads((run_dir / "env_kwargs.json").read_text())) == set(RRRobotEnv().config.to_kwargs())
+    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5).config
+    assert "model" not in agent.env_kwargs and agent.env_kwargs["healthy_reward"] == 0.5
     assert run_dir.name.startswith("RRRobot-v0__ppo__3__")
     for name in ("best_model.zip", "vecnormalize.pkl", "final_model.zip", "final_vecnormalize.pkl",
                  "evaluations.npz", "args.json"):
@@ -79,6 +91,39 @@ def test_ctrl_c_saves_the_model_before_exiting(tmp_path):
     assert proc.returncode == 130, err
     assert "saving the model" in out
     assert (only_run(tmp_path) / "final_model.zip").is_file()
+
+
+@pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
+def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
+    """best_model.zip is chosen on the evaluation's reward: it must be the reward that is logged."""
+    import dataclasses
+
+    import train
+
+    args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123", *heading])
+    training = train.make_env(args, 2, seed=0).venv.vector_env
+    evaluation = train.make_eval_env(args, seed=1).venv.vector_env
+    # the same keywords but the start noise (evaluations start from the paper's start), the same episode
+    assert evaluation.config == dataclasses.replace(training.config, reset_noise_scale=0.0)
+    assert evaluation.max_episode_steps == training.max_episode_steps == 123
+    if heading:
+        assert training.config.target_direction == pytest.approx(math.radians(30.0))
+    training.reset(seed=0)
+    start = {"state": training.states[0].copy(), "target_direction": 0.4}
+    rewards = []
+    for env in (training, evaluation):
+        env.reset(seed=0, options=start)
+        actions = np.tile([0.3, -0.2], (env.num_envs, 1))
+        rewards.append([env.step(actions)[1][0] for _ in range(5)])
+    assert rewards[0] == rewards[1]
+    assert rewards[0][-1] != 0.0
+
+
+def test_total_timesteps_are_rounded_up_to_whole_rollouts():
+    import train
+
+    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
+    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "16384"])) == 16_384
 
 
 def test_bad_arguments_are_named(tmp_path):

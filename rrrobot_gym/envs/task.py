@@ -260,6 +260,21 @@ class TaskConfig:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
 
+def config_to_json(config: TaskConfig) -> dict:
+    """Every env keyword of ``config`` as JSON-able values (``robot`` as a dict of its fields)."""
+    kwargs = config.to_kwargs()
+    kwargs["robot"] = dataclasses.asdict(config.robot)
+    return kwargs
+
+
+def kwargs_from_json(data: dict) -> dict:
+    """The env keywords saved by :func:`config_to_json` (a subset is fine: the rest default)."""
+    kwargs = dict(data)
+    if isinstance(kwargs.get("robot"), dict):
+        kwargs["robot"] = RobotParams(**kwargs["robot"])
+    return kwargs
+
+
 KEYWORDS = tuple(f.name for f in dataclasses.fields(TaskConfig))
 """The env keywords, in order: the fields of :class:`TaskConfig`."""
 
