@@ -44,6 +44,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
+    per_env_attributes = ("states", "leg_targets", "contact_lost", "episode_target_directions", "episode_steps")
+    """Attributes that are arrays with one row per sub-env (what the SB3 adapter's
+    ``get_attr`` and ``set_attr`` index)."""
+    per_env_methods = ("render",)
+    """Methods that return one result per sub-env (what the SB3 adapter's ``env_method`` indexes)."""
 
     def __init__(
         self,
