@@ -169,3 +169,27 @@ def test_gait_agent_commands_the_gait_at_the_end_of_each_step_and_restarts_with_
     np.testing.assert_allclose(action_to_leg_targets(actions), expected, atol=1e-6)
     with pytest.raises(ValueError, match="unknown gait agent"):
         gait_agent("gait4")
+
+
+@pytest.mark.parametrize("kwargs", [{"frame_skip": 30}, {"action_hold": "zero_order"}])
+def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(kwargs):
+    """With another frame_skip the control step is another dt: the agent must count in it."""
+    import gymnasium
+
+    from agents import gait_agent
+    from rrrobot_gym.control import table2_gait
+    from rrrobot_gym.envs.task import action_to_leg_targets
+
+    env = gymnasium.make("RRRobot-v0", **kwargs)
+    agent = gait_agent("gait1", env=env)
+    obs, _ = env.reset(seed=0)
+    state, sampled = None, []
+    for k in range(4):
+        action, state = agent.predict(obs, state=state, episode_start=np.array([k == 0]))
+        sampled.append(action_to_leg_targets(action))
+        obs, *_ = env.step(action)
+    fraction = 0.5 if kwargs.get("action_hold") == "zero_order" else 1.0  # a held target lags half a step
+    times = (np.arange(4) + fraction) * env.unwrapped.dt
+    np.testing.assert_allclose(sampled, table2_gait(1).angles(times), atol=1e-6)
+    vector = gymnasium.make_vec("RRRobot-v0", num_envs=2, **kwargs)
+    assert gait_agent("gait1", env=vector).dt == env.unwrapped.dt
