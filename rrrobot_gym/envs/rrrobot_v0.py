@@ -25,7 +25,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     Experimental Demonstration": a hemispherical shell (radius 0.12 m, open side up) with
     two short legs pinned on its rim that never touch the ground. Swinging the legs rocks
     and twists the shell, and rolling without slip turns those oscillations into travel of
-    about a centimetre a second. The dynamics are the paper's (``shared/MODEL.md``), from the
+    about a centimetre a second. The dynamics are the paper's (its equations of motion, on the plane or pivoting), from the
     project's one implementation in `rrrobot_gym.dynamics`.
 
     The task is directional locomotion: move the contact point along a commanded heading
@@ -42,7 +42,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     over the step, and the paper's PD servo (`kp`, `kd`) tracks the ramp and its rate: a new
     action does not kick the servo, whose torque step on a jump of target makes the shell
     hop or slip within milliseconds. `action_hold="zero_order"` jumps to the target and
-    holds it with target rate 0 (``shared/MODEL.md``'s step-wise targets). The map is affine:
+    holds it with target rate 0 (step-wise targets: the servo's target rate is the paper's gait
+    derivative for a gait, zero for a held target). The map is affine:
     action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
     from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
     horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
@@ -90,7 +91,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     move). Either way it is in `info` as `x_position` and `y_position`.
 
     ## Rewards
-    The reward is ***reward*** *=* *forward_reward - ctrl_cost*:
+    The reward is ***reward*** *=* *forward_reward - ctrl_cost + healthy_reward*:
 
     - *forward_reward* (`info["reward_forward"]`):
       $w_{forward} \times 100 \times \frac{(q_{after} - q_{before}) \cdot d}{dt}$, the velocity
@@ -106,11 +107,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
       Gait 1 its path is 15 times its net travel; q's path is its net travel).
       The robot moves at about 1 cm/s (Gait 1: 0.9 cm/s), so a good step earns about 1 and
       a 1000-step episode about 1000. $w_{forward}$ is `forward_reward_weight`. Summed over
-      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d.
+      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d,
+      less the steps that earn nothing: on the plane, a step that slips or hops past
+      `max_slip_velocity` or lifts off for longer than `max_liftoff_time`, and every step in
+      the first 0.1 s (see Episode End), whether or not such a step ends the episode.
     - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
       the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
       step, small next to the forward term; action 0 holds both legs vertical, the rest
       pose and the middle of their range).
+    - *healthy_reward* (`info["reward_survive"]`): `healthy_reward` (default 0; `train.py` uses 1)
+      for each step that does not end the episode, 0 on the step that does.
 
     `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
     `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
@@ -118,8 +124,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
     measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
     ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
-    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s) and
-    `outside_model` (bool), each the worst over the step. `reset()` returns
+    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s),
+    `liftoff_fraction` (of the step), `liftoff_time` (s, the longest spell off the ground),
+    `torque_rms`, `torque_peak` (N m, the leg torques applied), `leg_rate_peak` (rad/s) and
+    `outside_model` (bool), each the worst over the step, measured whether or not
+    `terminate_outside_model` is set. `reset()` returns
     `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
@@ -151,8 +160,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        A servo kick makes millisecond spikes that slip the shell by microns and do not
        count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
        the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
-       there. A step that slips or hops past `max_slip_velocity`, and any step in those
-       0.1 s, earns no forward reward.
+       there. Likewise a spell off the ground (normal force <= 0) longer than
+       `max_liftoff_time` (default 0.005 s) leaves the model, also only after 0.1 s. A step
+       that slips or hops past `max_slip_velocity` or lifts off longer than
+       `max_liftoff_time`, and any step in those 0.1 s, earns no forward reward.
        Without this check a policy free to whip its legs earns speeds no real robot could
        reach.
 

@@ -36,9 +36,11 @@ from ..control import HeldTargets, RampTargets
 from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, NumericalFailure, SimConfig, advance, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
-"""rad, leg target of action -1: 45 degrees below horizontal, pointing back (-X) and down."""
+"""rad, leg target of action -1: 45 degrees below horizontal, pointing forward (body +X) and down
+(leg angle 0 points along body +X, pi/2 straight up)."""
 LEG_TARGET_MAX = 1.25 * math.pi
-"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (mirror of -1).
+"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (body -X) and down
+(the mirror of -1).
 Action 0 is the rest pose, legs vertical. The Table II gaits span
 -0.3 .. 1.87 rad, inside [LEG_TARGET_MIN, LEG_TARGET_MAX]."""
 _LEG_TARGET_MID = 0.5 * (LEG_TARGET_MIN + LEG_TARGET_MAX)
@@ -379,7 +381,7 @@ def check_actions(action, shape) -> np.ndarray:
 
 
 def action_to_leg_targets(action):
-    """rad, the leg target angles of actions in [-1, 1] (affine: -1 -> -pi/4, +1 -> 3pi/4)."""
+    """rad, the leg target angles of actions in [-1, 1] (affine: -1 -> -pi/4, 0 -> pi/2, +1 -> 5pi/4)."""
     return _LEG_TARGET_MID + _LEG_TARGET_HALF_RANGE * np.asarray(action, dtype=np.float64)
 
 
@@ -645,7 +647,7 @@ def left_the_floor(info, config: TaskConfig):
 
 
 def tilt_reached_limit(tilts):
-    """True where the rim touches the ground (MODEL.md: the rolling model ends there)."""
+    """True where the rim touches the ground (the paper's rolling model holds while the hemisphere's bottom touches the floor: it ends there)."""
     return tilts >= dynamics.TILT_LIMIT
 
 
