@@ -3,13 +3,23 @@
 Reads top to bottom: arguments, environments, model, callbacks, learn, save.
 
     python train.py                       # goal-conditioned: any commanded heading
-    python train.py --direction 45        # a specialist for one heading (degrees)
+    python train.py --direction-deg 45    # a specialist for one heading (degrees from +X towards +Y)
     python train.py --resume runs/RUN/checkpoints/ppo_500000_steps.zip
 
 Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard logs,
 ``evaluations.npz``, ``best_model.zip``, periodic checkpoints, and at the end (or on
 Ctrl-C) ``final_model.zip`` with ``vecnormalize.pkl`` (the observation normalisation)
-beside every saved model. Loading a model unpickles it: load only files you trust.
+beside every saved model; ``env_kwargs.json``, every env keyword of the training env (as
+rl-zoo3 saves them; ``agents.load_ppo_agent`` rebuilds the env from it), ``args.json`` and
+``command.txt``. Loading a model unpickles it: load only files you trust.
+
+``best_model.zip`` is the model of the best evaluation (``EvalCallback``, every
+``--eval-freq`` steps, on the training env's reward). A run too short for any evaluation
+has none: then ``best_model.zip`` (and ``vecnormalize.pkl``) is a copy of the final model,
+chosen by nothing, and the log says so.
+
+Training runs in whole rollouts of ``num_envs x n_steps`` env steps, so
+``--total-timesteps`` is rounded up to a whole number of rollouts (the log says by how much).
 """
 
 from __future__ import annotations
@@ -34,10 +44,14 @@ ENV_ID = "RRRobot-v0"
 class Args:
     exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
     seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
-    total_timesteps: int = field(default=10_000_000, metadata={"help": "env steps (control steps) to train for"})
+    total_timesteps: int = field(
+        default=10_000_000,
+        metadata={"help": "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps"},
+    )
     model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
-    direction: float | None = field(
-        default=None, metadata={"help": "commanded heading in degrees for a specialist; default: any heading"}
+    direction_deg: float | None = field(
+        default=None,
+        metadata={"help": "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading"},
     )
     num_envs: int = field(default=64, metadata={"help": "robots simulated together in the batched env"})
     n_steps: int = field(default=256, metadata={"help": "PPO rollout length per env"})
@@ -72,7 +86,7 @@ def parse_args(argv=None) -> Args:
         help_text = f"{f.metadata['help']} (default: {f.default})"
         if f.type in ("bool",):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
-        elif f.name in ("direction", "clock_frequency"):
+        elif f.name in ("direction_deg", "clock_frequency"):
             parser.add_argument(flag, type=float, default=None, help=help_text)
         elif f.name == "resume":
             parser.add_argument(flag, type=str, default=None, help=help_text)
@@ -82,8 +96,8 @@ def parse_args(argv=None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in ("plane", "pivot"):
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
-    if args.direction is not None and not math.isfinite(args.direction):
-        parser.error("--direction must be a finite number of degrees")
+    if args.direction_deg is not None and not math.isfinite(args.direction_deg):
+        parser.error("--direction-deg must be a finite number of degrees")
     if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
         parser.error("--clock-frequency must be a positive number of rad/s")
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
@@ -96,14 +110,23 @@ def parse_args(argv=None) -> Args:
 
 
 def env_kwargs(args: Args) -> dict:
-    direction = None if args.direction is None else math.radians(args.direction)
+    """The training env's keywords (the env's heading keyword is in radians)."""
+    direction = None if args.direction_deg is None else math.radians(args.direction_deg)
     return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
-            **observation_kwargs(args)}
+            "clock_frequency": args.clock_frequency}
 
 
-def observation_kwargs(args: Args) -> dict:
-    """Env keywords that shape the observation: a policy needs the same ones to run (saved as env_kwargs.json)."""
-    return {"clock_frequency": args.clock_frequency}
+def env_config(args: Args) -> dict:
+    """Every env keyword of the training env, defaults included, as JSON (saved as env_kwargs.json)."""
+    from rrrobot_gym.envs.task import config_to_json, make_task_config
+
+    return config_to_json(make_task_config(**env_kwargs(args)))
+
+
+def rounded_timesteps(args: Args) -> int:
+    """--total-timesteps rounded up to whole rollouts of num_envs x n_steps: what PPO will run."""
+    rollout = args.num_envs * args.n_steps
+    return -(-args.total_timesteps // rollout) * rollout
 
 
 def make_env(args: Args, num_envs: int, seed: int):
@@ -122,13 +145,17 @@ class CompassEval:
 
     @staticmethod
     def headings(args: Args):
-        if args.direction is not None:
-            return np.array([math.radians(args.direction)])
+        if args.direction_deg is not None:
+            return np.array([math.radians(args.direction_deg)])
         return np.radians(np.arange(0, 360, 45, dtype=float))
 
 
 def make_eval_env(args: Args, seed: int):
-    """One env per evaluation heading, 50 s from the paper's start (no start noise)."""
+    """One env per evaluation heading, from the paper's start (no start noise).
+
+    Otherwise the training env: the same keywords (so the same reward: best_model.zip is
+    chosen on the reward that is logged) and the same episode length, --episode-steps.
+    """
     from stable_baselines3.common.vec_env import VecMonitor
 
     from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
@@ -141,7 +168,7 @@ def make_eval_env(args: Args, seed: int):
             return super().reset()
 
     venv = _FixedHeadings(
-        num_envs=len(headings), max_episode_steps=1000, model=args.model, reset_noise_scale=0.0, **observation_kwargs(args)
+        num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
     )
     venv.seed(seed)
     return VecMonitor(venv)
@@ -170,7 +197,7 @@ def main(argv=None) -> Path:
     run_dir.mkdir(parents=True, exist_ok=False)
     (run_dir / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
     (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
-    (run_dir / "env_kwargs.json").write_text(json.dumps(observation_kwargs(args)))
+    (run_dir / "env_kwargs.json").write_text(json.dumps(env_config(args), indent=2))
 
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)
@@ -232,10 +259,17 @@ def main(argv=None) -> Path:
         save_vecnormalize=True,
     )
     print(f"run: {run_dir}", flush=True)
+    total_timesteps = rounded_timesteps(args)
+    if total_timesteps != args.total_timesteps:
+        print(
+            f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
+            f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}",
+            flush=True,
+        )
     interrupted = False
     try:
         model.learn(
-            total_timesteps=args.total_timesteps,
+            total_timesteps=total_timesteps,
             callback=CallbackList([evaluation, checkpoints]),
             progress_bar=args.progress_bar,
             reset_num_timesteps=args.resume is None,
@@ -247,8 +281,10 @@ def main(argv=None) -> Path:
     model.save(run_dir / "final_model.zip")
     train_env.save(str(run_dir / "final_vecnormalize.pkl"))
     if not (run_dir / "best_model.zip").exists():
+        # No evaluation ran (a run shorter than --eval-freq): the final model stands in, chosen by nothing.
         shutil.copy(run_dir / "final_model.zip", run_dir / "best_model.zip")
         shutil.copy(run_dir / "final_vecnormalize.pkl", run_dir / "vecnormalize.pkl")
+        print("no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of final_model.zip", flush=True)
     print(f"saved: {run_dir / 'final_model.zip'} (best: {run_dir / 'best_model.zip'})", flush=True)
     train_env.close()
     eval_env.close()

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rrrobot_gym.control import Gait, table2_gait
-from rrrobot_gym.envs.task import leg_targets_to_action
+from rrrobot_gym.envs.task import TaskConfig, leg_targets_to_action
 
 GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped")
 
@@ -20,12 +20,16 @@ GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3",
 class GaitAgent:
     """A scripted gait with the ``predict`` interface of a Stable-Baselines3 policy.
 
+    ``dt`` (s) must be the control step of the env the agent acts in: the agent counts
+    steps and commands the gait at ``(steps + sample_fraction) * dt``, so a wrong ``dt``
+    plays the gait at the wrong speed. :meth:`for_env` takes it from the env.
+
     The recurrent ``state`` is each env's count of control steps since its episode
     started (an int array, one entry per env); ``episode_start`` resets it. Observations
     are not used: the gait is open loop, as in the paper.
     """
 
-    def __init__(self, gait: Gait, dt: float = 0.05, name: str | None = None, sample_fraction: float = 1.0):
+    def __init__(self, gait: Gait, dt: float, name: str | None = None, sample_fraction: float = 1.0):
         if not isinstance(gait, Gait):
             raise TypeError(f"gait must be a rrrobot_gym.control.Gait, got {type(gait).__name__}")
         if not (np.isfinite(dt) and dt > 0):
@@ -34,6 +38,15 @@ class GaitAgent:
         self.dt = float(dt)
         self.name = name or gait.name
         self.sample_fraction = float(sample_fraction)
+
+    @classmethod
+    def for_env(cls, gait: Gait, env, **kwargs) -> "GaitAgent":
+        """The agent for ``env`` (a single or vector RRRobot env, wrapped or not): its ``dt``,
+        and mid-step sampling for ``action_hold="zero_order"`` (see the module docstring)."""
+        base = getattr(env, "unwrapped", env)
+        if "sample_fraction" not in kwargs and base.config.action_hold == "zero_order":
+            kwargs["sample_fraction"] = 0.5
+        return cls(gait, dt=base.dt, **kwargs)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         observation = np.asarray(observation)
@@ -49,9 +62,22 @@ class GaitAgent:
         return (actions[0] if single else actions), steps + 1
 
 
-def gait_agent(name: str, dt: float = 0.05) -> GaitAgent:
-    """The agent called ``name``: one of :data:`GAIT_AGENT_NAMES`."""
+DEFAULT_DT = TaskConfig().dt
+"""s, the control step of RRRobot-v0 with its default keywords (frame_skip x timestep)."""
+
+
+def gait_agent(name: str, dt: float | None = None, *, env=None) -> GaitAgent:
+    """The agent called ``name`` (one of :data:`GAIT_AGENT_NAMES`) for ``env`` or a control step ``dt``.
+
+    Pass the env it will act in (``env=``), or its ``dt``; with neither, the default
+    RRRobot-v0's step (:data:`DEFAULT_DT`, computed from the env's defaults): right only for
+    an env with default ``frame_skip`` and ``timestep``.
+    """
     if name not in GAIT_AGENT_NAMES:
         raise ValueError(f"unknown gait agent {name!r}: expected one of {', '.join(GAIT_AGENT_NAMES)}")
-    number = int(name[4])
-    return GaitAgent(table2_gait(number, swapped=name.endswith("-swapped")), dt=dt, name=name)
+    if env is not None and dt is not None:
+        raise TypeError("pass env or dt, not both")
+    gait = table2_gait(int(name[4]), swapped=name.endswith("-swapped"))
+    if env is not None:
+        return GaitAgent.for_env(gait, env, name=name)
+    return GaitAgent(gait, dt=DEFAULT_DT if dt is None else dt, name=name)

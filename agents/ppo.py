@@ -13,18 +13,28 @@ from pathlib import Path
 import numpy as np
 
 
+SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
+"""Env keywords whoever runs a policy chooses (evaluate.py: the model, the heading of each
+episode and a noise-free start); :attr:`PPOAgent.env_kwargs` leaves them out."""
+
+
 class PPOAgent:
     """A PPO policy that normalises raw env observations with saved statistics.
 
     ``obs_mean``, ``obs_var``, ``clip_obs`` and ``epsilon`` are those of SB3's
     ``VecNormalize`` at the end of training (None: the policy takes raw observations).
+    ``env_config`` holds the training env's keywords (train.py's ``env_kwargs.json``):
+    ``gymnasium.make("RRRobot-v0", **agent.env_config)`` rebuilds it. ``env_kwargs`` is the
+    same without :data:`SCENE_KEYWORDS`: what an evaluation in a scene of its own choosing
+    keeps (the observation, the physics, the reward).
     """
 
     name = "ppo"
 
-    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8, env_kwargs=None):
+    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8, env_config=None):
         self.model = model
-        self.env_kwargs = dict(env_kwargs or {})  # env keywords the policy's observation needs
+        self.env_config = dict(env_config or {})
+        self.env_kwargs = {key: value for key, value in self.env_config.items() if key not in SCENE_KEYWORDS}
         self.obs_mean = None if obs_mean is None else np.asarray(obs_mean, dtype=np.float64)
         self.obs_var = None if obs_var is None else np.asarray(obs_var, dtype=np.float64)
         self.clip_obs = float(clip_obs)
@@ -66,10 +76,12 @@ def normalization_path(model_path) -> Path:
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
     """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
     (:func:`normalization_path`), its VecNormalize statistics, and ``env_kwargs.json``
-    beside it (the env keywords its observation needs, e.g. the gait clock). Unpickles the
-    model and the statistics: trusted files only.
+    beside it (the training env's keywords; older runs saved only the observation's, the
+    rest then default). Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
+
+    from rrrobot_gym.envs.task import kwargs_from_json
 
     model_path = Path(model_path)
     if not model_path.exists():
@@ -79,9 +91,9 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         candidate = normalization_path(model_path)
         vecnormalize_path = candidate if candidate.exists() else None
     kwargs_path = model_path.with_name("env_kwargs.json")
-    env_kwargs = json.loads(kwargs_path.read_text()) if kwargs_path.exists() else {}
+    env_config = kwargs_from_json(json.loads(kwargs_path.read_text())) if kwargs_path.exists() else {}
     if vecnormalize_path is None:
-        return PPOAgent(model, env_kwargs=env_kwargs)
+        return PPOAgent(model, env_config=env_config)
     with open(vecnormalize_path, "rb") as handle:
         stats = pickle.load(handle)
-    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_kwargs)
+    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)

@@ -104,3 +104,34 @@ def test_ppo_trains_a_few_hundred_steps_on_the_batched_env():
     assert episodes and all(1 <= episode["l"] <= 50 and np.isfinite(episode["r"]) for episode in episodes)
     action, _ = model.predict(venv.reset(), deterministic=True)
     assert action.shape == (4, 2)
+
+
+def test_get_attr_set_attr_and_env_method_follow_vec_env_semantics_per_index():
+    venv = RRRobotSB3VecEnv(num_envs=3, render_mode="rgb_array")
+    venv.set_options({"target_direction": [0.1, 0.2, 0.3]})
+    venv.reset()
+    # per-robot attributes give env i its own row; shared ones their value once per index
+    assert venv.get_attr("episode_target_directions") == pytest.approx([0.1, 0.2, 0.3])
+    assert venv.get_attr("episode_target_directions", indices=[2, 0]) == pytest.approx([0.3, 0.1])
+    states = venv.get_attr("states", indices=1)
+    np.testing.assert_array_equal(states[0], venv.vector_env.states[1])
+    assert venv.get_attr("dt", indices=[0, 2]) == [pytest.approx(0.05)] * 2
+    # a per-index set changes that env only: its commanded heading, seen in the next observation
+    venv.set_attr("episode_target_directions", -1.0, indices=[1])
+    assert venv.get_attr("episode_target_directions") == pytest.approx([0.1, -1.0, 0.3])
+    obs, *_ = venv.step(np.zeros((3, 2), dtype=np.float32))
+    np.testing.assert_allclose(obs[:, 13], np.cos([0.1, -1.0, 0.3]), atol=1e-6)
+    venv.set_attr("episode_target_directions", 0.5)
+    assert venv.get_attr("episode_target_directions") == pytest.approx([0.5] * 3)
+    # the batched env's frames, one per requested env
+    frames = venv.env_method("render", indices=[2])
+    assert len(frames) == 1
+    np.testing.assert_array_equal(frames[0], venv.vector_env.render()[2])
+    assert len(venv.env_method("render")) == 3
+    # a shared attribute or a whole-batch method cannot act on some envs only: a clear error
+    venv.set_attr("render_mode", "rgb_array")
+    with pytest.raises(ValueError, match="share one batched env"):
+        venv.set_attr("render_mode", None, indices=[0])
+    with pytest.raises(ValueError, match="share one batched env"):
+        venv.env_method("reset", indices=[0, 1])
+    assert len(venv.env_method("reset", seed=0)) == 3

@@ -12,14 +12,27 @@ ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "agents" / "pretrained" / "best_model.zip"
 
 
-def test_the_shipped_policy_loads_with_its_normalisation_and_acts_in_range():
+def test_the_shipped_policy_acts_on_observations_normalised_with_its_saved_statistics():
+    """SB3's predict clips actions to the box, so an action range check cannot fail; what can
+    go wrong is the normalisation: the agent must feed the policy VecNormalize's statistics."""
+    import pickle
+
+    import gymnasium
+
     from agents import load_ppo_agent
 
     agent = load_ppo_agent(SHIPPED)
-    assert agent.obs_mean is not None  # the VecNormalize statistics came along
-    obs = np.zeros((3, agent.obs_mean.shape[0]), dtype=np.float32)
-    actions, _ = agent.predict(obs)
-    assert actions.shape == (3, 2) and np.all(np.abs(actions) <= 1.0 + 1e-6)
+    with open(SHIPPED.with_name("vecnormalize.pkl"), "rb") as handle:
+        stats = pickle.load(handle)
+    env = gymnasium.make("RRRobot-v0", **agent.env_kwargs)
+    observations = np.array([env.reset(seed=seed)[0] for seed in range(4)])
+    expected = np.clip(
+        (observations - stats.obs_rms.mean) / np.sqrt(stats.obs_rms.var + stats.epsilon), -stats.clip_obs, stats.clip_obs
+    ).astype(np.float32)
+    actions, _ = agent.predict(observations)
+    np.testing.assert_allclose(actions, agent.model.predict(expected, deterministic=True)[0], atol=1e-6)
+    raw, _ = agent.model.predict(observations, deterministic=True)
+    assert np.max(np.abs(actions - raw)) > 0.05  # the statistics matter: raw observations act otherwise
 
 
 def test_the_shipped_policy_travels_along_the_commanded_heading():

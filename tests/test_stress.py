@@ -37,11 +37,10 @@ def test_extreme_leg_targets_keep_states_finite_and_quaternions_unit(model, poli
     result = run_scene(config, start_states(rng, N_ROBOTS), targets, N_CONTROL_STEPS)
     assert result.finite
     assert result.max_quat_norm_error < 1e-12
+    # (Kinematic legs end each control step at their targets by construction, so that is not
+    # checked here; tests/test_skip_work.py checks the body's motion under them.)
     if legs == "servo":
         assert result.max_leg_rate > 10.0  # the targets really drive the legs hard
-    else:  # kinematic legs arrive at their held targets, at rest, by the end of each control step
-        np.testing.assert_allclose(result.final_state[:, dynamics.LEG_ANGLES], targets(N_CONTROL_STEPS - 1), atol=1e-12)
-        assert np.all(result.final_state[:, dynamics.LEG_RATES] == 0.0)
 
 
 def test_high_frequency_targets_stay_finite(rng):

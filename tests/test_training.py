@@ -29,9 +29,21 @@ def only_run(runs_dir: Path) -> Path:
 
 
 def test_train_then_evaluate_a_tiny_run(tmp_path):
-    trained = run(["train.py", "--total-timesteps", "2048", "--runs-dir", str(tmp_path), "--seed", "3", *TINY])
+    trained = run(["train.py", "--total-timesteps", "2000", "--runs-dir", str(tmp_path), "--seed", "3",
+                   "--healthy-reward", "0.5", *TINY])
     assert trained.returncode == 0, trained.stderr
+    # whole rollouts of 8 x 64: the run (and its progress bar) goes to 2048, and says so
+    assert "training for 2,048 env steps" in trained.stdout
     run_dir = only_run(tmp_path)
+    from agents import load_ppo_agent
+    from rrrobot_gym.envs import RRRobotEnv
+
+    assert load_ppo_agent(run_dir / "final_model.zip").model.num_timesteps == 2048
+    agent = load_ppo_agent(run_dir / "best_model.zip")
+    # env_kwargs.json holds every env keyword: the agent rebuilds the training env's config
+    assert set(json.loads((run_dir / "env_kwargs.json").read_text())) == set(RRRobotEnv().config.to_kwargs())
+    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5).config
+    assert "model" not in agent.env_kwargs and agent.env_kwargs["healthy_reward"] == 0.5
     assert run_dir.name.startswith("RRRobot-v0__ppo__3__")
     for name in ("best_model.zip", "vecnormalize.pkl", "final_model.zip", "final_vecnormalize.pkl",
                  "evaluations.npz", "args.json"):
@@ -81,6 +93,39 @@ def test_ctrl_c_saves_the_model_before_exiting(tmp_path):
     assert (only_run(tmp_path) / "final_model.zip").is_file()
 
 
+@pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
+def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
+    """best_model.zip is chosen on the evaluation's reward: it must be the reward that is logged."""
+    import dataclasses
+
+    import train
+
+    args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123", *heading])
+    training = train.make_env(args, 2, seed=0).venv.vector_env
+    evaluation = train.make_eval_env(args, seed=1).venv.vector_env
+    # the same keywords but the start noise (evaluations start from the paper's start), the same episode
+    assert evaluation.config == dataclasses.replace(training.config, reset_noise_scale=0.0)
+    assert evaluation.max_episode_steps == training.max_episode_steps == 123
+    if heading:
+        assert training.config.target_direction == pytest.approx(math.radians(30.0))
+    training.reset(seed=0)
+    start = {"state": training.states[0].copy(), "target_direction": 0.4}
+    rewards = []
+    for env in (training, evaluation):
+        env.reset(seed=0, options=start)
+        actions = np.tile([0.3, -0.2], (env.num_envs, 1))
+        rewards.append([env.step(actions)[1][0] for _ in range(5)])
+    assert rewards[0] == rewards[1]
+    assert rewards[0][-1] != 0.0
+
+
+def test_total_timesteps_are_rounded_up_to_whole_rollouts():
+    import train
+
+    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
+    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "16384"])) == 16_384
+
+
 def test_bad_arguments_are_named(tmp_path):
     result = run(["train.py", "--model", "moon", "--runs-dir", str(tmp_path)])
     assert result.returncode != 0 and "--model" in result.stderr and "Traceback" not in result.stderr
@@ -124,3 +169,27 @@ def test_gait_agent_commands_the_gait_at_the_end_of_each_step_and_restarts_with_
     np.testing.assert_allclose(action_to_leg_targets(actions), expected, atol=1e-6)
     with pytest.raises(ValueError, match="unknown gait agent"):
         gait_agent("gait4")
+
+
+@pytest.mark.parametrize("kwargs", [{"frame_skip": 30}, {"action_hold": "zero_order"}])
+def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(kwargs):
+    """With another frame_skip the control step is another dt: the agent must count in it."""
+    import gymnasium
+
+    from agents import gait_agent
+    from rrrobot_gym.control import table2_gait
+    from rrrobot_gym.envs.task import action_to_leg_targets
+
+    env = gymnasium.make("RRRobot-v0", **kwargs)
+    agent = gait_agent("gait1", env=env)
+    obs, _ = env.reset(seed=0)
+    state, sampled = None, []
+    for k in range(4):
+        action, state = agent.predict(obs, state=state, episode_start=np.array([k == 0]))
+        sampled.append(action_to_leg_targets(action))
+        obs, *_ = env.step(action)
+    fraction = 0.5 if kwargs.get("action_hold") == "zero_order" else 1.0  # a held target lags half a step
+    times = (np.arange(4) + fraction) * env.unwrapped.dt
+    np.testing.assert_allclose(sampled, table2_gait(1).angles(times), atol=1e-6)
+    vector = gymnasium.make_vec("RRRobot-v0", num_envs=2, **kwargs)
+    assert gait_agent("gait1", env=vector).dt == env.unwrapped.dt

@@ -227,27 +227,21 @@ def test_the_gait_clock_is_observed_alike_by_the_single_and_the_vector_env():
         np.testing.assert_allclose(vobs[:, 15:17], [expected, expected], atol=1e-6)
 
 
-def test_single_and_vector_env_keywords_share_the_task_defaults():
-    """Both envs spell out the task keywords; a default changed in one place only would make
-    gymnasium.make and make_vec simulate different robots."""
+def test_env_signatures_and_the_arguments_table_list_exactly_the_task_config_fields():
+    """TaskConfig is the one definition of the env keywords: both envs' signatures (what
+    help() and IDEs show) and the docstring's Arguments table are generated from it."""
+    import dataclasses
     import inspect
 
     from rrrobot_gym.envs.rrrobot_v0 import RRRobotEnv
-    from rrrobot_gym.envs.task import make_task_config
+    from rrrobot_gym.envs.task import TaskConfig
 
-    def defaults(callable_):
-        return {
-            name: p.default
-            for name, p in inspect.signature(callable_).parameters.items()
-            if p.default is not inspect.Parameter.empty
-        }
-
-    task = defaults(make_task_config)
-    single = defaults(RRRobotEnv.__init__)
-    vector = defaults(RRRobotVectorEnv.__init__)
-    for name, value in task.items():
-        assert single[name] == value, f"RRRobot-v0 default {name}={single[name]!r}, task's {value!r}"
-        assert vector[name] == value, f"vector env default {name}={vector[name]!r}, task's {value!r}"
-    assert {k: v for k, v in single.items() if k not in task} == {
-        k: v for k, v in vector.items() if k not in task and k not in ("num_envs", "max_episode_steps")
-    }
+    fields = {f.name: f.default for f in dataclasses.fields(TaskConfig)}
+    render = {"render_mode": None, "width": 800, "height": 400}
+    for env_class, own in ((RRRobotEnv, {}), (RRRobotVectorEnv, {"num_envs": 1, "max_episode_steps": 1000})):
+        parameters = inspect.signature(env_class).parameters
+        assert {name: p.default for name, p in parameters.items()} == {**own, **fields, **render}
+        assert all(parameters[name].annotation != inspect.Parameter.empty for name in fields)
+    table = [line.split("|")[1].strip() for line in RRRobotEnv.__doc__.splitlines() if line.strip().startswith("| `")]
+    assert table == [f"`{name}`" for name in [*fields, *render]]
+    assert all(f.metadata["doc"] for f in dataclasses.fields(TaskConfig))

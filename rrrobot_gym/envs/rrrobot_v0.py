@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import gymnasium
 import numpy as np
+from gymnasium.error import DependencyNotInstalled
 from gymnasium.utils import EzPickle
 
-from ..control import HeldTargets
-from ..simulation import DEFAULT_TIMESTEP, advance
 from . import render, task
 
 RENDER_MODES = ("human", "rgb_array")
+RENDER_ARGUMENTS = (
+    ("render_mode", "str \\| None", "`None`", '`"rgb_array"` or `"human"`'),
+    ("width", "int", "`800`", "pixels of a rendered frame (a top view and a side view)"),
+    ("height", "int", "`400`", "pixels of a rendered frame"),
+)
+"""The envs' own keywords (name, type, default, doc), after the task's in the Arguments table."""
 
 
 class RRRobotEnv(gymnasium.Env, EzPickle):
@@ -20,14 +25,15 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     Experimental Demonstration": a hemispherical shell (radius 0.12 m, open side up) with
     two short legs pinned on its rim that never touch the ground. Swinging the legs rocks
     and twists the shell, and rolling without slip turns those oscillations into travel of
-    about a centimetre a second. The dynamics are the paper's (``shared/MODEL.md``), from the
+    about a centimetre a second. The dynamics are the paper's (its equations of motion, on the plane or pivoting), from the
     project's one implementation in `rrrobot_gym.dynamics`.
 
     The task is directional locomotion: move the contact point along a commanded heading
     `target_direction` (radians in the world XY plane, from +X towards +Y), fixed by the
     keyword or drawn anew each episode. The paper's three gaits (Table II) move the robot
-    sideways (Gait 1, along -Y from the start), forwards (Gait 2, a little, along X) and on
-    a counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
+    sideways (Gait 1, along -Y from the start), a little (Gait 2: along +X on the pivot
+    model; on the plane its path bends clockwise and ends mostly along -Y) and on a
+    counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
 
     ## Action Space
     The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle
@@ -36,7 +42,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     over the step, and the paper's PD servo (`kp`, `kd`) tracks the ramp and its rate: a new
     action does not kick the servo, whose torque step on a jump of target makes the shell
     hop or slip within milliseconds. `action_hold="zero_order"` jumps to the target and
-    holds it with target rate 0 (``shared/MODEL.md``'s step-wise targets). The map is affine:
+    holds it with target rate 0 (step-wise targets: the servo's target rate is the paper's gait
+    derivative for a gait, zero for a held target). The map is affine:
     action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
     from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
     horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
@@ -84,7 +91,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     move). Either way it is in `info` as `x_position` and `y_position`.
 
     ## Rewards
-    The reward is ***reward*** *=* *forward_reward - ctrl_cost*:
+    The reward is ***reward*** *=* *forward_reward - ctrl_cost + healthy_reward*:
 
     - *forward_reward* (`info["reward_forward"]`):
       $w_{forward} \times 100 \times \frac{(q_{after} - q_{before}) \cdot d}{dt}$, the velocity
@@ -100,11 +107,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
       Gait 1 its path is 15 times its net travel; q's path is its net travel).
       The robot moves at about 1 cm/s (Gait 1: 0.9 cm/s), so a good step earns about 1 and
       a 1000-step episode about 1000. $w_{forward}$ is `forward_reward_weight`. Summed over
-      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d.
+      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d,
+      less the steps that earn nothing: on the plane, a step that slips or hops past
+      `max_slip_velocity` or lifts off for longer than `max_liftoff_time`, and every step in
+      the first 0.1 s (see Episode End), whether or not such a step ends the episode.
     - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
       the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
       step, small next to the forward term; action 0 holds both legs vertical, the rest
       pose and the middle of their range).
+    - *healthy_reward* (`info["reward_survive"]`): `healthy_reward` (default 0; `train.py` uses 1)
+      for each step that does not end the episode, 0 on the step that does.
 
     `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
     `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
@@ -112,8 +124,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
     measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
     ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
-    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s) and
-    `outside_model` (bool), each the worst over the step. `reset()` returns
+    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s),
+    `liftoff_fraction` (of the step), `liftoff_time` (s, the longest spell off the ground),
+    `torque_rms`, `torque_peak` (N m, the leg torques applied), `leg_rate_peak` (rad/s) and
+    `outside_model` (bool), each the worst over the step, measured whether or not
+    `terminate_outside_model` is set. `reset()` returns
     `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
@@ -140,13 +155,15 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        modelled), or, on a plane, the floor could not give the force rolling needs, a pull
        (hop) or grip beyond `friction_coefficient` (default 1.0; None: unlimited), for long
        enough in one step that the shell would slip or hop at more than `max_slip_velocity`
-       (default 0.05 m/s; `info["slip_velocity"]` is the missing impulse over the step per
+       (default 0.02 m/s; `info["slip_velocity"]` is the missing impulse over the step per
        unit mass, sampled when the action starts to act and after every integration step).
        A servo kick makes millisecond spikes that slip the shell by microns and do not
        count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
        the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
-       there. A step that slips or hops past `max_slip_velocity`, and any step in those
-       0.1 s, earns no forward reward.
+       there. Likewise a spell off the ground (normal force <= 0) longer than
+       `max_liftoff_time` (default 0.005 s) leaves the model, also only after 0.1 s. A step
+       that slips or hops past `max_slip_velocity` or lifts off longer than
+       `max_liftoff_time`, and any step in those 0.1 s, earns no forward reward.
        Without this check a policy free to whip its legs earns speeds no real robot could
        reach.
 
@@ -163,29 +180,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     env = gym.make("RRRobot-v0", model="pivot", target_direction=0.5 * 3.14159, ...)
     ```
 
-    | Parameter                                    | Type                | Default      | Description |
-    |----------------------------------------------|---------------------|--------------|-------------|
-    | `frame_skip`                                 | **int**             | `15`         | integrator steps per control step |
-    | `timestep`                                   | **float**           | `1/300`      | s, the RK4 step; `dt` = `frame_skip` x `timestep` |
-    | `integrator`                                 | **str**             | `"rk4"`      | fixed-step integrator (`rrrobot_gym.simulation.INTEGRATORS`) |
-    | `model`                                      | **str**             | `"plane"`    | `"plane"` (rolling on a plane) or `"pivot"` (the paper's Pivoting Dynamics model) |
-    | `robot`                                      | **RobotParams**     | `RobotParams()` | geometry, masses, gravity, damping (`rrrobot_gym.params`) |
-    | `kp`                                         | **float**           | `2.0`        | N m/rad, leg servo stiffness |
-    | `kd`                                         | **float**           | `0.05`       | N m s/rad, leg servo damping |
-    | `damping`                                    | **float \| None**   | `None`       | N m s/rad, body damping k (<= 0); None keeps `robot.damping` (-0.01) |
-    | `forward_reward_weight`                      | **float**           | `1.0`        | weight of the forward term (reward per cm/s) |
-    | `ctrl_cost_weight`                           | **float**           | `0.01`       | weight of the control cost (>= 0) |
-    | `reset_noise_scale`                          | **float**           | `0.01`       | half-width of the uniform start noise (>= 0) |
-    | `exclude_current_positions_from_observation` | **bool**            | `True`       | leave the contact point (x, y) out of the observation |
-    | `target_direction`                           | **float \| None**   | `None`       | rad, the commanded heading; None draws one per episode |
-    | `friction_coefficient`                       | **float \| None**   | `1.0`        | grip of the floor (plane); None: unlimited |
-    | `max_slip_velocity`                          | **float**           | `0.05`       | m/s: a step whose slip or hop exceeds this leaves the model |
-    | `healthy_reward`                             | **float**           | `0.0`        | reward for each step that does not end the episode (`reward_survive`) |
-    | `clock_frequency`                            | **float \| None**   | `None`       | rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation |
-    | `terminate_outside_model`                    | **bool**            | `True`       | end the episode when the robot leaves the model (see Episode End) |
-    | `action_hold`                                | **str**             | `"linear"`   | "linear": targets ramp over each step; "zero_order": jump and hold |
-    | `render_mode`                                | **str \| None**     | `None`       | `"rgb_array"` or `"human"` |
-    | `width`, `height`                            | **int**             | `800`, `400` | pixels of a rendered frame (a top view and a side view) |
+    The keywords are the fields of `rrrobot_gym.envs.task.TaskConfig` (this table and the
+    signature are generated from them), then the rendering keywords:
+
+    {arguments_table}
 
     Unknown keywords raise a `TypeError`, invalid values a `ValueError`, at construction.
     `gymnasium.make_vec("RRRobot-v0", num_envs=N)` gives the native batched
@@ -197,62 +195,14 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
 
     metadata = {"render_modes": list(RENDER_MODES), "render_fps": 20}
 
-    def __init__(
-        self,
-        frame_skip: int = 15,
-        timestep: float = DEFAULT_TIMESTEP,
-        integrator: str = "rk4",
-        model: str = "plane",
-        robot=None,
-        kp: float = 2.0,
-        kd: float = 0.05,
-        damping: float | None = None,
-        forward_reward_weight: float = 1.0,
-        ctrl_cost_weight: float = 0.01,
-        reset_noise_scale: float = 0.01,
-        exclude_current_positions_from_observation: bool = True,
-        target_direction: float | None = None,
-        friction_coefficient: float | None = 1.0,
-        max_slip_velocity: float = 0.02,
-        max_liftoff_time: float = 0.005,
-        healthy_reward: float = 0.0,
-        clock_frequency: float | None = None,
-        terminate_outside_model: bool = True,
-        action_hold: str = "linear",
-        render_mode: str | None = None,
-        width: int = 800,
-        height: int = 400,
-    ):
-        task_kwargs = dict(
-            frame_skip=frame_skip,
-            timestep=timestep,
-            integrator=integrator,
-            model=model,
-            robot=robot,
-            kp=kp,
-            kd=kd,
-            damping=damping,
-            forward_reward_weight=forward_reward_weight,
-            ctrl_cost_weight=ctrl_cost_weight,
-            reset_noise_scale=reset_noise_scale,
-            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
-            target_direction=target_direction,
-            friction_coefficient=friction_coefficient,
-            max_slip_velocity=max_slip_velocity,
-            max_liftoff_time=max_liftoff_time,
-            healthy_reward=healthy_reward,
-            clock_frequency=clock_frequency,
-            terminate_outside_model=terminate_outside_model,
-            action_hold=action_hold,
-        )
-        EzPickle.__init__(self, render_mode=render_mode, width=width, height=height, **task_kwargs)
-        self.config = task.make_task_config(**task_kwargs)
+    def __init__(self, *, render_mode: str | None = None, width: int = 800, height: int = 400, **kwargs):
+        # The env keywords are the fields of task.TaskConfig (see __signature__ below).
+        self.config = task.make_task_config(**kwargs)
+        EzPickle.__init__(self, render_mode=render_mode, width=width, height=height, **kwargs)
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"unknown render_mode {render_mode!r}: expected None or one of {', '.join(RENDER_MODES)}")
         self.render_mode = render_mode
         self._frame_size = render.check_frame_size(width, height)
-        if render_mode == "human":
-            render.check_human_display()
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
         self.action_space = task.single_action_space()
         self.observation_space = task.single_observation_space(self.config)
@@ -265,6 +215,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self._observation = None  # the last observation returned, float32
         self._path = None  # contact points so far, kept only when rendering
         self._viewer = None
+        self._no_window = False  # human mode where no window can open: warned once, nothing shown
 
     @property
     def dt(self) -> float:
@@ -362,9 +313,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         )
         if self.render_mode == "rgb_array":
             return frame
-        if self._viewer is None:
-            self._viewer = render.HumanViewer("RRRobot-v0")
-        self._viewer.show(frame, self.metadata["render_fps"])
+        if self._viewer is None and not self._no_window:
+            try:
+                self._viewer = render.HumanViewer("RRRobot-v0")
+            except (RuntimeError, ImportError, DependencyNotInstalled) as error:
+                # Headless (a CI server, gymnasium's check_env trying every declared mode):
+                # say why once and go on without a window, as the env does with no render_mode.
+                gymnasium.logger.warn(f"{error} Nothing is shown.")
+                self._no_window = True
+        if self._viewer is not None:
+            self._viewer.show(frame, self.metadata["render_fps"])
         return None
 
     def close(self):
@@ -372,3 +330,10 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self._viewer.close()
             self._viewer = None
 
+
+
+RRRobotEnv.__init__.__signature__ = task.signature_with_keywords(RRRobotEnv.__init__, after=("render_mode", "width", "height"))
+if RRRobotEnv.__doc__:  # (python -OO strips docstrings)
+    RRRobotEnv.__doc__ = RRRobotEnv.__doc__.replace(
+        "{arguments_table}", task.arguments_table(RENDER_ARGUMENTS).replace("\n", "\n    ")
+    )

@@ -36,9 +36,20 @@ class RRRobotSB3VecEnv(VecEnv):
     options from ``set_options()`` apply at the next ``reset()``, as in SB3's own VecEnvs;
     per-env options must all be equal (one options dict goes to the batched env).
 
-    The sub-envs share one batched env, so ``get_attr``, ``set_attr`` and ``env_method``
-    act on it: ``get_attr`` returns its attribute once per requested index, while
-    ``set_attr`` and ``env_method`` only accept all indices.
+    The sub-envs share one batched env; ``get_attr``, ``set_attr`` and ``env_method`` follow
+    SB3's ``VecEnv`` semantics (one entry per requested index) on it:
+
+    - ``get_attr``: for an attribute with one row per sub-env (the batched env's
+      ``per_env_attributes``, e.g. ``episode_target_directions``) row i for env i (a copy);
+      for any other attribute its value, once per index.
+    - ``set_attr``: for a per-env attribute, writes row i of each requested env (a new
+      heading, say, takes effect in the next step's observation and reward); any other
+      attribute is shared by all envs, so it can only be set for all of them (indices None
+      or every index): setting it for some raises ``ValueError``.
+    - ``env_method``: a method of the batched env's ``per_env_methods`` (``render``) is called
+      once and its result for env i returned for each index; any other method acts on every
+      env at once, so it is called once for all indices (its result repeated per index) and
+      refused with ``ValueError`` for some indices only.
     """
 
     def __init__(self, vector_env: VectorEnv | None = None, *, num_envs: int | None = None, **env_kwargs):
@@ -102,23 +113,42 @@ class RRRobotSB3VecEnv(VecEnv):
 
     def get_attr(self, attr_name, indices=None):
         value = getattr(self.vector_env, attr_name)
-        return [value for _ in self._get_indices(indices)]
+        indices = self._get_indices(indices)
+        if attr_name in self._per_env("per_env_attributes"):
+            return [np.copy(value[i]) for i in indices]
+        return [value for _ in indices]
 
     def set_attr(self, attr_name, value, indices=None):
-        self._require_all(indices, "set_attr")
+        indices = list(self._get_indices(indices))
+        if attr_name in self._per_env("per_env_attributes"):
+            rows = getattr(self.vector_env, attr_name)
+            for i in indices:
+                rows[i] = value
+            return
+        self._require_all(indices, f"set_attr({attr_name!r})")
         setattr(self.vector_env, attr_name, value)
 
     def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
-        self._require_all(indices, "env_method")
+        indices = list(self._get_indices(indices))
+        if method_name not in self._per_env("per_env_methods"):
+            self._require_all(indices, f"env_method({method_name!r})")
         result = getattr(self.vector_env, method_name)(*method_args, **method_kwargs)
-        return [result for _ in range(self.num_envs)]
+        if method_name in self._per_env("per_env_methods"):
+            return [None if result is None else result[i] for i in indices]
+        return [result for _ in indices]
 
     def env_is_wrapped(self, wrapper_class, indices=None):
         return [False for _ in self._get_indices(indices)]
 
+    def _per_env(self, kind):
+        return getattr(self.vector_env, kind, ())
+
     def _require_all(self, indices, what):
-        if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
-            raise ValueError(f"{what} acts on the whole batched env; pass indices=None")
+        if sorted(indices) != list(range(self.num_envs)):
+            raise ValueError(
+                f"{what} acts on all {self.num_envs} envs at once (they share one batched env), "
+                f"so it cannot act on indices {indices} only; pass indices=None"
+            )
 
 
 def _info_list(info, num_envs, exclude=()):

@@ -22,6 +22,8 @@ point               (:func:`upright_contact_points`); the forward reward is q's 
 from __future__ import annotations
 
 import dataclasses
+import difflib
+import inspect
 import math
 from dataclasses import dataclass, field
 
@@ -31,12 +33,14 @@ from gymnasium import spaces
 from .. import dynamics, validity
 from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
-from ..simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, advance, check_state
+from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, NumericalFailure, SimConfig, advance, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
-"""rad, leg target of action -1: 45 degrees below horizontal, pointing back (-X) and down."""
+"""rad, leg target of action -1: 45 degrees below horizontal, pointing forward (body +X) and down
+(leg angle 0 points along body +X, pi/2 straight up)."""
 LEG_TARGET_MAX = 1.25 * math.pi
-"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (mirror of -1).
+"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (body -X) and down
+(the mirror of -1).
 Action 0 is the rest pose, legs vertical. The Table II gaits span
 -0.3 .. 1.87 rad, inside [LEG_TARGET_MIN, LEG_TARGET_MAX]."""
 _LEG_TARGET_MID = 0.5 * (LEG_TARGET_MIN + LEG_TARGET_MAX)
@@ -119,31 +123,133 @@ def _flag(name, value):
     return bool(value)
 
 
+def _keyword(default, doc, *, shown=None):
+    """A TaskConfig field: an env keyword with its default and a one-line doc (units first)."""
+    return field(default=default, metadata={"doc": doc, "shown": shown})
+
+
 @dataclass(frozen=True)
 class TaskConfig:
-    """Everything that fixes one RRRobot-v0 scene and task, validated at construction.
+    """Everything that fixes one RRRobot-v0 scene and task: the env keywords, validated.
 
-    Both envs build it from their keyword arguments with :func:`make_task_config`.
+    The one definition of the keywords: both envs take exactly these fields as keyword
+    arguments (:func:`make_task_config`), their signatures (:func:`keyword_parameters`) and
+    their docstring's Arguments table (:func:`arguments_table`) are generated from them.
+    The simulator's part is collected in :attr:`sim`, a
+    :class:`rrrobot_gym.simulation.SimConfig`.
     """
 
-    sim: SimConfig = field(default_factory=SimConfig)
-    frame_skip: int = 15  # integrator steps per control step
-    forward_reward_weight: float = 1.0  # reward per cm/s along the commanded heading
-    ctrl_cost_weight: float = 0.01  # cost per unit |action|^2
-    reset_noise_scale: float = 0.01  # half-width of the uniform start noise (rad, rad/s)
-    exclude_current_positions_from_observation: bool = True
-    target_direction: float | None = None  # rad; None draws one per episode
-    friction_coefficient: float | None = 1.0  # grip of the floor; None: unlimited (the paper's no-slip)
-    max_slip_velocity: float = 0.02  # m/s, estimated slip or hop in one step that ends the episode
-    max_liftoff_time: float = 0.005  # s, a spell without ground contact longer than this ends the episode
-    healthy_reward: float = 0.0  # reward per step that does not end the episode
-    clock_frequency: float | None = None  # rad/s: observe (sin, cos)(clock_frequency t); None: no clock
-    terminate_outside_model: bool = True  # end the episode where the model stops holding
-    action_hold: str = "linear"  # "linear": targets ramp over a step; "zero_order": jump and hold
+    frame_skip: int = _keyword(15, "integrator steps per control step; `dt` = `frame_skip` x the step")
+    timestep: float | str = _keyword(
+        DEFAULT_TIMESTEP,
+        "s, the fixed integration step, or `\"auto\"`: a step derived from the gains, masses and model "
+        "(`rrrobot_gym.simulation.SimConfig`)",
+        shown="`1/300`",
+    )
+    integrator: str = _keyword("rk4", "fixed-step integrator, one of `rrrobot_gym.simulation.INTEGRATORS`")
+    model: str = _keyword("plane", '`"plane"` (rolling on a plane) or `"pivot"` (the paper\'s Pivoting Dynamics model)')
+    robot: RobotParams | None = _keyword(
+        None, "geometry, masses, gravity, damping (`rrrobot_gym.params.RobotParams`); None: the paper's robot",
+        shown="`RobotParams()`",
+    )
+    kp: float = _keyword(PDGains.kp, "N m/rad, leg servo stiffness")
+    kd: float = _keyword(PDGains.kd, "N m s/rad, leg servo damping")
+    damping: float | None = _keyword(None, "N m s/rad, body damping k (<= 0); None keeps `robot.damping` (-0.01)")
+    legs: str = _keyword(
+        "servo",
+        '`"servo"`: the PD servo drives the legs (the paper\'s model); `"kinematic"`: the legs follow a smooth '
+        "path to each target exactly (no stiff servo in the integration)",
+    )
+    torque_limit: float | None = _keyword(
+        None, "N m, the leg motors' stall torque (servo legs); None: unlimited, the paper's ideal servo"
+    )
+    leg_rate_limit: float | None = _keyword(
+        None, "rad/s, the leg motors' no-load speed (needs `torque_limit`); None: unlimited"
+    )
+    forward_reward_weight: float = _keyword(1.0, "reward per cm/s along the commanded heading")
+    ctrl_cost_weight: float = _keyword(0.01, "cost per unit \\|action\\|^2 (>= 0)")
+    reset_noise_scale: float = _keyword(0.01, "rad, rad/s: half-width of the uniform start noise (>= 0)")
+    exclude_current_positions_from_observation: bool = _keyword(
+        True, "leave the contact point (x, y) out of the observation"
+    )
+    target_direction: float | None = _keyword(
+        None, "rad, the commanded heading, from +X towards +Y; None draws one per episode"
+    )
+    friction_coefficient: float | None = _keyword(1.0, "grip of the floor (plane model); None: unlimited (no slip)")
+    max_slip_velocity: float = _keyword(0.02, "m/s: a step whose slip or hop exceeds this leaves the model")
+    max_liftoff_time: float = _keyword(
+        0.005, "s: a spell without ground contact longer than this leaves the model (>= 0)"
+    )
+    healthy_reward: float = _keyword(0.0, "reward for each step that does not end the episode (`reward_survive`, >= 0)")
+    clock_frequency: float | None = _keyword(
+        None, "rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation; None: no clock"
+    )
+    terminate_outside_model: bool = _keyword(True, "end the episode when the robot leaves the model (see Episode End)")
+    action_hold: str = _keyword(
+        "linear", '`"linear"`: targets ramp over each step; `"zero_order"`: jump and hold'
+    )
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        frame_skip = self.frame_skip
+        if isinstance(frame_skip, bool) or not isinstance(frame_skip, (int, np.integer)):
+            raise TypeError(f"frame_skip must be an integer, got {frame_skip!r}")
+        if frame_skip < 1:
+            raise ValueError(f"frame_skip must be a positive integer, got {frame_skip}")
+        put("frame_skip", int(frame_skip))
+        if self.robot is None:
+            put("robot", RobotParams())
+        elif not isinstance(self.robot, RobotParams):
+            raise TypeError(f"robot must be a rrrobot_gym.params.RobotParams, got {type(self.robot).__name__}")
+        robot = self.robot
+        if self.damping is not None:
+            put("damping", _real("damping", self.damping))
+            robot = dataclasses.replace(robot, damping=self.damping)
+        if not isinstance(self.timestep, str):
+            put("timestep", _real("timestep", self.timestep, positive=True))
+        _choice("legs", self.legs, LEG_MODES)
+        for name in ("kp", "kd"):
+            put(name, _real(name, getattr(self, name)))
+        for name in ("torque_limit", "leg_rate_limit", "target_direction"):
+            if getattr(self, name) is not None:
+                put(name, _real(name, getattr(self, name)))
+        # SimConfig checks the model, the integrator (simulation.INTEGRATORS), the timestep
+        # and the motor limits, naming each in its message.
+        sim = SimConfig(
+            model=self.model,
+            robot=robot,
+            gains=PDGains(kp=self.kp, kd=self.kd),
+            integrator=self.integrator,
+            timestep=self.timestep,
+            legs=self.legs,
+            torque_limit=self.torque_limit,
+            leg_rate_limit=self.leg_rate_limit,
+        )
+        put("_sim", sim)
+        put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight))
+        put("ctrl_cost_weight", _real("ctrl_cost_weight", self.ctrl_cost_weight, minimum=0.0))
+        put("reset_noise_scale", _real("reset_noise_scale", self.reset_noise_scale, minimum=0.0))
+        for name in ("exclude_current_positions_from_observation", "terminate_outside_model"):
+            put(name, _flag(name, getattr(self, name)))
+        if self.friction_coefficient is not None:
+            put("friction_coefficient", _real("friction_coefficient", self.friction_coefficient, positive=True))
+        put("max_slip_velocity", _real("max_slip_velocity", self.max_slip_velocity, positive=True))
+        put("max_liftoff_time", _real("max_liftoff_time", self.max_liftoff_time, minimum=0.0))
+        put("healthy_reward", _real("healthy_reward", self.healthy_reward, minimum=0.0))
+        if self.clock_frequency is not None:
+            put("clock_frequency", _real("clock_frequency", self.clock_frequency, positive=True))
+        _choice("action_hold", self.action_hold, ACTION_HOLDS)
+
+    @property
+    def sim(self) -> SimConfig:
+        """The simulator's configuration built from the physics keywords."""
+        return self._sim
 
     @property
     def dt(self) -> float:
-        """s, one control step: frame_skip integrator steps of sim.timestep."""
+        """s, one control step: frame_skip integrator steps of sim.step."""
         return self.frame_skip * self.sim.step
 
     @property
@@ -151,70 +257,87 @@ class TaskConfig:
         size = 15 if self.exclude_current_positions_from_observation else 17
         return size + (2 if self.clock_frequency is not None else 0)
 
+    def to_kwargs(self) -> dict:
+        """The env keywords that rebuild this config (``make_task_config(**config.to_kwargs())``)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
-def make_task_config(
-    *,
-    frame_skip=15,
-    timestep=DEFAULT_TIMESTEP,
-    integrator="rk4",
-    model="plane",
-    robot=None,
-    kp=PDGains.kp,
-    kd=PDGains.kd,
-    damping=None,
-    forward_reward_weight=1.0,
-    ctrl_cost_weight=0.01,
-    reset_noise_scale=0.01,
-    exclude_current_positions_from_observation=True,
-    target_direction=None,
-    friction_coefficient=1.0,
-    max_slip_velocity=0.02,
-    max_liftoff_time=0.005,
-    healthy_reward=0.0,
-    clock_frequency=None,
-    terminate_outside_model=True,
-    action_hold="linear",
-) -> TaskConfig:
-    """Validate the env keywords and collect them in a :class:`TaskConfig`.
 
-    Raises TypeError for a wrong type and ValueError for a bad value, naming the keyword.
+def config_to_json(config: TaskConfig) -> dict:
+    """Every env keyword of ``config`` as JSON-able values (``robot`` as a dict of its fields)."""
+    kwargs = config.to_kwargs()
+    kwargs["robot"] = dataclasses.asdict(config.robot)
+    return kwargs
+
+
+def kwargs_from_json(data: dict) -> dict:
+    """The env keywords saved by :func:`config_to_json` (a subset is fine: the rest default)."""
+    kwargs = dict(data)
+    if isinstance(kwargs.get("robot"), dict):
+        kwargs["robot"] = RobotParams(**kwargs["robot"])
+    return kwargs
+
+
+KEYWORDS = tuple(f.name for f in dataclasses.fields(TaskConfig))
+"""The env keywords, in order: the fields of :class:`TaskConfig`."""
+
+
+def make_task_config(**kwargs) -> TaskConfig:
+    """Validate the env keywords (the fields of :class:`TaskConfig`) and collect them.
+
+    Raises TypeError for an unknown keyword or a wrong type, and ValueError for a bad
+    value, naming the keyword.
     """
-    if isinstance(frame_skip, bool) or not isinstance(frame_skip, (int, np.integer)):
-        raise TypeError(f"frame_skip must be an integer, got {frame_skip!r}")
-    if frame_skip < 1:
-        raise ValueError(f"frame_skip must be a positive integer, got {frame_skip}")
-    if robot is None:
-        robot = RobotParams()
-    elif not isinstance(robot, RobotParams):
-        raise TypeError(f"robot must be a rrrobot_gym.params.RobotParams, got {type(robot).__name__}")
-    if damping is not None:
-        robot = dataclasses.replace(robot, damping=_real("damping", damping))
-    sim = SimConfig(
-        model=model,
-        robot=robot,
-        gains=PDGains(kp=_real("kp", kp), kd=_real("kd", kd)),
-        integrator=integrator,
-        timestep=_real("timestep", timestep, positive=True),
-    )
-    _flag("exclude_current_positions_from_observation", exclude_current_positions_from_observation)
-    return TaskConfig(
-        sim=sim,
-        frame_skip=int(frame_skip),
-        forward_reward_weight=_real("forward_reward_weight", forward_reward_weight),
-        ctrl_cost_weight=_real("ctrl_cost_weight", ctrl_cost_weight, minimum=0.0),
-        reset_noise_scale=_real("reset_noise_scale", reset_noise_scale, minimum=0.0),
-        exclude_current_positions_from_observation=bool(exclude_current_positions_from_observation),
-        target_direction=None if target_direction is None else _real("target_direction", target_direction),
-        friction_coefficient=None
-        if friction_coefficient is None
-        else _real("friction_coefficient", friction_coefficient, positive=True),
-        max_slip_velocity=_real("max_slip_velocity", max_slip_velocity, positive=True),
-        max_liftoff_time=_real("max_liftoff_time", max_liftoff_time, minimum=0.0),
-        healthy_reward=_real("healthy_reward", healthy_reward, minimum=0.0),
-        clock_frequency=None if clock_frequency is None else _real("clock_frequency", clock_frequency, positive=True),
-        terminate_outside_model=_flag("terminate_outside_model", terminate_outside_model),
-        action_hold=_choice("action_hold", action_hold, ACTION_HOLDS),
-    )
+    unknown = [name for name in kwargs if name not in KEYWORDS]
+    if unknown:
+        hints = []
+        for name in unknown:
+            close = difflib.get_close_matches(name, KEYWORDS, n=1)
+            hints.append(f"{name!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
+        raise TypeError(f"RRRobot-v0 got unknown keyword argument(s) {', '.join(hints)}; it takes {', '.join(KEYWORDS)}")
+    return TaskConfig(**kwargs)
+
+
+def keyword_parameters() -> list[inspect.Parameter]:
+    """The env keywords as keyword-only :class:`inspect.Parameter` s, for the envs' ``__signature__``."""
+    return [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
+        for f in dataclasses.fields(TaskConfig)
+    ]
+
+
+def arguments_table(extra_rows=()) -> str:
+    """The Markdown Arguments table of the env keywords (plus ``extra_rows``: (name, type, default, doc))."""
+    rows = [
+        (f"`{f.name}`", f"**{f.type.replace('|', chr(92) + '|')}**", f.metadata["shown"] or _shown(f.default), f.metadata["doc"])
+        for f in dataclasses.fields(TaskConfig)
+    ]
+    rows += [(f"`{name}`", f"**{kind}**", default, doc) for name, kind, default, doc in extra_rows]
+    header = ("Parameter", "Type", "Default", "Description")
+    widths = [max(len(row[i]) for row in rows + [header]) for i in range(3)]
+    lines = [
+        "| " + " | ".join(h.ljust(w) for h, w in zip(header[:3], widths)) + " | Description |",
+        "|" + "|".join("-" * (w + 2) for w in widths) + "|-------------|",
+    ]
+    lines += ["| " + " | ".join(c.ljust(w) for c, w in zip(row[:3], widths)) + f" | {row[3]} |" for row in rows]
+    return "\n".join(lines)
+
+
+def _shown(default) -> str:
+    return f'`"{default}"`' if isinstance(default, str) else f"`{default!r}`"
+
+
+def signature_with_keywords(function, *, before=(), after=()) -> inspect.Signature:
+    """``function``'s signature with its ``**kwargs`` replaced by the env keywords.
+
+    ``before`` and ``after`` are further keyword-only :class:`inspect.Parameter` s placed
+    around them (the envs' own keywords, e.g. ``render_mode``).
+    """
+    own = [p for p in inspect.signature(function).parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    positional = [p for p in own if p.kind is not inspect.Parameter.KEYWORD_ONLY]
+    keyword_only = {p.name: p for p in own if p.kind is inspect.Parameter.KEYWORD_ONLY}
+    params = positional + [keyword_only.pop(n) for n in before] + keyword_parameters()
+    params += [keyword_only.pop(n) for n in after] + list(keyword_only.values())
+    return inspect.Signature(params)
 
 
 # ---------------------------------------------------------------------------
@@ -258,7 +381,7 @@ def check_actions(action, shape) -> np.ndarray:
 
 
 def action_to_leg_targets(action):
-    """rad, the leg target angles of actions in [-1, 1] (affine: -1 -> -pi/4, +1 -> 3pi/4)."""
+    """rad, the leg target angles of actions in [-1, 1] (affine: -1 -> -pi/4, 0 -> pi/2, +1 -> 5pi/4)."""
     return _LEG_TARGET_MID + _LEG_TARGET_HALF_RANGE * np.asarray(action, dtype=np.float64)
 
 
@@ -524,7 +647,7 @@ def left_the_floor(info, config: TaskConfig):
 
 
 def tilt_reached_limit(tilts):
-    """True where the rim touches the ground (MODEL.md: the rolling model ends there)."""
+    """True where the rim touches the ground (the paper's rolling model holds while the hemisphere's bottom touches the floor: it ends there)."""
     return tilts >= dynamics.TILT_LIMIT
 
 

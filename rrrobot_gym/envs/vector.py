@@ -24,15 +24,14 @@ from gymnasium.utils import EzPickle, seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ..control import HeldTargets
-from ..simulation import DEFAULT_TIMESTEP, advance
 from . import render, task
 
 class RRRobotVectorEnv(VectorEnv, EzPickle):
     """N RRRobot-v0 robots stepped together (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``).
 
-    Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (see its docstring for the
-    spaces, reward and episode end) plus ``num_envs`` and ``max_episode_steps`` (control
+    Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
+    :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
+    episode end) plus ``num_envs`` and ``max_episode_steps`` (control
     steps before truncation; None never truncates). ``render_mode="rgb_array"`` renders
     one frame per sub-env.
 
@@ -45,57 +44,23 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
+    per_env_attributes = ("states", "leg_targets", "contact_lost", "episode_target_directions", "episode_steps")
+    """Attributes that are arrays with one row per sub-env (what the SB3 adapter's
+    ``get_attr`` and ``set_attr`` index)."""
+    per_env_methods = ("render",)
+    """Methods that return one result per sub-env (what the SB3 adapter's ``env_method`` indexes)."""
 
     def __init__(
         self,
         num_envs: int = 1,
         max_episode_steps: int | None = 1000,
-        frame_skip: int = 15,
-        timestep: float = DEFAULT_TIMESTEP,
-        integrator: str = "rk4",
-        model: str = "plane",
-        robot=None,
-        kp: float = 2.0,
-        kd: float = 0.05,
-        damping: float | None = None,
-        forward_reward_weight: float = 1.0,
-        ctrl_cost_weight: float = 0.01,
-        reset_noise_scale: float = 0.01,
-        exclude_current_positions_from_observation: bool = True,
-        target_direction: float | None = None,
-        friction_coefficient: float | None = 1.0,
-        max_slip_velocity: float = 0.02,
-        max_liftoff_time: float = 0.005,
-        healthy_reward: float = 0.0,
-        clock_frequency: float | None = None,
-        terminate_outside_model: bool = True,
-        action_hold: str = "linear",
+        *,
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
+        **kwargs,
     ):
-        env_kwargs = dict(
-            frame_skip=frame_skip,
-            timestep=timestep,
-            integrator=integrator,
-            model=model,
-            robot=robot,
-            kp=kp,
-            kd=kd,
-            damping=damping,
-            forward_reward_weight=forward_reward_weight,
-            ctrl_cost_weight=ctrl_cost_weight,
-            reset_noise_scale=reset_noise_scale,
-            exclude_current_positions_from_observation=exclude_current_positions_from_observation,
-            target_direction=target_direction,
-            friction_coefficient=friction_coefficient,
-            max_slip_velocity=max_slip_velocity,
-            max_liftoff_time=max_liftoff_time,
-            healthy_reward=healthy_reward,
-            clock_frequency=clock_frequency,
-            terminate_outside_model=terminate_outside_model,
-            action_hold=action_hold,
-        )
+        # The env keywords are the fields of task.TaskConfig (see __signature__ below).
         EzPickle.__init__(
             self,
             num_envs=num_envs,
@@ -103,7 +68,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             render_mode=render_mode,
             width=width,
             height=height,
-            **env_kwargs,
+            **kwargs,
         )
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
@@ -113,7 +78,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             or max_episode_steps < 1
         ):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        self.config = task.make_task_config(**env_kwargs)
+        self.config = task.make_task_config(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"unknown render_mode {render_mode!r} for the vector env: expected None or 'rgb_array' "
@@ -313,6 +278,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             )
             for i in range(self.num_envs)
         )
+
+
+RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
+    RRRobotVectorEnv.__init__, after=("render_mode", "width", "height")
+)
 
 
 def _with_masks(info, masks):
