@@ -48,3 +48,22 @@ def test_more_threads_than_robots_and_bad_counts():
     for bad in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="num_threads"):
             advance(SimConfig(), states, 0.0, 0.05, table2_gait(1), num_threads=bad)
+
+
+def test_make_vec_with_threads_steps_exactly_as_with_one():
+    import gymnasium
+
+    import rrrobot_gym  # noqa: F401
+
+    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=9, num_threads=threads) for threads in (1, 2)]
+    observations = [env.reset(seed=3)[0] for env in envs]
+    rng = np.random.default_rng(0)
+    for _ in range(30):  # bang-bang actions: some robots leave the model and are reset in the step
+        action = rng.choice([-1.0, 1.0], size=(9, 2)).astype(np.float32)
+        results = [env.step(action) for env in envs]
+        for item in range(4):
+            assert np.array_equal(results[0][item], results[1][item])
+        assert np.array_equal(results[0][4]["torque_rms"], results[1][4]["torque_rms"])
+    assert np.any(results[0][2]) or np.any(envs[0].unwrapped.episode_steps < 30)  # resets happened
+    with pytest.raises(ValueError, match="num_threads"):
+        gymnasium.make_vec("RRRobot-v0", num_envs=2, num_threads=0)

@@ -31,9 +31,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
     Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
     :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
-    episode end) plus ``num_envs`` and ``max_episode_steps`` (control
-    steps before truncation; None never truncates). ``render_mode="rgb_array"`` renders
-    one frame per sub-env.
+    episode end) plus ``num_envs``, ``max_episode_steps`` (control steps before truncation;
+    None never truncates) and ``num_threads`` (integrate the batch in that many blocks on
+    threads, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; it pays from a
+    few hundred robots a thread, ``python -m benchmarks.throughput``).
+    ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
     seeds (None keeps that sub-env's generator). ``reset(options=...)`` takes "state", a
@@ -55,6 +57,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         num_envs: int = 1,
         max_episode_steps: int | None = 1000,
         *,
+        num_threads: int = 1,
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -65,6 +68,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             self,
             num_envs=num_envs,
             max_episode_steps=max_episode_steps,
+            num_threads=num_threads,
             render_mode=render_mode,
             width=width,
             height=height,
@@ -78,6 +82,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             or max_episode_steps < 1
         ):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
+        if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
+            raise ValueError(f"num_threads must be a positive integer, got {num_threads!r}")
+        self.num_threads = int(num_threads)
         self.config = task.make_task_config(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -202,7 +209,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
                 after, measures, lost = task.advance_and_check(
-                    states, actions, 0.0, self.config, previous_targets, contact_lost
+                    states, actions, 0.0, self.config, previous_targets, contact_lost, num_threads=self.num_threads
                 )
             return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
