@@ -85,20 +85,37 @@ def rotation_rows(qw, qx, qy, qz):
     )
 
 
-class Constants(tuple):
+class Constants(NamedTuple):
     """Numbers that depend only on (params, depth), computed once per configuration.
 
     Made by :func:`constants`; the integrators pass it to :func:`derivative_kernel`
-    so that a derivative evaluation does no parameter arithmetic.
+    so that a derivative evaluation does no parameter arithmetic. The hot functions
+    unpack it whole (one tuple unpack is cheaper than attribute look-ups on floats).
     """
 
-    __slots__ = ()
+    radius: float  # m, r
+    leg_length: float  # m, l
+    mass_tip: float  # kg, Ml
+    depth: float  # m, h
+    gravity: float  # m/s^2, g
+    damping: float  # N m s/rad, k
+    leg_inertia: float  # kg m^2, D = Ml l^2
+    inv_leg_inertia: float  # 1/(kg m^2)
+    ixx0: float  # kg m^2, Ixx about the centre before the legs' cos^2 terms
+    iyy: float  # kg m^2
+    izz0: float  # kg m^2
+    ml_r: float  # kg m, Ml r
+    mb_r: float  # kg m, Mb r
+    total_h2: float  # kg m^2, M h^2
+    two_ml: float  # kg, 2 Ml
+    neg_ml: float  # kg, -Ml
+    neg_ml_l2: float  # kg m^2, -Ml l^2
+    ml_h: float  # kg m, Ml h
+    total_h: float  # kg m, M h
+    weight: float  # N, M g
 
 
-_CONSTANT_NAMES = (
-    "radius", "leg_length", "mass_tip", "depth", "gravity", "damping", "leg_inertia", "inv_leg_inertia",
-    "ixx0", "iyy", "izz0", "ml_r", "mb_r", "total_h2", "two_ml", "neg_ml", "neg_ml_l2", "ml_h", "total_h", "weight",
-)  # fmt: skip
+_CONSTANT_NAMES = Constants._fields
 
 
 def constants(params: RobotParams, depth: float) -> Constants:
@@ -130,7 +147,7 @@ def constants(params: RobotParams, depth: float) -> Constants:
         "total_h": params.total_mass * h,
         "weight": params.total_mass * params.gravity,
     }
-    return Constants(values[name] for name in _CONSTANT_NAMES)
+    return Constants(**values)
 
 
 def _leg_trig(phi1, phi2):
@@ -162,27 +179,27 @@ def _configuration(phi1, phi2, n, k):
     of I_c and of M_omega; first_moment is (S_x, S_z) (S_y cancels between the legs);
     coupling is (c_1, c_2), c_k = Ml s_k x e_k.
     """
-    r, l, ml, h = k[0], k[1], k[2], k[3]
+    r, l, ml, h, _, _, _, _, ixx0, iyy0, izz0, ml_r, mb_r, total_h2, _, neg_ml, neg_ml_l2, ml_h, _, _ = k
     nx, ny, nz = n
     cos1, sin1, cos2, sin2 = _leg_trig(phi1, phi2)
     lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
     m2 = ml * (lc1 * lc1 + lc2 * lc2)
-    ixx, iyy, izz = k[8] - m2, k[9], k[10] + m2
-    ixy = k[11] * (lc1 - lc2)
-    ixz = k[15] * (lc1 * ls1 + lc2 * ls2)
-    iyz = k[11] * (ls1 - ls2)
+    ixx, iyy, izz = ixx0 - m2, iyy0, izz0 + m2
+    ixy = ml_r * (lc1 - lc2)
+    ixz = neg_ml * (lc1 * ls1 + lc2 * ls2)
+    iyz = ml_r * (ls1 - ls2)
     sx = ml * (lc1 + lc2)
-    sz = ml * (ls1 + ls2) - k[12]
+    sz = ml * (ls1 + ls2) - mb_r
     inertia = (ixx, ixy, ixz, iyy, iyz, izz)
     if h == 0.0:
         # Pivoting: s = p, M_omega = I_c, and c_k = Ml p_k x e_k = Ml (p_y lc, -l^2, p_y ls).
-        c_y = k[16]
-        c1 = (-k[11] * lc1, c_y, -k[11] * ls1)
-        c2 = (k[11] * lc2, c_y, k[11] * ls2)
+        c_y = neg_ml_l2
+        c1 = (-ml_r * lc1, c_y, -ml_r * ls1)
+        c2 = (ml_r * lc2, c_y, ml_r * ls2)
         return ((lc1, ls1, -r), (lc2, ls2, r)), inertia, (sx, sz), inertia, (c1, c2)
     # M_omega = I_c + h^2 M (1 - n n^T) + h (2 (S.n) 1 - S n^T - n S^T): inertia about the turning point.
     hsx, hsz = h * sx, h * sz
-    mt = k[13]
+    mt = total_h2
     mnx, mny, mnz = mt * nx, mt * ny, mt * nz
     diag = mt + 2.0 * (hsx * nx + hsz * nz)
     ax, az = mnx + hsx, mnz + hsz
@@ -197,10 +214,9 @@ def _configuration(phi1, phi2, n, k):
     # c_k = Ml s_k x e_k = Ml (s_y lc, -(l^2 + h (nx lc + nz ls)), s_y ls), using p_k.e_k = 0.
     hny = h * ny
     sy1, sy2 = hny - r, hny + r
-    ml_h = k[17]
     ml_sy1, ml_sy2 = ml * sy1, ml * sy2
-    c1 = (ml_sy1 * lc1, k[16] - ml_h * (nx * lc1 + nz * ls1), ml_sy1 * ls1)
-    c2 = (ml_sy2 * lc2, k[16] - ml_h * (nx * lc2 + nz * ls2), ml_sy2 * ls2)
+    c1 = (ml_sy1 * lc1, neg_ml_l2 - ml_h * (nx * lc1 + nz * ls1), ml_sy1 * ls1)
+    c2 = (ml_sy2 * lc2, neg_ml_l2 - ml_h * (nx * lc2 + nz * ls2), ml_sy2 * ls2)
     return ((lc1, ls1, sy1), (lc2, ls2, sy2)), inertia, (sx, sz), m_omega, (c1, c2)
 
 
@@ -251,7 +267,7 @@ def derivative_kernel(
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
     rate1, rate2 = c[11], c[12]
-    r, ml, h, g, damping = k[0], k[2], k[3], k[4], k[5]
+    r, _, ml, h, g, damping, inertia_leg, inv_d, *_, two_ml, neg_ml, _, _, total_h, weight = k
 
     # Attitude products; rows 0 and 1 of R give the world rate for the contact
     # kinematics (eq. 2 and 4: xdot = r w_y, ydot = -r w_x), row 2 is n.
@@ -304,10 +320,8 @@ def derivative_kernel(
     r_oy = r * oy
     ne1, ne2 = nz * lc1 - nx * ls1, nz * lc2 - nx * ls2
     p_omega1, p_omega2 = lc1 * ox + ls1 * oz - r_oy, lc2 * ox + ls2 * oz + r_oy
-    neg_ml = k[15]
     f_leg1 = neg_ml * ((lc1 * oz - ls1 * ox) * p_omega1 + g * ne1)
     f_leg2 = neg_ml * ((lc2 * oz - ls2 * ox) * p_omega2 + g * ne2)
-    two_ml = k[14]
     a1, a2 = two_ml * rate1, two_ml * rate2
     cc1, cc2 = ml * rate1 * rate1, ml * rate2 * rate2
     if h != 0.0:
@@ -328,7 +342,6 @@ def derivative_kernel(
     c2x, c2y, c2z = c2
     if leg_accel is None:
         # Schur complement of the diagonal leg block (Ml l^2 on each leg).
-        inv_d = k[7]
         fl1, fl2 = f_leg1 + leg_torque[0], f_leg2 + leg_torque[1]
         h1x, h1y, h1z = c1x * inv_d, c1y * inv_d, c1z * inv_d
         h2x, h2y, h2z = c2x * inv_d, c2y * inv_d, c2z * inv_d
@@ -363,7 +376,6 @@ def derivative_kernel(
             m_omega, f0 - (c1x * acc1 + c2x * acc2), f1 - (c1y * acc1 + c2y * acc2), f2 - (c1z * acc1 + c2z * acc2)
         )
         if torque_out is not None:
-            inertia_leg = k[6]
             torque_out[:] = (
                 inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
                 inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
@@ -371,7 +383,7 @@ def derivative_kernel(
     if contact_out is not None:
         contact_out[:] = _contact_force(
             (nx, ny, nz), legs, (sx, sz), (ox, oy, oz), (rate1, rate2), (od0, od1, od2), (acc1, acc2),
-            r, ml, k[18], k[19],
+            r, ml, total_h, weight,
         )  # fmt: skip
     return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
 
@@ -492,7 +504,7 @@ def energy_components(c, params: RobotParams, depth: float):
     )  # fmt: skip
     kinetic = kinetic + c[11] * (c1[0] * ox + c1[1] * oy + c1[2] * oz)
     kinetic = kinetic + c[12] * (c2[0] * ox + c2[1] * oy + c2[2] * oz)
-    kinetic = kinetic + 0.5 * k[6] * (c[11] * c[11] + c[12] * c[12])
+    kinetic = kinetic + 0.5 * k.leg_inertia * (c[11] * c[11] + c[12] * c[12])
     potential = params.gravity * (params.total_mass * params.radius + sx * n[0] + sz * n[2])
     return kinetic, potential
 
@@ -522,7 +534,7 @@ def mass_matrix(state, params: RobotParams, model: str):
         for i in range(3):
             out[..., i, 3 + k_leg] = coupling[k_leg][i]
             out[..., 3 + k_leg, i] = coupling[k_leg][i]
-        out[..., 3 + k_leg, 3 + k_leg] = k[6]
+        out[..., 3 + k_leg, 3 + k_leg] = k.leg_inertia
     return out
 
 
