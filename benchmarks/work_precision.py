@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -111,12 +112,12 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
     stepper = _STEPPERS[integrator][0]
     steps_per_env = round(ENV_STEP / step)
     extra = ()
-    if integrator == "rosw":  # its Jacobian is the default servo's (a W-method keeps its order for any)
+    if integrator == "rosw":  # no servo acts here, so its servo Jacobian is that of zero gains
 
         def first(t, c, mobility_out=None):
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
 
-        extra = (first, _ServoJacobian(PDGains(), ENV_STEP / steps_per_env))
+        extra = (first, _ServoJacobian(SimpleNamespace(kp=0.0, kd=0.0), ENV_STEP / steps_per_env))
     y = state.tolist()
     energies = [float(dynamics.total_energy(state, robot, model))]
     for i in range(round(duration / ENV_STEP)):
