@@ -174,6 +174,45 @@ def make_eval_env(args: Args, seed: int):
     return VecMonitor(venv)
 
 
+def stop_on_ctrl_c():
+    """A callback that ends training at the next env step after Ctrl-C.
+
+    Ctrl-C raising KeyboardInterrupt wherever it lands could land inside a checkpoint's
+    torch.save, which then fails with a RuntimeError (a broken zip) instead of the interrupt,
+    and the run died without its final model. Here the first Ctrl-C only sets a flag; learn()
+    returns at the next step and main() saves. A second Ctrl-C interrupts at once.
+    """
+    import contextlib
+    import signal
+    import threading
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Stop(BaseCallback):
+        requested = False
+
+        def _on_step(self) -> bool:
+            return not self.requested
+
+        def _request(self, signum, frame):
+            self.requested = True
+            print("interrupted: saving the model before exiting", flush=True)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+
+        @contextlib.contextmanager
+        def handling_ctrl_c(self):
+            if threading.current_thread() is not threading.main_thread():
+                yield  # signal handlers belong to the main thread: plain KeyboardInterrupt there
+                return
+            previous = signal.signal(signal.SIGINT, self._request)
+            try:
+                yield
+            finally:
+                signal.signal(signal.SIGINT, previous)
+
+    return Stop()
+
+
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -266,18 +305,20 @@ def main(argv=None) -> Path:
             f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}",
             flush=True,
         )
-    interrupted = False
+    stop = stop_on_ctrl_c()
     try:
-        model.learn(
-            total_timesteps=total_timesteps,
-            callback=CallbackList([evaluation, checkpoints]),
-            progress_bar=args.progress_bar,
-            reset_num_timesteps=args.resume is None,
-            tb_log_name="tb",
-        )
-    except KeyboardInterrupt:
-        interrupted = True
-        print("interrupted: saving the model before exiting", flush=True)
+        with stop.handling_ctrl_c():
+            model.learn(
+                total_timesteps=total_timesteps,
+                callback=CallbackList([stop, evaluation, checkpoints]),
+                progress_bar=args.progress_bar,
+                reset_num_timesteps=args.resume is None,
+                tb_log_name="tb",
+            )
+    except KeyboardInterrupt:  # a second Ctrl-C: stop at once
+        stop.requested = True
+        print("interrupted again: saving the model before exiting", flush=True)
+    interrupted = stop.requested
     model.save(run_dir / "final_model.zip")
     train_env.save(str(run_dir / "final_vecnormalize.pkl"))
     if not (run_dir / "best_model.zip").exists():

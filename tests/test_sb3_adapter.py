@@ -134,4 +134,6 @@ def test_get_attr_set_attr_and_env_method_follow_vec_env_semantics_per_index():
         venv.set_attr("render_mode", None, indices=[0])
     with pytest.raises(ValueError, match="share one batched env"):
         venv.env_method("reset", indices=[0, 1])
+    with pytest.raises(ValueError, match="simulation state"):
+        venv.set_attr("states", np.zeros(13), indices=[0])
     assert len(venv.env_method("reset", seed=0)) == 3

@@ -42,10 +42,12 @@ class RRRobotSB3VecEnv(VecEnv):
     - ``get_attr``: for an attribute with one row per sub-env (the batched env's
       ``per_env_attributes``, e.g. ``episode_target_directions``) row i for env i (a copy);
       for any other attribute its value, once per index.
-    - ``set_attr``: for a per-env attribute, writes row i of each requested env (a new
-      heading, say, takes effect in the next step's observation and reward); any other
-      attribute is shared by all envs, so it can only be set for all of them (indices None
-      or every index): setting it for some raises ``ValueError``.
+    - ``set_attr``: for a per-env attribute the batched env lets callers write
+      (``per_env_settable``: ``episode_target_directions``, whose new value takes effect in the
+      next step's observation and reward), writes row i of each requested env; the other
+      per-env arrays are the simulation's state (set them with ``reset`` options) and raise
+      ``ValueError``; any other attribute is shared by all envs, so it can only be set for all
+      of them (indices None or every index): setting it for some raises ``ValueError``.
     - ``env_method``: a method of the batched env's ``per_env_methods`` (``render``) is called
       once and its result for env i returned for each index; any other method acts on every
       env at once, so it is called once for all indices (its result repeated per index) and
@@ -121,6 +123,11 @@ class RRRobotSB3VecEnv(VecEnv):
     def set_attr(self, attr_name, value, indices=None):
         indices = list(self._get_indices(indices))
         if attr_name in self._per_env("per_env_attributes"):
+            if attr_name not in self._per_env("per_env_settable"):
+                raise ValueError(
+                    f"{attr_name} is the batched env's simulation state, not a setting: start from a "
+                    "state with set_options({'state': ...}) and reset()"
+                )
             rows = getattr(self.vector_env, attr_name)
             for i in indices:
                 rows[i] = value

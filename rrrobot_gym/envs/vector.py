@@ -42,13 +42,17 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     (13,) or (N, 13) start, and "target_direction", a number or (N,) headings.
 
     Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
-    ``episode_steps`` (N,) expose the batch; do not write to them.
+    ``episode_steps`` (N,) expose the batch; of these only a heading may be written
+    (``per_env_settable``): it takes effect in the next step.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
     per_env_attributes = ("states", "leg_targets", "contact_lost", "episode_target_directions", "episode_steps")
-    """Attributes that are arrays with one row per sub-env (what the SB3 adapter's
-    ``get_attr`` and ``set_attr`` index)."""
+    """Attributes that are arrays with one row per sub-env (what the SB3 adapter's ``get_attr`` indexes)."""
+    per_env_settable = ("episode_target_directions",)
+    """The per-env attributes a caller may write, row by row (the SB3 adapter's ``set_attr``):
+    a new heading takes effect in the next step. The others are the simulation's state,
+    which ``reset(options=...)`` sets consistently."""
     per_env_methods = ("render",)
     """Methods that return one result per sub-env (what the SB3 adapter's ``env_method`` indexes)."""
 
