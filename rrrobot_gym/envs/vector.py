@@ -292,7 +292,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
 
 RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
-    RRRobotVectorEnv.__init__, after=("render_mode", "width", "height")
+    RRRobotVectorEnv.__init__, before=("num_threads",), after=("render_mode", "width", "height")
 )
 
 
