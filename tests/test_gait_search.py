@@ -226,3 +226,33 @@ def test_ray_evaluation_equals_local_evaluation():
     for key in ("displacement", "end_time", "terminated", "torque_peak", "leg_rate_peak"):
         np.testing.assert_allclose(getattr(remote.runs, key), getattr(local.runs, key), rtol=0, atol=1e-12, err_msg=key)
     np.testing.assert_allclose(remote.fitness, local.fitness, rtol=0, atol=1e-12)
+
+
+def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from rrrobot_gym.envs import RRRobotSB3VecEnv
+    from rrrobot_gym.hyperparams import ppo_hyperparams, vecnormalize_kwargs
+
+    sys.path.insert(0, str(REPO))
+    import train
+
+    defaults = train.Args()
+    params = ppo_hyperparams(num_envs=defaults.num_envs)
+    for key in ("n_steps", "batch_size", "n_epochs", "learning_rate", "gamma", "gae_lambda", "clip_range", "ent_coef"):
+        assert params[key] == getattr(defaults, key), key
+    assert params["policy_kwargs"] == {"net_arch": [int(n) for n in defaults.net_arch.split(",")],
+                                       "log_std_init": defaults.log_std_init}
+    with pytest.raises(ValueError, match="num_envs"):
+        ppo_hyperparams(0)
+
+    venv = VecNormalize(RRRobotSB3VecEnv(num_envs=2, max_episode_steps=100), **vecnormalize_kwargs())
+    model = PPO("MlpPolicy", venv, seed=0, **ppo_hyperparams(num_envs=2))
+    assert model.batch_size == 512 and model.n_steps == 256  # one minibatch a rollout at 2 envs
+    before = [p.detach().clone() for p in model.policy.parameters()]
+    model.learn(512)  # one rollout: 256 steps x 2 envs, then 10 epochs
+    assert model.num_timesteps == 512
+    assert any(not np.allclose(b.numpy(), a.detach().numpy()) for b, a in zip(before, model.policy.parameters()))
+    venv.close()
