@@ -147,7 +147,8 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0):
         first = run_episodes(gaits, model, [0.0], duration, seed) if gaits else {}
         own = {}
         for name, run in first.items():
-            end = run["xy"][-1, 0] - run["xy"][0, 0]
+            path = run["xy"][:, 0]  # NaN after an episode that left the model: use its last position
+            end = path[np.all(np.isfinite(path), axis=1)][-1] - path[0]
             own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
         headings = list(COMPASS_DEG) + list(own.values())
         for name, run in run_episodes(agents, model, headings, duration, seed).items():

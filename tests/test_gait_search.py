@@ -136,6 +136,24 @@ def test_evaluate_py_scores_a_searched_gait_like_the_search(tiny_result, tmp_pat
     assert json.loads(out.read_text())["records"]
 
 
+def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then(tmp_path):
+    """A gait whose first episode terminates still gets an own direction (from its last position
+    inside the model), instead of a NaN heading that the env rejects."""
+    sys.path.insert(0, str(REPO))
+    import evaluate
+
+    # From agents/searched/plane_own.json: from the paper's start it leaves the model at 1.05 s.
+    leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
+    from agents import GaitAgent
+
+    agents = {"leaves": GaitAgent(leaves, name="leaves")}
+    first = evaluate.run_episodes(agents, "plane", [0.0], duration=1.5)["leaves"]
+    assert first["terminated"][0], "the gait no longer leaves the model: pick another for this test"
+    records, _ = evaluate.evaluate(agents, ["plane"], duration=1.5)
+    own = [r for r in records if "leaves" in r["own_direction_of"]]
+    assert len(own) == 1 and math.isfinite(own[0]["heading_deg"]) and own[0]["terminated"]
+
+
 def test_evaluate_py_rejects_a_file_that_is_not_a_gait_search_result(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"gaits": []}))
