@@ -75,6 +75,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
         current = env.states.copy()
         step_effort = {key: np.array(info[key], dtype=float) for key in EFFORT_KEYS}
+        ended_before = ended.copy()
         if np.any(terminated):
             # SAME_STEP autoreset has already restarted a finished robot: take its last
             # position and step summaries from final_info and mark the rest of its episode as missing.
@@ -85,7 +86,8 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
                 for key in EFFORT_KEYS:
                     step_effort[key][i] = final[key][i]
             ended |= terminated
-        gone = ended & ~terminated
+        # Ended at an earlier step: NaN, even when its autoreset episode terminates again now.
+        gone = ended & ~(terminated & ~ended_before)
         current[gone] = np.nan
         targets.append(leg_target)
         xy.append(current[:, 0:2])

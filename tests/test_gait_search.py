@@ -154,6 +154,24 @@ def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then
     assert len(own) == 1 and math.isfinite(own[0]["heading_deg"]) and own[0]["terminated"]
 
 
+def test_evaluate_py_scores_a_robot_that_left_the_model_by_its_last_position_inside_it():
+    """After an episode ends, the robot's autoreset episode may end too (the open-loop gait runs
+    on); that later end must not put the new episode's start back into the scored path."""
+    sys.path.insert(0, str(REPO))
+    import evaluate
+    from agents import GaitAgent
+
+    leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
+    run = evaluate.run_episodes({"leaves": GaitAgent(leaves, name="leaves")}, "plane", [0.0], duration=3.0)["leaves"]
+    path = run["xy"][:, 0]
+    last = np.flatnonzero(np.all(np.isfinite(path), axis=1))
+    assert np.all(np.diff(last) == 1), "the path must be finite up to the episode's end, NaN after"
+    [record] = evaluate.score(run, [0.0], 3.0)
+    scores = evaluate_population(np.array([leaves.as_array()]), duration=3.0, start_seeds=(0,), reset_noise_scale=0.0)
+    np.testing.assert_allclose(record["displacement_m"], scores.runs.displacement[0, 0], atol=1e-12)
+    assert record["terminated"] and abs(record["displacement_m"][0]) > 0.01
+
+
 def test_evaluate_py_rejects_a_file_that_is_not_a_gait_search_result(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"gaits": []}))
