@@ -7,6 +7,7 @@ same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
 
     python evaluate.py                                  # the shipped policy
     python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
+    python evaluate.py --gaits agents/searched/plane_own.json        # searched gaits too
 
 Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
 (keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import GAIT_AGENT_NAMES, gait_agent, load_ppo_agent
+from agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
 from rrrobot_gym.envs.task import action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import DEFAULT_TIMESTEP
@@ -74,6 +75,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
         current = env.states.copy()
         step_effort = {key: np.array(info[key], dtype=float) for key in EFFORT_KEYS}
+        ended_before = ended.copy()
         if np.any(terminated):
             # SAME_STEP autoreset has already restarted a finished robot: take its last
             # position and step summaries from final_info and mark the rest of its episode as missing.
@@ -84,7 +86,8 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
                 for key in EFFORT_KEYS:
                     step_effort[key][i] = final[key][i]
             ended |= terminated
-        gone = ended & ~terminated
+        # Ended at an earlier step: NaN, even when its autoreset episode terminates again now.
+        gone = ended & ~(terminated & ~ended_before)
         current[gone] = np.nan
         targets.append(leg_target)
         xy.append(current[:, 0:2])
@@ -146,7 +149,8 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0):
         first = run_episodes(gaits, model, [0.0], duration, seed) if gaits else {}
         own = {}
         for name, run in first.items():
-            end = run["xy"][-1, 0] - run["xy"][0, 0]
+            path = run["xy"][:, 0]  # NaN after an episode that left the model: use its last position
+            end = path[np.all(np.isfinite(path), axis=1)][-1] - path[0]
             own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
         headings = list(COMPASS_DEG) + list(own.values())
         for name, run in run_episodes(agents, model, headings, duration, seed).items():
@@ -319,6 +323,8 @@ def main(argv=None):
     parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
+    parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
+                        help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable)")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run the policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
@@ -331,6 +337,15 @@ def main(argv=None):
         agents["ppo"] = load_ppo_agent(args.policy)
     for name in GAIT_AGENT_NAMES:
         agents[name] = gait_agent(name)
+    for path in args.gaits:
+        try:
+            searched = load_gait_agents(path)
+        except ValueError as exc:
+            parser.error(f"--gaits: {exc}")
+        clash = sorted(set(searched) & set(agents))
+        if clash:
+            parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
+        agents.update(searched)
     records, runs = evaluate(agents, args.models, args.duration, args.seed)
     ratio_list = [ratios(records, model) for model in args.models]
     text = markdown(records, ratio_list)

@@ -20,6 +20,9 @@ GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3",
 class GaitAgent:
     """A scripted gait with the ``predict`` interface of a Stable-Baselines3 policy.
 
+    ``gait`` is any leg-target law with ``angles(times) -> (T, 2)`` rad: a Table II
+    :class:`~rrrobot_gym.control.Gait` (one amplitude) or a searched
+    :class:`~rrrobot_gym.gait_search.SinusoidGait` (one amplitude a leg).
     ``dt`` (s) must be the control step of the env the agent acts in: the agent counts
     steps and commands the gait at ``(steps + sample_fraction) * dt``, so a wrong ``dt``
     plays the gait at the wrong speed. :meth:`for_env` takes it from the env.
@@ -30,8 +33,11 @@ class GaitAgent:
     """
 
     def __init__(self, gait: Gait, dt: float, name: str | None = None, sample_fraction: float = 1.0):
-        if not isinstance(gait, Gait):
-            raise TypeError(f"gait must be a rrrobot_gym.control.Gait, got {type(gait).__name__}")
+        if not callable(getattr(gait, "angles", None)):
+            raise TypeError(
+                "gait must have an angles(times) method giving (T, 2) leg targets, such as "
+                f"rrrobot_gym.control.Gait or rrrobot_gym.gait_search.SinusoidGait; got {type(gait).__name__}"
+            )
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive number of seconds (the env's control step), got {dt}")
         self.gait = gait

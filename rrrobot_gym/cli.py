@@ -3,6 +3,7 @@
     rrrobot table1 [--json]
     rrrobot simulate --model plane --gait 1 --out run.npz [--plot run.png]
     rrrobot figures --out DIR
+    rrrobot gait-search --model plane --objective own --budget-seconds 600 --out best_gaits.json
 
 (also ``python -m rrrobot_gym ...``). This module only parses arguments, calls
 :mod:`rrrobot_gym.simulation`, :mod:`rrrobot_gym.analysis` and
@@ -84,6 +85,51 @@ def _robot_param(text: str):
     return name, _number(value)
 
 
+ENV_KEYWORDS_WITH_OPTIONS = {"model": "--model", "reset_noise_scale": "--reset-noise-scale",
+                             "num_envs": "--popsize", "max_episode_steps": "--duration"}
+"""Env keywords ``gait-search --env`` refuses: each is set by its own option."""
+
+
+def _env_keyword(text: str):
+    """KEY=VALUE for an env keyword; VALUE is read as JSON (1.5, true, null), else a string."""
+    name, sep, raw = text.partition("=")
+    name = name.strip().replace("-", "_")
+    if not sep or not name.isidentifier():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (an env keyword), got {text!r}")
+    if name in ENV_KEYWORDS_WITH_OPTIONS:
+        raise argparse.ArgumentTypeError(f"set {name} with {ENV_KEYWORDS_WITH_OPTIONS[name]}, not --env")
+    raw = raw.strip()
+    if raw in ("None", "none"):
+        return name, None
+    try:
+        value = json.loads(raw)
+    except json.JSONDecodeError:
+        value = raw
+    if isinstance(value, float) and not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"--env {name}: must be finite, got {raw!r}")
+    return name, value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return value
+
+
 # ---------------------------------------------------------------- the parser
 
 
@@ -117,6 +163,38 @@ def build_parser() -> argparse.ArgumentParser:
     figs.add_argument("--out", type=Path, required=True, metavar="DIR", help="directory for the PNG and summary files")
     _add_run_options(figs)
     figs.set_defaults(run=run_figures)
+
+    search = sub.add_parser(
+        "gait-search",
+        help="search open-loop per-leg sinusoid gaits with CMA-ES (needs rrrobot_gym[search])",
+        description="Search phi_k(t) = o_k + a_k sin(w t + beta_k) with a random screen and CMA-ES, "
+        "scoring whole populations in one batched RRRobot-v0 env (its envelope included), and write "
+        "the best gaits as JSON (schema: rrrobot_gym.gait_search). Without a budget: --budget-seconds 600.",
+    )
+    search.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    search.add_argument("--objective", choices=("own", "heading"), default="own",
+                        help="own: speed along the gait's own direction; heading: along --heading-deg (default: own)")
+    search.add_argument("--heading-deg", type=_number, help="commanded heading, deg from +X towards +Y (objective heading)")
+    search.add_argument("--budget-seconds", type=_positive_seconds, help="wall-clock budget, s")
+    search.add_argument("--evaluations", type=_positive_int, help="budget in gaits scored")
+    search.add_argument("--seed", type=_count, default=0, help="seed of the screen and CMA-ES (default: %(default)s)")
+    search.add_argument("--popsize", type=_positive_int, default=64, help="CMA-ES population (default: %(default)s)")
+    search.add_argument("--screen", type=_count, help="random gaits tried first (default: 2 x popsize)")
+    search.add_argument("--duration", type=_positive_seconds, default=20.0, help="episode length scored, s (default: %(default)g)")
+    search.add_argument("--starts", type=_positive_int, default=2,
+                        help="start-noise seeds each gait is scored from (seeds 0..N-1; default: %(default)s)")
+    search.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
+    search.add_argument("--keep", type=_positive_int, default=3, help="best gaits written (default: %(default)s)")
+    search.add_argument("--robustness-seeds", type=_count, default=8,
+                        help="fresh start seeds the best gaits are re-scored on, 0: none (default: %(default)s)")
+    search.add_argument("--robustness-duration", type=_positive_seconds, default=50.0,
+                        help="episode length of the re-score, s (default: %(default)g, the paper's)")
+    search.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
+                        help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)")
+    search.add_argument("--ray-address", metavar="ADDR", help="evaluate populations as Ray tasks on this cluster ('local' starts one)")
+    search.add_argument("--no-progress", action="store_true", help="no progress bar")
+    search.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the best gaits")
+    search.set_defaults(run=run_gait_search)
     return parser
 
 
@@ -404,6 +482,76 @@ def format_summary(settings, summaries, table) -> str:
         "",
         format_table1(table),
     ]
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- gait-search
+
+
+def run_gait_search(args) -> None:
+    try:
+        from . import gait_search
+    except ImportError as exc:  # pragma: no cover - the module itself has no optional imports
+        raise UsageError(str(exc)) from None
+    if args.out.suffix != ".json":
+        raise UsageError(f"--out must name a .json file, got {str(args.out)!r}")
+    if args.objective == "heading" and args.heading_deg is None:
+        raise UsageError("--objective heading needs --heading-deg")
+    if args.objective == "own" and args.heading_deg is not None:
+        raise UsageError("--heading-deg needs --objective heading (objective own follows the gait's own direction)")
+    if args.popsize < 2:
+        raise UsageError(f"--popsize must be at least 2 for CMA-ES, got {args.popsize}")
+    if args.out.parent and not args.out.parent.is_dir():
+        raise UsageError(f"cannot write {args.out}: no directory {args.out.parent}")
+    env_kwargs = dict(args.env)
+    for module, extra in (("cma", "search"), ("tqdm", "search")) + ((("ray", "distributed"),) if args.ray_address else ()):
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"gait-search needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+    budget_seconds = args.budget_seconds
+    if budget_seconds is None and args.evaluations is None:
+        budget_seconds = 600.0
+    try:
+        result = gait_search.search(
+            model=args.model, objective=args.objective, heading_deg=args.heading_deg,
+            budget_evaluations=args.evaluations, budget_seconds=budget_seconds, seed=args.seed,
+            popsize=args.popsize, screen=args.screen, duration=args.duration,
+            start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale, keep=args.keep,
+            robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
+            progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
+        )
+    except (TypeError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+    _write(args.out, result.write_json)
+    print(format_search(result))
+    print(f"wrote {args.out}")
+
+
+def format_search(result) -> str:
+    used = result.used
+    lines = [
+        f"{used['evaluations']} gaits scored in {used['seconds']:.0f} s "
+        f"({used['evaluations'] / max(used['seconds'], 1e-9):.1f} a second), {used['generations']} CMA-ES generations",
+    ]
+    for gait in result.gaits:
+        p = gait["parameters"]
+        line = (
+            f"{gait['name']}: {1e3 * gait['speed_mps']:.1f} mm/s towards {gait['direction_deg']:.0f} deg; "
+            f"a {p['amplitude_1']:.3f}/{p['amplitude_2']:.3f} rad, o {p['offset_1']:.3f}/{p['offset_2']:.3f} rad, "
+            f"w {p['frequency']:.3f} rad/s, gap {p['phase_gap']:.3f} rad"
+        )
+        if gait["terminated_starts"]:
+            line += f" (left the model on {gait['terminated_starts']} starts)"
+        robust = gait.get("robustness")
+        if robust:
+            line += (
+                f"\n  re-scored on {len(robust['seeds'])} new starts, {robust['duration_s']:g} s: mean "
+                f"{1e3 * robust['mean_speed_mps']:.1f}, worst {1e3 * robust['min_speed_mps']:.1f} mm/s, "
+                f"{sum(robust['terminated'])} left the model; from the paper's start "
+                f"{1e3 * robust['paper_start_speed_mps']:.1f} mm/s"
+            )
+        lines.append(line)
     return "\n".join(lines)
 
 

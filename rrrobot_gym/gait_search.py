@@ -1,0 +1,745 @@
+"""Gait search: CMA-ES over open-loop per-leg sinusoids, scored in one batched env.
+
+The paper names gait search as future work; this module does it for the gait family
+
+    phi_k(t) = o_k + a_k sin(w t + beta_k),   beta_1 = 0, beta_2 = phase gap,
+
+six numbers (:class:`SinusoidGait`). A whole population is simulated as ONE
+:class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`, with the env's own settings and
+envelope (an episode ends when the robot leaves the model: slip, lift-off, leg on the
+floor, tilt), so a searched gait is scored exactly as the env would score it.
+
+    from rrrobot_gym.gait_search import search
+    result = search(model="plane", objective="own", budget_seconds=600, seed=0)
+    result.write_json("best_gaits.json")
+
+or ``rrrobot gait-search --model plane --objective own --budget-seconds 600 --out best_gaits.json``.
+Needs the ``search`` extra (``cma``, ``tqdm``); ``ray_address`` needs ``distributed`` (``ray``).
+
+Glossary
+--------
+parameters      (P, 6) float, one row a gait, columns :data:`PARAMETER_NAMES`
+unit box        the search's coordinates: each parameter mapped affinely from its
+                :data:`BOUNDS` interval onto [0, 1], so one CMA step size suits all six
+start seeds     the env's reset seeds of the starts a gait is scored from (start noise
+                ``reset_noise_scale``); every gait of a search sees the same starts
+objective       "own": speed along the gait's own net displacement; "heading": speed
+                along a commanded heading (deg from +X towards +Y) from the paper's start
+fitness         what CMA-ES maximises (m/s): the objective's speed, penalised for leaving
+                the model (:func:`fitness_from_runs`)
+
+Output JSON (:meth:`SearchResult.to_json`, schema ``rrrobot_gym.gait_search/1``)
+---------------------------------------------------------------------------------
+- ``schema``, ``family`` ("sinusoid"), ``parameter_names``, ``bounds`` ({name: [lo, hi]})
+- ``model``, ``objective``, ``heading_deg`` (null for "own"), ``env_kwargs`` (the env
+  keywords besides ``model`` and ``reset_noise_scale``), ``reset_noise_scale``,
+  ``duration_s`` (episode length scored), ``start_seeds``
+- ``seed``, ``budget`` ({"evaluations", "seconds"}, null if not limited),
+  ``used`` ({"evaluations", "seconds", "generations", "restarts"}), ``popsize``,
+  ``screen`` (random gaits tried first), ``command`` (how it was made), ``history``
+  (per population scored: evaluations so far, seconds, best fitness and speed so far,
+  the population's median fitness)
+- ``gaits``: best first, each ``{"name", "parameters": {name: value}, "fitness",
+  "speed_mps", "direction_deg", "terminated_starts", "robustness"}``; ``robustness``
+  (if re-scored) is ``{"seeds", "duration_s", "reset_noise_scale", "speeds_mps",
+  "terminated", "mean_speed_mps", "min_speed_mps", "paper_start_speed_mps",
+  "paper_start_terminated"}`` on start seeds the search never used.
+One evaluation = one gait scored from all its start seeds.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, leg_targets_to_action
+
+SCHEMA = "rrrobot_gym.gait_search/1"
+PARAMETER_NAMES = ("amplitude_1", "amplitude_2", "offset_1", "offset_2", "frequency", "phase_gap")
+OBJECTIVES = ("own", "heading")
+
+BOUNDS = {
+    "amplitude_1": (0.0, 1.5),
+    "amplitude_2": (0.0, 1.5),
+    "offset_1": (LEG_TARGET_MIN, LEG_TARGET_MAX),
+    "offset_2": (LEG_TARGET_MIN, LEG_TARGET_MAX),
+    "frequency": (1.0, 15.0),
+    "phase_gap": (-math.pi, math.pi),
+}
+"""The search box, per parameter (rad, rad, rad, rad, rad/s, rad).
+
+- offsets: the whole action range, [-pi/4, 5pi/4] (action -1 .. +1): every leg target the
+  env can command is a possible centre of swing.
+- amplitudes: 0 (a leg held still) to 1.5 rad, and never past the action range: a gait is
+  *repaired* by shrinking a_k to min(a_k, o_k - min, max - o_k) (:func:`repair`), so its
+  targets are a true sinusoid, never one flattened by the action clip. 1.5 rad (86 deg)
+  either way already swings a leg from horizontal to past vertical; with the offset
+  constraint the reachable swing is the whole action range anyway.
+- frequency: 1 rad/s (a 6.3 s period: three periods in a 20 s episode, enough to show a
+  net drift rather than one lurch) to 15 rad/s: at the env's 0.05 s control step that is
+  8.4 targets a period, about the fewest that still draw a sinusoid with the env's linear
+  target ramps; the paper's gaits run at 8 rad/s. The servo (natural frequency ~59 rad/s)
+  tracks this band.
+- phase gap: a full turn, [-pi, pi]; the sign picks the direction of travel (the paper's
+  swapped phases).
+"""
+
+TERMINATION_PENALTY = 1.0
+"""m/s, L in :func:`fitness_from_runs`: a speed no sinusoid reaches here (the best
+found without the envelope is ~0.17 m/s)."""
+
+
+def _lows_highs():
+    lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES])
+    highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES])
+    return lows, highs
+
+
+def repair(parameters) -> np.ndarray:
+    """Parameters (P, 6) or (6,) clipped to :data:`BOUNDS`, amplitudes shrunk so that
+    o_k +- a_k stays inside the action range (see :data:`BOUNDS`)."""
+    params = np.array(parameters, dtype=float)
+    lows, highs = _lows_highs()
+    params = np.clip(params, lows, highs)
+    for a, o in ((0, 2), (1, 3)):
+        room = np.minimum(params[..., o] - LEG_TARGET_MIN, LEG_TARGET_MAX - params[..., o])
+        params[..., a] = np.minimum(params[..., a], room)
+    return params
+
+
+def sinusoid_angles(parameters, times) -> np.ndarray:
+    """Leg target angles (..., 2), rad, of gaits ``parameters`` (..., 6) at ``times`` (s,
+    broadcast against the leading axes): phi_k = o_k + a_k sin(w t + beta_k)."""
+    p = np.asarray(parameters, dtype=float)
+    t = np.asarray(times, dtype=float)
+    arg = p[..., 4] * t
+    leg1 = p[..., 2] + p[..., 0] * np.sin(arg)
+    leg2 = p[..., 3] + p[..., 1] * np.sin(arg + p[..., 5])
+    return np.stack(np.broadcast_arrays(leg1, leg2), axis=-1)
+
+
+@dataclass(frozen=True)
+class SinusoidGait:
+    """phi_k(t) = offset_k + amplitude_k sin(frequency t + beta_k), beta_1 = 0, beta_2 = phase_gap.
+
+    The paper's Table II gaits are the case amplitude_1 = amplitude_2 = 0.3 rad,
+    frequency 8 rad/s, phase_gap pi/2, both offsets gamma. Has the ``angles(times)``
+    and ``leg_targets(t)`` of :class:`rrrobot_gym.control.Gait`, so it drives
+    :class:`agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
+    """
+
+    amplitude_1: float  # rad
+    amplitude_2: float  # rad
+    offset_1: float  # rad, 0 horizontal along +X, pi/2 vertical
+    offset_2: float  # rad
+    frequency: float  # rad/s
+    phase_gap: float  # rad, beta_2 - beta_1
+    name: str = "sinusoid"
+
+    def __post_init__(self):
+        for key in PARAMETER_NAMES:
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise TypeError(f"SinusoidGait.{key} must be a real number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"SinusoidGait.{key} must be finite, got {value!r}")
+            object.__setattr__(self, key, float(value))
+        for key in ("amplitude_1", "amplitude_2"):
+            if getattr(self, key) < 0.0:
+                raise ValueError(f"SinusoidGait.{key} must be >= 0 rad, got {getattr(self, key)}")
+
+    @classmethod
+    def from_array(cls, values, name: str = "sinusoid") -> "SinusoidGait":
+        values = np.asarray(values, dtype=float).ravel()
+        if values.shape != (6,):
+            raise ValueError(f"a sinusoid gait has 6 parameters ({', '.join(PARAMETER_NAMES)}), got {values.size}")
+        return cls(*values.tolist(), name=name)
+
+    @classmethod
+    def from_dict(cls, values: dict, name: str = "sinusoid") -> "SinusoidGait":
+        missing = [k for k in PARAMETER_NAMES if k not in values]
+        extra = [k for k in values if k not in PARAMETER_NAMES]
+        if missing or extra:
+            raise ValueError(
+                f"sinusoid gait parameters must be exactly {', '.join(PARAMETER_NAMES)}"
+                + (f"; missing {', '.join(missing)}" if missing else "")
+                + (f"; unknown {', '.join(map(str, extra))}" if extra else "")
+            )
+        return cls(**{k: values[k] for k in PARAMETER_NAMES}, name=name)
+
+    def as_array(self) -> np.ndarray:
+        return np.array([getattr(self, k) for k in PARAMETER_NAMES])
+
+    def parameters(self) -> dict:
+        return {k: getattr(self, k) for k in PARAMETER_NAMES}
+
+    @property
+    def period(self) -> float:
+        """s, one leg cycle; inf for a gait that does not oscillate."""
+        return 2.0 * math.pi / abs(self.frequency) if self.frequency else math.inf
+
+    def angles(self, times) -> np.ndarray:
+        """Target leg angles at an array of times, shape (T, 2), rad."""
+        return sinusoid_angles(self.as_array(), np.asarray(times, dtype=float))
+
+    def leg_targets(self, t):
+        a, o, w = (self.amplitude_1, self.amplitude_2), (self.offset_1, self.offset_2), self.frequency
+        angles, rates, accels = [], [], []
+        for k, beta in enumerate((0.0, self.phase_gap)):
+            s, c = math.sin(w * t + beta), math.cos(w * t + beta)
+            angles.append(o[k] + a[k] * s)
+            rates.append(a[k] * w * c)
+            accels.append(-a[k] * w * w * s)
+        return tuple(angles), tuple(rates), tuple(accels)
+
+
+# ---------------------------------------------------------------- scoring a population
+
+
+@dataclass
+class PopulationRuns:
+    """What one batched rollout measured, per gait p and start s (arrays (P, S) unless noted).
+
+    ``displacement`` (P, S, 2) m, contact point from start to the episode's end (or to
+    the step its episode terminated); ``end_time`` s; ``terminated`` bool;
+    ``torque_peak`` N m and ``leg_rate_peak`` rad/s, the largest the step record saw
+    while the episode lasted.
+    """
+
+    displacement: np.ndarray
+    end_time: np.ndarray
+    terminated: np.ndarray
+    torque_peak: np.ndarray
+    leg_rate_peak: np.ndarray
+    duration: float
+
+
+def rollout_population(
+    parameters,
+    *,
+    model: str = "plane",
+    duration: float = 20.0,
+    start_seeds=(0, 1),
+    reset_noise_scale: float = 0.01,
+    **env_kwargs,
+) -> PopulationRuns:
+    """Run every gait (rows of ``parameters``, used as given) from every start, in ONE env.
+
+    Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait
+    sees depends only on its seed, not on its row, so splitting a population into chunks
+    (:func:`evaluate_population` on Ray) gives the same numbers. The gait's targets are
+    commanded at the end of each control step, as :class:`agents.GaitAgent` does.
+    """
+    from .envs.vector import RRRobotVectorEnv
+
+    params = np.asarray(parameters, dtype=float)
+    if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
+        raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
+    if not np.all(np.isfinite(params)):
+        raise ValueError("parameters contain NaN or inf")
+    seeds = [int(s) for s in start_seeds]
+    if not seeds:
+        raise ValueError("start_seeds must name at least one start")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    n_gaits, n_starts = len(params), len(seeds)
+    env = RRRobotVectorEnv(
+        num_envs=n_gaits * n_starts,
+        max_episode_steps=None,
+        model=model,
+        reset_noise_scale=reset_noise_scale,
+        **env_kwargs,
+    )
+    steps = max(1, int(round(duration / env.dt)))
+    rows = np.repeat(params, n_starts, axis=0)
+    env.reset(seed=seeds * n_gaits)
+    start_xy = env.states[:, 0:2].copy()
+    end_xy = np.full_like(start_xy, np.nan)
+    end_step = np.full(len(rows), steps)
+    alive = np.ones(len(rows), dtype=bool)
+    torque_peak = np.zeros(len(rows))
+    rate_peak = np.zeros(len(rows))
+    for k in range(steps):
+        actions = np.clip(leg_targets_to_action(sinusoid_angles(rows, (k + 1) * env.dt)), -1.0, 1.0)
+        _, _, terminated, _, info = env.step(actions.astype(np.float32))
+        ending = terminated & alive
+        if ending.any():
+            # SAME_STEP autoreset already restarted these robots: their last position is in final_info.
+            final = info["final_info"]
+            end_xy[ending, 0] = final["x_position"][ending]
+            end_xy[ending, 1] = final["y_position"][ending]
+            torque_peak[ending] = np.maximum(torque_peak[ending], final["torque_peak"][ending])
+            rate_peak[ending] = np.maximum(rate_peak[ending], final["leg_rate_peak"][ending])
+            end_step[ending] = k + 1
+        running = alive & ~terminated
+        torque_peak[running] = np.maximum(torque_peak[running], info["torque_peak"][running])
+        rate_peak[running] = np.maximum(rate_peak[running], info["leg_rate_peak"][running])
+        alive = running
+        if not alive.any():
+            break
+    end_xy[alive] = env.states[alive, 0:2]
+    env.close()
+    shape = (n_gaits, n_starts)
+    return PopulationRuns(
+        displacement=(end_xy - start_xy).reshape(n_gaits, n_starts, 2),
+        end_time=(end_step * env.dt).reshape(shape),
+        terminated=(~alive).reshape(shape),
+        torque_peak=torque_peak.reshape(shape),
+        leg_rate_peak=rate_peak.reshape(shape),
+        duration=steps * env.dt,
+    )
+
+
+@dataclass
+class PopulationScores:
+    """Per gait (arrays (P,)): ``fitness`` (m/s, maximised), ``speed_mps`` (mean over
+    starts along the objective's direction), ``direction_deg`` (that direction, from +X
+    towards +Y), ``terminated_starts`` (how many starts left the model), and the
+    per-start ``runs``."""
+
+    fitness: np.ndarray
+    speed_mps: np.ndarray
+    direction_deg: np.ndarray
+    terminated_starts: np.ndarray
+    runs: PopulationRuns
+
+
+def objective_directions(runs: PopulationRuns, objective: str, heading_deg=None) -> np.ndarray:
+    """Unit vectors (P, 2): "own", each gait's mean net displacement over its starts (+X if
+    it did not move); "heading", the commanded heading."""
+    if objective == "heading":
+        h = math.radians(heading_deg)
+        return np.tile([math.cos(h), math.sin(h)], (runs.displacement.shape[0], 1))
+    mean = runs.displacement.mean(axis=1)
+    norm = np.linalg.norm(mean, axis=1, keepdims=True)
+    return np.where(norm > 0, mean / np.where(norm > 0, norm, 1.0), [1.0, 0.0])
+
+
+def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=None) -> PopulationScores:
+    """Score runs, penalising a gait that leaves the model on any start.
+
+    v_s is start s's travel along the objective's direction up to its episode's end,
+    divided by the FULL episode duration T (so stopping early already costs travel).
+
+    - No start terminated: fitness = max(mean_s v_s, -L/2).
+    - Some start terminated: fitness = -L + clip(mean_s v_s, -L/4, L/4) + (L/4) mean_s(t_end,s / T).
+
+    with L = :data:`TERMINATION_PENALTY` = 1 m/s. The second case is always below -L/2 (an
+    episode that terminated ended before T), the first never is, so a gait that leaves
+    the model loses to every gait that does not; among gaits that leave it, the longer
+    they stay in and the further they get, the better, which keeps a slope for CMA-ES
+    in a region where everything fails.
+    """
+    if objective not in OBJECTIVES:
+        raise ValueError(f"unknown objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
+    units = objective_directions(runs, objective, heading_deg)
+    along = np.einsum("psk,pk->ps", runs.displacement, units) / runs.duration
+    mean_speed = along.mean(axis=1)
+    survived_share = (runs.end_time / runs.duration).mean(axis=1)
+    failed = runs.terminated.any(axis=1)
+    L = TERMINATION_PENALTY
+    fitness = np.where(
+        failed,
+        -L + np.clip(mean_speed, -L / 4, L / 4) + (L / 4) * survived_share,
+        np.maximum(mean_speed, -L / 2),
+    )
+    return PopulationScores(
+        fitness=fitness,
+        speed_mps=mean_speed,
+        direction_deg=np.degrees(np.arctan2(units[:, 1], units[:, 0])) % 360.0,
+        terminated_starts=runs.terminated.sum(axis=1),
+        runs=runs,
+    )
+
+
+def _check_objective(objective, heading_deg):
+    if objective not in OBJECTIVES:
+        raise ValueError(f"unknown objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
+    if objective == "heading":
+        if heading_deg is None or isinstance(heading_deg, bool) or not math.isfinite(float(heading_deg)):
+            raise ValueError(f"objective 'heading' needs a finite heading_deg, got {heading_deg!r}")
+    elif heading_deg is not None:
+        raise ValueError("heading_deg is only used with objective 'heading' (objective 'own' follows the gait)")
+
+
+def _evaluate_chunk(parameters, settings):
+    return rollout_population(parameters, **settings)
+
+
+def ray_runtime_env() -> dict:
+    """A Ray ``runtime_env`` that ships this copy of :mod:`rrrobot_gym` to the workers, so
+    they run the driver's code whatever is installed on the cluster."""
+    return {"py_modules": [str(Path(__file__).resolve().parent)]}
+
+
+def _ray_rollout(params, settings, ray_address, ray_chunks):
+    """rollout_population split into chunks of rows, each a Ray task with its own env."""
+    try:
+        import ray
+    except ImportError:  # pragma: no cover - depends on the install
+        raise ImportError("ray_address needs Ray: pip install 'rrrobot_gym[distributed]'") from None
+    if not ray.is_initialized():
+        ray.init(address=ray_address, runtime_env=ray_runtime_env(), include_dashboard=False, log_to_driver=False)
+    if ray_chunks is None:
+        ray_chunks = max(1, int(ray.cluster_resources().get("CPU", 1)))
+    chunks = [c for c in np.array_split(params, min(int(ray_chunks), len(params))) if len(c)]
+    task = ray.remote(num_cpus=1)(_evaluate_chunk)
+    parts = ray.get([task.remote(chunk, settings) for chunk in chunks])
+    return PopulationRuns(
+        displacement=np.concatenate([p.displacement for p in parts]),
+        end_time=np.concatenate([p.end_time for p in parts]),
+        terminated=np.concatenate([p.terminated for p in parts]),
+        torque_peak=np.concatenate([p.torque_peak for p in parts]),
+        leg_rate_peak=np.concatenate([p.leg_rate_peak for p in parts]),
+        duration=parts[0].duration,
+    )
+
+
+def evaluate_population(
+    parameters,
+    *,
+    model: str = "plane",
+    objective: str = "own",
+    heading_deg: float | None = None,
+    duration: float = 20.0,
+    start_seeds=(0, 1),
+    reset_noise_scale: float = 0.01,
+    ray_address: str | None = None,
+    ray_chunks: int | None = None,
+    **env_kwargs,
+) -> PopulationScores:
+    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`).
+
+    Locally, the whole population is one batched env. With ``ray_address`` (a Ray
+    address, or "local" to start one; an already initialised Ray session in this process
+    is used as is), the rows are split into ``ray_chunks`` chunks (default: the cluster's
+    CPUs), each a Ray task that builds its own batched env. Other keywords go to
+    :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`.
+    """
+    _check_objective(objective, heading_deg)
+    settings = dict(model=model, duration=duration, start_seeds=tuple(start_seeds), reset_noise_scale=reset_noise_scale, **env_kwargs)
+    params = np.asarray(parameters, dtype=float)
+    if ray_address is None:
+        runs = rollout_population(params, **settings)
+    else:
+        if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
+            raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
+        if ray_chunks is not None and (isinstance(ray_chunks, bool) or int(ray_chunks) != ray_chunks or ray_chunks < 1):
+            raise ValueError(f"ray_chunks must be a positive integer, got {ray_chunks!r}")
+        runs = _ray_rollout(params, settings, ray_address, ray_chunks)
+    return fitness_from_runs(runs, objective, heading_deg)
+
+
+# ---------------------------------------------------------------- the search
+
+
+ROBUSTNESS_SEED_OFFSET = 100_000
+"""Robustness starts use seeds ``ROBUSTNESS_SEED_OFFSET + i``: the search's start seeds
+are small integers, so these are starts the search never saw."""
+
+
+@dataclass
+class SearchResult:
+    """A finished search; :meth:`to_json` is the file format (module docstring)."""
+
+    gaits: list  # [{name, parameters, fitness, speed_mps, direction_deg, terminated_starts, robustness}], best first
+    settings: dict
+    used: dict
+    history: list = field(default_factory=list)
+
+    def best_gait(self) -> SinusoidGait:
+        best = self.gaits[0]
+        return SinusoidGait.from_dict(best["parameters"], name=best["name"])
+
+    def to_json(self) -> dict:
+        return _json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
+                           "bounds": {k: list(v) for k, v in BOUNDS.items()}, **self.settings,
+                           "used": self.used, "gaits": self.gaits, "history": self.history})
+
+    def write_json(self, path) -> None:
+        Path(path).write_text(json.dumps(self.to_json(), indent=1, allow_nan=False) + "\n")
+
+
+def _json_safe(value):
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _positive_int(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def search(
+    *,
+    model: str = "plane",
+    objective: str = "own",
+    heading_deg: float | None = None,
+    budget_evaluations: int | None = None,
+    budget_seconds: float | None = None,
+    seed: int = 0,
+    popsize: int = 64,
+    screen: int | None = None,
+    start=None,
+    sigma0: float = 0.25,
+    duration: float = 20.0,
+    start_seeds=(0, 1),
+    reset_noise_scale: float = 0.01,
+    keep: int = 3,
+    robustness_seeds: int = 8,
+    robustness_duration: float | None = 50.0,
+    progress: bool = True,
+    ray_address: str | None = None,
+    ray_chunks: int | None = None,
+    command: str | None = None,
+    **env_kwargs,
+) -> SearchResult:
+    """Search the sinusoid family with a random screen and then CMA-ES; returns the best gaits.
+
+    Budget: stop after ``budget_evaluations`` gaits scored or ``budget_seconds`` of wall
+    clock (whichever comes first; at least one must be given). Time is checked between
+    populations, so a search may overrun by one population's rollout. The screen (default
+    ``2 * popsize`` uniform random gaits in the box, plus ``start`` if given) picks CMA-ES's
+    starting mean; ``screen=0`` starts from ``start`` (or the box centre). CMA-ES runs in the
+    unit box with step ``sigma0``, bounded to it by ``cma``'s bound handling, seeded from
+    ``seed`` (so a search is repeatable); when it converges before the budget ends it restarts
+    from the best gait so far with a fresh seed. Every candidate is repaired (:func:`repair`)
+    before it is scored, so the gaits reported are the gaits simulated.
+
+    Populations are large by CMA-ES's standards (default 64; its own default for 6
+    parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
+
+    ``keep`` best gaits are returned, each re-scored (robustness) on ``robustness_seeds``
+    start-noise seeds the search never used, over ``robustness_duration`` s (default 50 s, the
+    paper's run; None: the search's ``duration``), and once from the paper's start (no noise).
+    """
+    try:
+        import cma
+    except ImportError:  # pragma: no cover - depends on the install
+        raise ImportError("gait search needs cma: pip install 'rrrobot_gym[search]'") from None
+    _check_objective(objective, heading_deg)
+    if budget_evaluations is None and budget_seconds is None:
+        raise ValueError("give a budget: budget_evaluations (gaits scored) and/or budget_seconds (wall clock)")
+    if budget_evaluations is not None:
+        budget_evaluations = _positive_int("budget_evaluations", budget_evaluations)
+    if budget_seconds is not None and not (
+        isinstance(budget_seconds, (int, float)) and not isinstance(budget_seconds, bool)
+        and math.isfinite(budget_seconds) and budget_seconds > 0
+    ):
+        raise ValueError(f"budget_seconds must be a positive number, got {budget_seconds!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    popsize = _positive_int("popsize", popsize)
+    if popsize < 2:
+        raise ValueError(f"popsize must be at least 2 for CMA-ES, got {popsize}")
+    screen = 2 * popsize if screen is None else screen
+    if isinstance(screen, bool) or not isinstance(screen, (int, np.integer)) or screen < 0:
+        raise ValueError(f"screen must be a non-negative integer, got {screen!r}")
+    keep = _positive_int("keep", keep)
+    if not (isinstance(sigma0, (int, float)) and math.isfinite(sigma0) and 0 < sigma0 <= 1):
+        raise ValueError(f"sigma0 must be in (0, 1] (a step in the unit box), got {sigma0!r}")
+    if robustness_seeds is not None and not (isinstance(robustness_seeds, int) and robustness_seeds >= 0):
+        raise ValueError(f"robustness_seeds must be a non-negative integer, got {robustness_seeds!r}")
+    start_seeds = tuple(int(s) for s in start_seeds)
+    if any(s >= ROBUSTNESS_SEED_OFFSET for s in start_seeds):
+        raise ValueError(f"start_seeds must be below {ROBUSTNESS_SEED_OFFSET} (the robustness seeds start there)")
+    if start is not None:
+        start = start.as_array() if hasattr(start, "as_array") else np.asarray(start, dtype=float)
+        if start.shape != (6,) or not np.all(np.isfinite(start)):
+            raise ValueError(f"start must be a SinusoidGait or 6 finite parameters, got {start!r}")
+    # Fail on a bad env keyword now, not after the first population.
+    from .envs.vector import RRRobotVectorEnv
+
+    RRRobotVectorEnv(num_envs=1, model=model, reset_noise_scale=reset_noise_scale, **env_kwargs).close()
+
+    lows, highs = _lows_highs()
+    to_params = lambda unit: repair(lows + np.asarray(unit) * (highs - lows))  # noqa: E731
+    to_unit = lambda params: (np.asarray(params) - lows) / (highs - lows)  # noqa: E731
+    scoring = dict(model=model, objective=objective, heading_deg=heading_deg, duration=duration,
+                   start_seeds=start_seeds, reset_noise_scale=reset_noise_scale,
+                   ray_address=ray_address, ray_chunks=ray_chunks, **env_kwargs)
+
+    began = time.perf_counter()
+    archive = {"params": [], "fitness": [], "speed": [], "direction": [], "terminated": []}
+    history = []
+    evaluations = 0
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        if budget_evaluations is not None:
+            bar = tqdm(total=budget_evaluations, unit="gait", desc="gait search", dynamic_ncols=True)
+        else:
+            bar = tqdm(total=round(budget_seconds), unit="s", desc="gait search", dynamic_ncols=True)
+
+    def remaining():
+        left = math.inf if budget_evaluations is None else budget_evaluations - evaluations
+        if budget_seconds is not None and time.perf_counter() - began >= budget_seconds:
+            left = 0
+        return left
+
+    def score(params):
+        nonlocal evaluations
+        scores = evaluate_population(params, **scoring)
+        evaluations += len(params)
+        for key, values in (("params", params), ("fitness", scores.fitness), ("speed", scores.speed_mps),
+                            ("direction", scores.direction_deg), ("terminated", scores.terminated_starts)):
+            archive[key].extend(list(values))
+        best = int(np.argmax(archive["fitness"]))
+        history.append({"evaluations": evaluations, "seconds": round(time.perf_counter() - began, 3),
+                        "best_fitness": float(archive["fitness"][best]), "best_speed_mps": float(archive["speed"][best]),
+                        "median_fitness": float(np.median(scores.fitness))})
+        if bar is not None:
+            if budget_evaluations is not None:
+                bar.update(min(len(params), bar.total - bar.n))
+            else:
+                bar.update(max(0, min(bar.total, round(time.perf_counter() - began)) - bar.n))
+            bar.set_postfix_str(f"best {1e3 * archive['speed'][best]:.1f} mm/s")
+        return scores
+
+    rng = np.random.default_rng(seed)
+    generations = restarts = 0
+    try:
+        first = [] if start is None else [repair(start)]
+        n_screen = int(min(screen, remaining() - len(first))) if screen else 0
+        candidates = first + [to_params(u) for u in rng.uniform(size=(max(0, n_screen), 6))]
+        if candidates:
+            score(np.array(candidates))
+        if archive["fitness"]:
+            mean = to_unit(archive["params"][int(np.argmax(archive["fitness"]))])
+        else:
+            mean = np.full(6, 0.5)
+        while remaining() >= 1:
+            # cma treats seed 0 as "seed from the clock": shift by one to stay repeatable.
+            es = cma.CMAEvolutionStrategy(
+                np.clip(mean, 1e-6, 1 - 1e-6), sigma0,
+                {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + restarts + 1, "verbose": -9},
+            )
+            while remaining() >= 1 and not es.stop():
+                units = es.ask()
+                n = int(min(len(units), remaining()))
+                params = np.array([to_params(u) for u in units[:n]])
+                scores = score(params)
+                generations += 1
+                if n < len(units):
+                    break
+                es.tell(units, (-scores.fitness).tolist())  # cma minimises
+            if es.stop():
+                restarts += 1
+            mean = to_unit(archive["params"][int(np.argmax(archive["fitness"]))])
+    finally:
+        if bar is not None:
+            bar.close()
+    seconds = time.perf_counter() - began
+
+    order = np.argsort(-np.array(archive["fitness"]), kind="stable")[:keep]
+    label = f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
+    gaits = []
+    for rank, i in enumerate(order, start=1):
+        gaits.append({
+            "name": f"{label}-{rank}",
+            "parameters": dict(zip(PARAMETER_NAMES, map(float, archive["params"][i]))),
+            "fitness": float(archive["fitness"][i]),
+            "speed_mps": float(archive["speed"][i]),
+            "direction_deg": float(archive["direction"][i]),
+            "terminated_starts": int(archive["terminated"][i]),
+        })
+    if robustness_seeds:
+        best_params = np.array([archive["params"][i] for i in order])
+        reports = robustness(best_params, model=model, objective=objective, heading_deg=heading_deg,
+                             directions_deg=[g["direction_deg"] for g in gaits], seeds=robustness_seeds,
+                             duration=duration if robustness_duration is None else robustness_duration,
+                             reset_noise_scale=reset_noise_scale, ray_address=ray_address, ray_chunks=ray_chunks,
+                             **env_kwargs)
+        for gait, report in zip(gaits, reports):
+            gait["robustness"] = report
+    settings = {
+        "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": dict(env_kwargs),
+        "reset_noise_scale": reset_noise_scale, "duration_s": float(duration), "start_seeds": list(start_seeds),
+        "seed": int(seed), "budget": {"evaluations": budget_evaluations, "seconds": budget_seconds},
+        "popsize": popsize, "screen": int(screen), "sigma0": float(sigma0), "command": command,
+    }
+    used = {"evaluations": evaluations, "seconds": round(seconds, 3), "generations": generations, "restarts": restarts}
+    return SearchResult(gaits=gaits, settings=settings, used=used, history=history)
+
+
+def robustness(parameters, *, model="plane", objective="own", heading_deg=None, directions_deg=None, seeds=8,
+               duration=50.0, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, **env_kwargs) -> list:
+    """Re-score gaits (P, 6) on ``seeds`` start-noise seeds the search never used
+    (``ROBUSTNESS_SEED_OFFSET + i``), and once from the paper's start (no noise).
+
+    Speeds are along the objective's direction: the heading, or for "own" the gait's own
+    direction as the search measured it (``directions_deg``), so a gait that is knocked
+    onto another course by a different start scores low. One dict per gait (module docstring).
+    """
+    params = np.asarray(parameters, dtype=float)
+    if objective == "own":
+        if directions_deg is None or len(directions_deg) != len(params):
+            raise ValueError("objective 'own' needs the gaits' own directions (directions_deg) to re-score along")
+        units = np.radians(np.asarray(directions_deg, dtype=float))
+    else:
+        units = np.full(len(params), math.radians(heading_deg))
+    units = np.stack([np.cos(units), np.sin(units)], axis=1)
+    settings = dict(model=model, duration=duration, ray_address=ray_address, ray_chunks=ray_chunks, **env_kwargs)
+    seed_list = [ROBUSTNESS_SEED_OFFSET + i for i in range(int(seeds))]
+    noisy = evaluate_population(params, start_seeds=seed_list, reset_noise_scale=reset_noise_scale, **settings).runs
+    paper = evaluate_population(params, start_seeds=(0,), reset_noise_scale=0.0, **settings).runs
+    noisy_speed = np.einsum("psk,pk->ps", noisy.displacement, units) / noisy.duration
+    paper_speed = np.einsum("psk,pk->ps", paper.displacement, units)[:, 0] / paper.duration
+    return [
+        {
+            "seeds": seed_list,
+            "duration_s": float(noisy.duration),
+            "reset_noise_scale": float(reset_noise_scale),
+            "speeds_mps": noisy_speed[p].tolist(),
+            "terminated": noisy.terminated[p].tolist(),
+            "mean_speed_mps": float(noisy_speed[p].mean()),
+            "min_speed_mps": float(noisy_speed[p].min()),
+            "paper_start_speed_mps": float(paper_speed[p]),
+            "paper_start_terminated": bool(paper.terminated[p, 0]),
+            "peak_torque_nm": float(max(noisy.torque_peak[p].max(), paper.torque_peak[p, 0])),
+            "peak_leg_rate_radps": float(max(noisy.leg_rate_peak[p].max(), paper.leg_rate_peak[p, 0])),
+        }
+        for p in range(len(params))
+    ]
+
+
+def load_gaits(path) -> list:
+    """The gaits of a search JSON file, best first, as :class:`SinusoidGait` (named as in the file).
+
+    Raises ValueError naming the problem for a file that is not a gait-search result.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except OSError as exc:
+        raise ValueError(f"cannot read gait file {path}: {exc.strerror or exc}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"gait file {path} is not JSON: {exc}") from None
+    if not isinstance(data, dict) or data.get("schema") != SCHEMA:
+        raise ValueError(f"gait file {path} is not a gait-search result (expected schema {SCHEMA!r})")
+    gaits = data.get("gaits")
+    if not isinstance(gaits, list) or not gaits:
+        raise ValueError(f"gait file {path} has no gaits")
+    out = []
+    for i, gait in enumerate(gaits):
+        try:
+            out.append(SinusoidGait.from_dict(gait["parameters"], name=str(gait.get("name", f"searched-{i + 1}"))))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"gait file {path}, gait {i + 1}: {exc}") from None
+    return out
