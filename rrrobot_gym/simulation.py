@@ -612,6 +612,22 @@ class _ServoJacobian:
         return x1, x2, v1, v2, r_o1 - (p[0] * t1 + p[3] * t2), r_o2 - (p[1] * t1 + p[4] * t2), r_o3 - (p[2] * t1 + p[5] * t2)
 
 
+    _ROWS = (6, 7, 11, 12, 8, 9, 10)  # leg angles, leg rates, body rates: where A acts
+
+    def stage(self, k, h, g, previous):
+        """Turn k = h f(stage point) into the stage's increment, in place (k: 13 rows):
+        add h A sum_j g_j k_j over the ``previous`` stages, then solve with I - h gamma A."""
+        rows = self._ROWS
+        if previous:
+            w = [sum(gj * kj[r] for gj, kj in zip(g, previous)) for r in rows[:4]]
+            (a1, a2), (b1, b2), (o1, o2, o3) = self.apply(*w)
+            for r, a in zip(rows, (a1, a2, b1, b2, o1, o2, o3)):
+                k[r] += h * a
+        solved = self.solve(*(k[r] for r in rows))
+        for r, value in zip(rows, solved):
+            k[r] = value
+
+
 def _rosw_floats(f, t, y, h, n_steps, first, jacobian):
     """ROS34PW2 on one robot as a list of 13 Python floats."""
     mobility = [0.0] * 9
@@ -629,17 +645,7 @@ def _rosw_floats(f, t, y, h, n_steps, first, jacobian):
                         point = [p + a * q for p, q in zip(point, kj)]
                 derivative = f(t + _ROSW_C[i] * h, point)
             k = [h * d for d in derivative]
-            if i:
-                w = [sum(g * kj[r] for g, kj in zip(_ROSW_G[i], stages)) for r in (6, 7, 11, 12)]
-                (a1, a2), (b1, b2), (o1, o2, o3) = jacobian.apply(*w)
-                k[6] += h * a1
-                k[7] += h * a2
-                k[11] += h * b1
-                k[12] += h * b2
-                k[8] += h * o1
-                k[9] += h * o2
-                k[10] += h * o3
-            k[6], k[7], k[11], k[12], k[8], k[9], k[10] = jacobian.solve(k[6], k[7], k[11], k[12], k[8], k[9], k[10])
+            jacobian.stage(k, h, _ROSW_G[i], stages)
             stages.append(k)
         y = [a + sum(b * kj[r] for b, kj in zip(_ROSW_B, stages)) for r, a in enumerate(y)]
         _normalize_quat_floats(y)
@@ -668,18 +674,7 @@ def _rosw_arrays(f, t, y, h, n_steps, first, jacobian):
                 derivative = f(t + _ROSW_C[i] * h, point)
             for r, d in enumerate(derivative):
                 np.multiply(d, h, out=k[r])
-            if i:
-                g = _ROSW_G[i]
-                w = [sum(gj * kj[r] for gj, kj in zip(g, stages)) for r in (6, 7, 11, 12)]
-                (a1, a2), (b1, b2), (o1, o2, o3) = jacobian.apply(*w)
-                k[6] += h * a1
-                k[7] += h * a2
-                k[11] += h * b1
-                k[12] += h * b2
-                k[8] += h * o1
-                k[9] += h * o2
-                k[10] += h * o3
-            k[6], k[7], k[11], k[12], k[8], k[9], k[10] = jacobian.solve(k[6], k[7], k[11], k[12], k[8], k[9], k[10])
+            jacobian.stage(k, h, _ROSW_G[i], stages[:i])
         for b, kj in zip(_ROSW_B, stages):
             y += b * kj
         y[2:6] /= np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
