@@ -6,8 +6,8 @@ An env step is one control step (0.05 s of robot time) of one robot, with everyt
 step does: the physics with its step record (the torques applied and the ground force at
 every integration step), the model checks read from that record, the observation, reward
 and info. Measured beside the bare physics (``advance`` over the same 0.05 s with the same
-ramped targets, no record, one thread), so the env's own cost is a ratio from one run;
-rows with ``num_threads=2`` are the vector env on both cores against that one-thread physics.
+ramped targets, no record, one process), so the env's own cost is a ratio from one run;
+rows with ``workers=2`` are the vector env on both cores against that one-process physics.
 Medians of repeats.
 """
 
@@ -58,8 +58,8 @@ def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
             "physics_only_steps_per_s": steps / physics_seconds}
 
 
-def vector_env(num_envs: int, steps: int, repeats: int, rng, num_threads: int = 1, **env_kwargs) -> dict:
-    env = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, num_threads=num_threads, **env_kwargs)
+def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, **env_kwargs) -> dict:
+    env = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers, **env_kwargs)
     actions = _gentle_actions(rng, (num_envs, 2), steps)
 
     def run():
@@ -77,7 +77,7 @@ def vector_env(num_envs: int, steps: int, repeats: int, rng, num_threads: int = 
             s = advance(env.config.sim, s, 0.0, env.dt, targets, check=False)
 
     physics_seconds = median_time(physics, repeats)
-    name = "vector (make_vec)" + (f", num_threads={num_threads}" if num_threads > 1 else "")
+    name = "vector (make_vec)" + (f", workers={workers}" if workers > 1 else "")
     return {"env": name, "num_envs": num_envs, "env_steps_per_s": num_envs * steps / seconds,
             "physics_only_steps_per_s": num_envs * steps / physics_seconds}
 
@@ -92,8 +92,8 @@ def main(argv=None):
     for n in sizes:
         steps = max(5, min(200, 20_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
         rows.append(vector_env(n, steps, repeats, rng))
-        if n >= 256:  # both cores, beside one (the physics column stays one thread)
-            rows.append(vector_env(n, steps, repeats, rng, num_threads=2))
+        if n >= 256:  # both cores, beside one (the physics column stays one process)
+            rows.append(vector_env(n, steps, repeats, rng, workers=2))
     table = markdown_table(
         ["env", "N", "env steps/s", "physics alone (advance), steps/s", "env / physics throughput"],
         [[r["env"], r["num_envs"], f"{r['env_steps_per_s']:,.0f}", f"{r['physics_only_steps_per_s']:,.0f}",

@@ -746,15 +746,18 @@ class _Recorder:
             self._i += 1
         return derivative
 
+    @property
+    def rows(self):
+        """What was recorded: (S, 10) floats for one robot, (S, 10, N) for a batch."""
+        return np.asarray(self._rows, dtype=float)
+
     @staticmethod
-    def merge(recorders, t0: float, h: float) -> StepRecord:
-        """One :class:`StepRecord` of the recorders of a batch's blocks, in robot order."""
-        if len(recorders) == 1:
-            return recorders[0].record(t0, h)
-        return _Recorder._record_of(np.concatenate([r._rows for r in recorders], axis=2), t0, h)
+    def merge(blocks, t0: float, h: float) -> StepRecord:
+        """One :class:`StepRecord` of the recorded rows of a batch's blocks, in robot order."""
+        return _Recorder._record_of(blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=2), t0, h)
 
     def record(self, t0: float, h: float) -> StepRecord:
-        return self._record_of(np.asarray(self._rows, dtype=float), t0, h)
+        return self._record_of(self.rows, t0, h)
 
     @staticmethod
     def _record_of(rows, t0: float, h: float) -> StepRecord:
@@ -813,7 +816,7 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
 
 
 def advance(
-    config: SimConfig, state, t0: float, duration: float, targets, *, check=True, record=False, num_threads: int = 1
+    config: SimConfig, state, t0: float, duration: float, targets, *, check=True, record=False, workers: int = 1
 ):
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
@@ -828,17 +831,17 @@ def advance(
     over ``duration`` (for held targets: onto the held angles, at rest). The body
     reacts to whatever torque that takes; only the body's equations are integrated.
 
-    ``num_threads`` > 1 splits a batch into that many blocks of robots integrated on
-    threads (numpy releases the GIL inside its array loops); the robots are independent
-    and the step is chosen for the whole batch first, so the result is bit-identical to
-    one thread. Worth it from a few hundred robots per thread (``benchmarks.throughput``).
+    ``workers`` > 1 splits a batch into that many blocks of robots integrated in worker
+    processes (threads do not pay: numpy's per-call work holds the GIL); the robots are
+    independent and the step is chosen for the whole batch first, so the result is
+    bit-identical to one process. Worth it for large batches (``benchmarks.throughput``).
 
     Raises :class:`NumericalFailure` if the result is not finite.
     """
     if check:
         state = check_state(state)
-    if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
-        raise ValueError(f"num_threads must be a positive integer, got {num_threads!r}")
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
     if duration < 0.0 or not math.isfinite(duration):
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
     if duration == 0.0:
@@ -868,18 +871,17 @@ def advance(
             out = np.array(out)
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
             raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
-        records = [recorder]
+        records = [None if recorder is None else recorder.rows]
     else:
-        blocks = np.array_split(np.arange(state.shape[0]), min(num_threads, state.shape[0]))
-        heap = _freed_heap_kept(state.shape[0]) if state.shape[0] >= 1024 else contextlib.nullcontext()
-        with heap:
-            if len(blocks) == 1:
-                results = [_integrate_block(config, targets, blend, state, t0, h, n_steps, record, None)]
-            else:
-                work = functools.partial(_integrate_block, config, targets, blend, state, t0, h, n_steps, record)
-                results = list(_thread_pool(len(blocks)).map(work, [slice(b[0], b[-1] + 1) for b in blocks]))
+        blocks = np.array_split(np.arange(state.shape[0]), min(workers, state.shape[0]))
+        if len(blocks) == 1:
+            results = [_integrate_block((config, targets, blend, state, t0, h, n_steps, record))]
+        else:
+            jobs = [_block_inputs(config, targets, blend, state, t0, h, n_steps, record, slice(b[0], b[-1] + 1))
+                    for b in blocks]  # fmt: skip
+            results = list(_process_pool(len(blocks)).map(_integrate_block, jobs))
         out = np.concatenate([block for block, _ in results]) if len(results) > 1 else results[0][0]
-        records = [recorder for _, recorder in results]
+        records = [rows for _, rows in results]
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
@@ -904,18 +906,22 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
     return stepper(f, t0, y, h, n_steps, recorder), recorder
 
 
-def _integrate_block(config: SimConfig, targets, blend, state, t0, h, n_steps, record, rows):
-    """:func:`_integrate` on the robots ``rows`` (a slice; None: all) of a batch (N, 13):
-    (their states (n, 13), the recorder or None)."""
-    if rows is not None:
-        state = state[rows]
-        targets = _RowsOf(targets, rows)
-        if blend is not None:
-            t_blend, (b1, v1, d1), (b2, v2, d2) = blend
-            blend = (t_blend, (_take(b1, rows), _take(v1, rows), d1), (_take(b2, rows), _take(v2, rows), d2))
-    with np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
+def _block_inputs(config: SimConfig, targets, blend, state, t0, h, n_steps, record, rows):
+    """The arguments of :func:`_integrate_block` for the robots ``rows`` (a slice) of a batch."""
+    if blend is not None:
+        t_blend, (b1, v1, d1), (b2, v2, d2) = blend
+        blend = (t_blend, (_take(b1, rows), _take(v1, rows), d1), (_take(b2, rows), _take(v2, rows), d2))
+    return config, _RowsOf(targets, rows), blend, state[rows], t0, h, n_steps, record
+
+
+def _integrate_block(job):
+    """:func:`_integrate` on a batch (n, 13), in this process or a worker of :func:`advance`:
+    (the states (n, 13), the record's rows (S, 10, n) or None)."""
+    config, targets, blend, state, t0, h, n_steps, record = job
+    heap = _freed_heap_kept(len(state)) if len(state) >= 1024 else contextlib.nullcontext()
+    with heap, np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
         y, recorder = _integrate(config, targets, blend, np.array(state.T, order="C"), t0, h, n_steps, record)
-    return y.T.copy(), recorder
+    return y.T.copy(), (None if recorder is None else recorder.rows)
 
 
 def _take(value, rows):
@@ -924,7 +930,7 @@ def _take(value, rows):
 
 
 class _RowsOf:
-    """A leg-target source as seen by some of a batch's robots (a block of :func:`advance`'s threads)."""
+    """A leg-target source as seen by some of a batch's robots (a block of :func:`advance`'s workers)."""
 
     def __init__(self, targets, rows):
         self._targets, self._rows = targets, rows
@@ -934,10 +940,13 @@ class _RowsOf:
 
 
 @functools.lru_cache(maxsize=None)
-def _thread_pool(num_threads: int):
-    from concurrent.futures import ThreadPoolExecutor
+def _process_pool(workers: int):
+    """Worker processes for :func:`advance`'s blocks (forked where the platform allows)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
 
-    return ThreadPoolExecutor(max_workers=num_threads, thread_name_prefix="rrrobot-advance")
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method))
 
 
 @dataclass(frozen=True)

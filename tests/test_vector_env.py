@@ -238,7 +238,7 @@ def test_env_signatures_and_the_arguments_table_list_exactly_the_task_config_fie
 
     fields = {f.name: f.default for f in dataclasses.fields(TaskConfig)}
     render = {"render_mode": None, "width": 800, "height": 400}
-    for env_class, own in ((RRRobotEnv, {}), (RRRobotVectorEnv, {"num_envs": 1, "max_episode_steps": 1000, "num_threads": 1})):
+    for env_class, own in ((RRRobotEnv, {}), (RRRobotVectorEnv, {"num_envs": 1, "max_episode_steps": 1000, "workers": 1})):
         parameters = inspect.signature(env_class).parameters
         assert {name: p.default for name, p in parameters.items()} == {**own, **fields, **render}
         assert all(parameters[name].annotation != inspect.Parameter.empty for name in fields)

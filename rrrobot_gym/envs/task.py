@@ -591,7 +591,7 @@ FAILED_MEASURES = {key: np.nan for key in MEASURE_KEYS}
 """Measures reported for a robot whose step failed numerically (it terminates anyway)."""
 
 
-def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost, num_threads=1):
+def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost, workers=1):
     """One control step of ``states`` ((13,) or (N, 13)) under ``actions``.
 
     With ``config.action_hold == "linear"`` the leg targets ramp from ``previous_targets``
@@ -610,7 +610,7 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
         held = RampTargets(previous_targets, leg_targets, t, config.dt)
     else:
         held = HeldTargets(leg_targets)
-    states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, num_threads=num_threads)
+    states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, workers=workers)
     with np.errstate(all="ignore"):
         measures, contact_lost = validity.step_measures(record, config.sim, config.friction_coefficient, contact_lost)
     return states, measures, contact_lost

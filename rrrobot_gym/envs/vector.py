@@ -32,9 +32,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
     :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
     episode end) plus ``num_envs``, ``max_episode_steps`` (control steps before truncation;
-    None never truncates) and ``num_threads`` (integrate the batch in that many blocks on
-    threads, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; it pays from a
-    few hundred robots a thread, ``python -m benchmarks.throughput``).
+    None never truncates) and ``workers`` (integrate the batch in that many blocks in worker
+    processes, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; it pays for
+    large batches, ``python -m benchmarks.throughput``).
     ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
@@ -61,7 +61,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         num_envs: int = 1,
         max_episode_steps: int | None = 1000,
         *,
-        num_threads: int = 1,
+        workers: int = 1,
         render_mode: str | None = None,
         width: int = 800,
         height: int = 400,
@@ -72,7 +72,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             self,
             num_envs=num_envs,
             max_episode_steps=max_episode_steps,
-            num_threads=num_threads,
+            workers=workers,
             render_mode=render_mode,
             width=width,
             height=height,
@@ -86,9 +86,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             or max_episode_steps < 1
         ):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)) or num_threads < 1:
-            raise ValueError(f"num_threads must be a positive integer, got {num_threads!r}")
-        self.num_threads = int(num_threads)
+        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        self.workers = int(workers)
         self.config = task.make_task_config(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
@@ -213,7 +213,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
                 after, measures, lost = task.advance_and_check(
-                    states, actions, 0.0, self.config, previous_targets, contact_lost, num_threads=self.num_threads
+                    states, actions, 0.0, self.config, previous_targets, contact_lost, workers=self.workers
                 )
             return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
@@ -292,7 +292,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
 
 RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
-    RRRobotVectorEnv.__init__, before=("num_threads",), after=("render_mode", "width", "height")
+    RRRobotVectorEnv.__init__, before=("workers",), after=("render_mode", "width", "height")
 )
 
 

@@ -1,4 +1,4 @@
-"""advance(num_threads=...): a batch split over threads gives exactly the one-thread result."""
+"""advance(workers=...): a batch split over worker processes gives exactly the one-process result."""
 
 import numpy as np
 import pytest
@@ -25,37 +25,37 @@ def _states(n, seed=0):
      SimConfig(legs="kinematic", timestep="auto")],
     ids=["servo-rk4", "pivot-rosw", "kinematic-auto"],
 )  # fmt: skip
-@pytest.mark.parametrize("threads", [2, 3])
-def test_threads_give_bit_identical_states_and_records(config, threads):
+@pytest.mark.parametrize("workers", [2, 3])
+def test_workers_give_bit_identical_states_and_records(config, workers):
     states = _states(37)
     ramp = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(1).uniform(0, 3, (37, 2)), 0.0, 0.05)
     one, one_record = advance(config, states, 0.0, 0.05, ramp, record=True)
-    many, many_record = advance(config, states, 0.0, 0.05, ramp, record=True, num_threads=threads)
+    many, many_record = advance(config, states, 0.0, 0.05, ramp, record=True, workers=workers)
     assert np.array_equal(one, many)
     for field in ("times", "torque", "force", "normal", "leg_clearance", "leg_rates"):
         assert np.array_equal(getattr(one_record, field), getattr(many_record, field)), field
     # a target shared by all robots (a scripted gait) is split too
     assert np.array_equal(
         advance(config, states, 0.3, 0.05, table2_gait(3)),
-        advance(config, states, 0.3, 0.05, table2_gait(3), num_threads=threads),
+        advance(config, states, 0.3, 0.05, table2_gait(3), workers=workers),
     )
 
 
-def test_more_threads_than_robots_and_bad_counts():
+def test_more_workers_than_robots_and_bad_counts():
     states = _states(2)
-    assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, table2_gait(1), num_threads=8),
+    assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, table2_gait(1), workers=8),
                           advance(SimConfig(), states, 0.0, 0.05, table2_gait(1)))  # fmt: skip
     for bad in (0, -1, 1.5, True):
-        with pytest.raises(ValueError, match="num_threads"):
-            advance(SimConfig(), states, 0.0, 0.05, table2_gait(1), num_threads=bad)
+        with pytest.raises(ValueError, match="workers"):
+            advance(SimConfig(), states, 0.0, 0.05, table2_gait(1), workers=bad)
 
 
-def test_make_vec_with_threads_steps_exactly_as_with_one():
+def test_make_vec_with_workers_steps_exactly_as_with_one():
     import gymnasium
 
     import rrrobot_gym  # noqa: F401
 
-    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=9, num_threads=threads) for threads in (1, 2)]
+    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=9, workers=workers) for workers in (1, 2)]
     observations = [env.reset(seed=3)[0] for env in envs]
     rng = np.random.default_rng(0)
     for _ in range(30):  # bang-bang actions: some robots leave the model and are reset in the step
@@ -65,5 +65,5 @@ def test_make_vec_with_threads_steps_exactly_as_with_one():
             assert np.array_equal(results[0][item], results[1][item])
         assert np.array_equal(results[0][4]["torque_rms"], results[1][4]["torque_rms"])
     assert np.any(results[0][2]) or np.any(envs[0].unwrapped.episode_steps < 30)  # resets happened
-    with pytest.raises(ValueError, match="num_threads"):
-        gymnasium.make_vec("RRRobot-v0", num_envs=2, num_threads=0)
+    with pytest.raises(ValueError, match="workers"):
+        gymnasium.make_vec("RRRobot-v0", num_envs=2, workers=0)
