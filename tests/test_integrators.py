@@ -26,6 +26,7 @@ def test_rosw_follows_a_stiff_servo_at_steps_far_beyond_rk4s_stability_limit():
     assert error < 1e-4 and travel > 20 * error
 
 
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # the point: it overflows
 def test_rosw_needs_its_servo_jacobian(monkeypatch):
     """With the servo left out of A the same tableau is an explicit method, and blows up at that step."""
 
