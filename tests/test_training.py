@@ -67,16 +67,16 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
 
 
 def test_resume_continues_from_a_checkpoint(tmp_path):
-    first = run(["train.py", "--total-timesteps", "2048", "--runs-dir", str(tmp_path / "a"), *TINY])
+    first = run(["train.py", "--total-timesteps", "1024", "--runs-dir", str(tmp_path / "a"), *TINY])
     assert first.returncode == 0, first.stderr
     checkpoint = sorted((only_run(tmp_path / "a") / "checkpoints").glob("ppo_*_steps.zip"))[-1]
-    resumed = run(["train.py", "--total-timesteps", "1024", "--runs-dir", str(tmp_path / "b"),
+    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path / "b"),
                    "--resume", str(checkpoint), *TINY])
     assert resumed.returncode == 0, resumed.stderr
     from stable_baselines3 import PPO
 
     model = PPO.load(only_run(tmp_path / "b") / "final_model.zip", device="cpu")
-    assert model.num_timesteps > 2048  # continued counting from the checkpoint
+    assert model.num_timesteps > 1024  # continued counting from the checkpoint
 
 
 def test_ctrl_c_saves_the_model_before_exiting(tmp_path):
