@@ -36,7 +36,7 @@ Runge-Kutta (4 derivative evaluations a step); "rk3", Kutta's third-order method
 (3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark);
 "rosw", the Rosenbrock-W method ROS34PW2 (4 evaluations and a 2x2 solve a step), linearly
 implicit in the leg servo, so no servo stability limit: it pays for stiff servos (kd = 5,
-kp = 200: 0.09 mm at 1/3000 s where RK4 needs 1/33,000 s), not for the default gains,
+kp = 200: within 0.1 mm at 1/3000 s, where RK4's auto step is 1/33,000 s), not for the default gains,
 where accuracy, not stability, sets the step (``python -m benchmarks.work_precision``)."""
 
 LEG_MODES = ("servo", "kinematic")
@@ -556,18 +556,18 @@ _ROSW_G = (
 )
 _ROSW_B = (2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, 4.3586652150845900e-01)
 _ROSW_C = tuple(sum(row) for row in _ROSW_A)
-_LEGS = (6, 7)  # leg angle rows
-_LEG_RATE_ROWS = (11, 12)
 
 
 class _ServoJacobian:
     """The stiff part of the dynamics that the Rosenbrock-W steps treat implicitly: the leg servo.
 
-    A acts on the leg angles and rates only: phi' = phidot (exact) and
-    phidot' = -G (kp phi + kd phidot), G the legs' block of M^-1 at the substep's start
-    (:func:`rrrobot_gym.dynamics.derivative_kernel`'s ``mobility_out``). The body's rows of A
-    are left out (a W-method keeps its order for any A); the servo's fast pole
-    (about -kd G, up to ~-400 1/s on a plane) is what the explicit steps had to resolve.
+    A is the servo torque's part of the Jacobian, frozen at the substep's start: phi' = phidot,
+    phidot' = -G (kp phi + kd phidot) and Omega' = -P (kp phi + kd phidot), with G and P the
+    legs' columns of M^-1 (:func:`rrrobot_gym.dynamics.derivative_kernel`'s ``mobility_out``).
+    The rest of the Jacobian is left out (a W-method keeps its order for any A). Without the
+    body rows P the body's recoil from the fast servo mode is explicit and the steps lose most
+    of their accuracy; the servo's fast pole (about -kd G, up to ~-400 1/s on a plane) is
+    what the explicit steps had to resolve.
     """
 
     def __init__(self, gains, h):
@@ -610,7 +610,6 @@ class _ServoJacobian:
         t2 = hg * (self.kp * x2 + self.kd * v2)
         p = self.p
         return x1, x2, v1, v2, r_o1 - (p[0] * t1 + p[3] * t2), r_o2 - (p[1] * t1 + p[4] * t2), r_o3 - (p[2] * t1 + p[5] * t2)
-
 
     _ROWS = (6, 7, 11, 12, 8, 9, 10)  # leg angles, leg rates, body rates: where A acts
 
