@@ -21,24 +21,6 @@ from . import dynamics
 from .params import RobotParams, rotation_point_depth
 
 
-def _leg_vectors(leg_angles, params: RobotParams):
-    """Tip positions p_k, e_k = dp/dphi and a_k = d2p/dphi2, body frame, each (N, 2, 3)."""
-    r, l = params.radius, params.leg_length
-    c, s = np.cos(leg_angles), np.sin(leg_angles)
-    side = np.array([-r, r])
-    tips = np.stack([l * c, np.broadcast_to(side, c.shape), l * s], axis=-1)
-    e = np.stack([-l * s, np.zeros_like(c), l * c], axis=-1)
-    a = np.stack([-l * c, np.zeros_like(c), -l * s], axis=-1)
-    return tips, e, a
-
-
-def up_in_body(quat):
-    """World up seen from the body, n = R^T z (the third row of R), shape (N, 3)."""
-    q = np.asarray(quat, dtype=float)
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)
-
-
 def _contact(states, derivatives, params: RobotParams, model: str):
     states = np.atleast_2d(np.asarray(states, dtype=float))
     derivatives = np.broadcast_to(np.asarray(derivatives, dtype=float), states.shape)

@@ -12,8 +12,10 @@ from rrrobot_gym.simulation import SimConfig, _derivative_fn, simulate_reference
 
 def _centre_of_mass(states, params):
     r = params.radius
-    tips, _, _ = validity._leg_vectors(states[:, dynamics.LEG_ANGLES], params)
-    moment = params.mass_tip * tips.sum(axis=1)
+    phi = states[:, dynamics.LEG_ANGLES]
+    l = params.leg_length
+    # the two tips' first moment: (l cos phi_k, -+r, l sin phi_k) summed (the y parts cancel)
+    moment = params.mass_tip * np.stack([l * np.cos(phi).sum(1), np.zeros(len(phi)), l * np.sin(phi).sum(1)], axis=1)
     moment[:, 2] -= params.mass_bottom * r
     rot = dynamics.rotation_matrix(states[:, dynamics.QUAT])
     centre = np.stack([states[:, 0], states[:, 1], np.full(len(states), r)], axis=1)
