@@ -115,7 +115,6 @@ class Constants(NamedTuple):
     weight: float  # N, M g
 
 
-_CONSTANT_NAMES = Constants._fields
 
 
 def constants(params: RobotParams, depth: float) -> Constants:
@@ -220,13 +219,19 @@ def _configuration(phi1, phi2, n, k):
     return ((lc1, ls1, sy1), (lc2, ls2, sy2)), inertia, (sx, sz), m_omega, (c1, c2)
 
 
-def _sym_inverse(m):
-    """Upper triangle (row-wise) of the inverse of a symmetric 3x3 m, by cofactors."""
+def _sym_cofactors(m):
+    """Cofactors (c00, c01, c02, c11, c12, c22) of a symmetric 3x3 m (upper triangle, row-wise)
+    and 1 / det m."""
     a, bb, c, d, e, f = m
     c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
     c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
-    inv_det = 1.0 / (a * c00 + bb * c01 + c * c02)
-    return (c00 * inv_det, c01 * inv_det, c02 * inv_det, c11 * inv_det, c12 * inv_det, c22 * inv_det)
+    return (c00, c01, c02, c11, c12, c22), 1.0 / (a * c00 + bb * c01 + c * c02)
+
+
+def _sym_inverse(m):
+    """Upper triangle (row-wise) of the inverse of a symmetric 3x3 m, by cofactors."""
+    cof, inv_det = _sym_cofactors(m)
+    return tuple(x * inv_det for x in cof)
 
 
 def _sym_apply(m, b0, b1, b2):
@@ -236,16 +241,11 @@ def _sym_apply(m, b0, b1, b2):
 
 
 def _sym_solve(m, b0, b1, b2):
-    """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise)."""
-    a, bb, c, d, e, f = m
-    c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
-    c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
-    inv_det = 1.0 / (a * c00 + bb * c01 + c * c02)
-    return (
-        (c00 * b0 + c01 * b1 + c02 * b2) * inv_det,
-        (c01 * b0 + c11 * b1 + c12 * b2) * inv_det,
-        (c02 * b0 + c12 * b1 + c22 * b2) * inv_det,
-    )
+    """Solve the symmetric 3x3 system m x = b by cofactors (m: upper triangle, row-wise);
+    scaling the result rather than the cofactors saves three products a solve."""
+    cof, inv_det = _sym_cofactors(m)
+    x0, x1, x2 = _sym_apply(cof, b0, b1, b2)
+    return x0 * inv_det, x1 * inv_det, x2 * inv_det
 
 
 def derivative_kernel(
