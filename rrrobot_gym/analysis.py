@@ -165,3 +165,19 @@ def travel_summary(times, x, y, period: float):
         "signed_area_m2": signed_area,
         "mean_speed_mps": float(path_length / duration) if duration > 0 else 0.0,
     }
+
+
+def json_safe(value):
+    """``value`` as JSON can hold it: numpy scalars and arrays become Python numbers and lists,
+    mapping keys strings, and floats that are not finite None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_safe(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

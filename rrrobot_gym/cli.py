@@ -235,19 +235,6 @@ def sim_config(args, model: str) -> SimConfig:
 # ---------------------------------------------------------------- table1
 
 
-def _json_safe(value):
-    """Floats that are not finite become None (JSON has no NaN); numpy scalars become Python ones."""
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def format_table1(records) -> str:
     """Table I as aligned text, with a footnote on the paper's single-axis formulas."""
     header = ("model", "axis", "code (s)", "paper (s)", "diff", "compound (s)", "eq. 5/6 (s)", "rho (m)")
@@ -309,7 +296,7 @@ def _table1_footnotes(records):
 def run_table1(args) -> None:
     records = analysis.table1()
     if args.json:
-        print(json.dumps(_json_safe(records), indent=2, allow_nan=False))
+        print(json.dumps(analysis.json_safe(records), indent=2, allow_nan=False))
     else:
         print(format_table1(records))
 
@@ -432,7 +419,7 @@ def run_figures(args) -> None:
         "robot": asdict(configs["plane"].robot),
     }
     report = {"settings": settings, "travel": summaries, "table1": table}
-    _write(args.out / "summary.json", lambda p: p.write_text(json.dumps(_json_safe(report), indent=2, allow_nan=False) + "\n"))
+    _write(args.out / "summary.json", lambda p: p.write_text(json.dumps(analysis.json_safe(report), indent=2, allow_nan=False) + "\n"))
     _write(args.out / "summary.txt", lambda p: p.write_text(format_summary(settings, summaries, table) + "\n"))
     for name in (FIGURE_FILE, "summary.txt", "summary.json"):
         print(f"wrote {args.out / name}")

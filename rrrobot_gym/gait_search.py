@@ -58,6 +58,8 @@ from pathlib import Path
 import numpy as np
 
 from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, leg_targets_to_action
+from .analysis import json_safe
+from .params import whole_number
 
 SCHEMA = "rrrobot_gym.gait_search/1"
 PARAMETER_NAMES = ("amplitude_1", "amplitude_2", "offset_1", "offset_2", "frequency", "phase_gap")
@@ -457,32 +459,12 @@ class SearchResult:
         return SinusoidGait.from_dict(best["parameters"], name=best["name"])
 
     def to_json(self) -> dict:
-        return _json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
+        return json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
                            "bounds": {k: list(v) for k, v in BOUNDS.items()}, **self.settings,
                            "used": self.used, "gaits": self.gaits, "history": self.history})
 
     def write_json(self, path) -> None:
         Path(path).write_text(json.dumps(self.to_json(), indent=1, allow_nan=False) + "\n")
-
-
-def _json_safe(value):
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def _positive_int(name, value):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be a positive integer, got {value!r}")
-    return int(value)
 
 
 def search(
@@ -536,21 +518,19 @@ def search(
     if budget_evaluations is None and budget_seconds is None:
         raise ValueError("give a budget: budget_evaluations (gaits scored) and/or budget_seconds (wall clock)")
     if budget_evaluations is not None:
-        budget_evaluations = _positive_int("budget_evaluations", budget_evaluations)
+        budget_evaluations = whole_number("budget_evaluations", budget_evaluations)
     if budget_seconds is not None and not (
         isinstance(budget_seconds, (int, float)) and not isinstance(budget_seconds, bool)
         and math.isfinite(budget_seconds) and budget_seconds > 0
     ):
         raise ValueError(f"budget_seconds must be a positive number, got {budget_seconds!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    popsize = _positive_int("popsize", popsize)
+    whole_number("seed", seed, minimum=0)
+    popsize = whole_number("popsize", popsize)
     if popsize < 2:
         raise ValueError(f"popsize must be at least 2 for CMA-ES, got {popsize}")
     screen = 2 * popsize if screen is None else screen
-    if isinstance(screen, bool) or not isinstance(screen, (int, np.integer)) or screen < 0:
-        raise ValueError(f"screen must be a non-negative integer, got {screen!r}")
-    keep = _positive_int("keep", keep)
+    whole_number("screen", screen, minimum=0)
+    keep = whole_number("keep", keep)
     if not (isinstance(sigma0, (int, float)) and math.isfinite(sigma0) and 0 < sigma0 <= 1):
         raise ValueError(f"sigma0 must be in (0, 1] (a step in the unit box), got {sigma0!r}")
     if robustness_seeds is not None and not (isinstance(robustness_seeds, int) and robustness_seeds >= 0):

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 MODELS = ("plane", "pivot")
 """The two dynamic models: rolling on a plane, and the Pivoting Dynamics model."""
 
@@ -24,6 +26,14 @@ def real_number(label: str, value) -> float:
     if not math.isfinite(number):
         raise ValueError(f"{label} must be finite, got {value!r}")
     return number
+
+
+def whole_number(label: str, value, minimum: int = 1) -> int:
+    """``int(value)`` for an integer (not a bool) of at least ``minimum``, or a ValueError naming ``label``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        wanted = "a positive integer" if minimum == 1 else "a non-negative integer" if minimum == 0 else f"an integer >= {minimum}"
+        raise ValueError(f"{label} must be {wanted}, got {value!r}")
+    return int(value)
 
 
 def _require_finite(obj, names):

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import dynamics
 from .control import limit_torque, pd_torque
-from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth
+from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth, whole_number
 
 INTEGRATORS = ("rk4", "rk3", "rosw")
 """Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
@@ -839,8 +839,7 @@ def advance(
     """
     if check:
         state = check_state(state)
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    workers = whole_number("workers", workers)
     if duration < 0.0 or not math.isfinite(duration):
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
     if duration == 0.0:

@@ -24,6 +24,7 @@ from gymnasium.utils import EzPickle, seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ..params import whole_number
 from . import render, task
 
 class RRRobotVectorEnv(VectorEnv, EzPickle):
@@ -78,17 +79,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             height=height,
             **kwargs,
         )
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        if max_episode_steps is not None and (
-            isinstance(max_episode_steps, bool)
-            or not isinstance(max_episode_steps, (int, np.integer))
-            or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
-        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-            raise ValueError(f"workers must be a positive integer, got {workers!r}")
-        self.workers = int(workers)
+        whole_number("num_envs", num_envs)
+        if max_episode_steps is not None:
+            whole_number("max_episode_steps (or None)", max_episode_steps)
+        self.workers = whole_number("workers", workers)
         self.config = task.make_task_config(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
