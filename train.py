@@ -70,6 +70,13 @@ class Args:
     clock_frequency: float | None = field(
         default=None, metadata={"help": "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none"}
     )
+    torque_limit: float | None = field(
+        default=None, metadata={"help": "N m, the leg motors' stall torque (the env's torque_limit); default unlimited"}
+    )
+    leg_rate_limit: float | None = field(
+        default=None,
+        metadata={"help": "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default unlimited"},
+    )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
@@ -86,7 +93,7 @@ def parse_args(argv=None) -> Args:
         help_text = f"{f.metadata['help']} (default: {f.default})"
         if f.type in ("bool",):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
-        elif f.name in ("direction_deg", "clock_frequency"):
+        elif f.name in ("direction_deg", "clock_frequency", "torque_limit", "leg_rate_limit"):
             parser.add_argument(flag, type=float, default=None, help=help_text)
         elif f.name == "resume":
             parser.add_argument(flag, type=str, default=None, help=help_text)
@@ -100,6 +107,12 @@ def parse_args(argv=None) -> Args:
         parser.error("--direction-deg must be a finite number of degrees")
     if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
         parser.error("--clock-frequency must be a positive number of rad/s")
+    for name in ("torque_limit", "leg_rate_limit"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value > 0):
+            parser.error(f"--{name.replace('_', '-')} must be a positive number, got {value}")
+    if args.leg_rate_limit is not None and args.torque_limit is None:
+        parser.error("--leg-rate-limit needs --torque-limit (a motor's speed limit is where its torque reaches zero)")
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
@@ -113,7 +126,8 @@ def env_kwargs(args: Args) -> dict:
     """The training env's keywords (the env's heading keyword is in radians)."""
     direction = None if args.direction_deg is None else math.radians(args.direction_deg)
     return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
-            "clock_frequency": args.clock_frequency}
+            "clock_frequency": args.clock_frequency, "torque_limit": args.torque_limit,
+            "leg_rate_limit": args.leg_rate_limit}
 
 
 def env_config(args: Args) -> dict:

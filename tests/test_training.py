@@ -100,12 +100,14 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
 
     import train
 
-    args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123", *heading])
+    args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
+                             "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading])
     training = train.make_env(args, 2, seed=0).venv.vector_env
     evaluation = train.make_eval_env(args, seed=1).venv.vector_env
     # the same keywords but the start noise (evaluations start from the paper's start), the same episode
     assert evaluation.config == dataclasses.replace(training.config, reset_noise_scale=0.0)
     assert evaluation.max_episode_steps == training.max_episode_steps == 123
+    assert (training.config.torque_limit, training.config.leg_rate_limit) == (0.5, 10.0)
     if heading:
         assert training.config.target_direction == pytest.approx(math.radians(30.0))
     training.reset(seed=0)
@@ -124,6 +126,20 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
 
     assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
     assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "16384"])) == 16_384
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--torque-limit", "-1"], "--torque-limit"),
+    (["--torque-limit", "nan"], "--torque-limit"),
+    (["--leg-rate-limit", "10"], "--torque-limit"),
+    (["--clock-frequency", "0"], "--clock-frequency"),
+])
+def test_bad_motor_and_clock_arguments_are_named(argv, named, capsys):
+    import train
+
+    with pytest.raises(SystemExit):
+        train.parse_args(argv)
+    assert named in capsys.readouterr().err
 
 
 def test_bad_arguments_are_named(tmp_path):
