@@ -66,31 +66,38 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
         assert math.isfinite(r["speed_mps"])
 
 
-def test_resume_continues_from_a_checkpoint(tmp_path):
-    first = run(["train.py", "--total-timesteps", "1024", "--runs-dir", str(tmp_path / "a"), *TINY])
-    assert first.returncode == 0, first.stderr
-    checkpoint = sorted((only_run(tmp_path / "a") / "checkpoints").glob("ppo_*_steps.zip"))[-1]
-    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path / "b"),
-                   "--resume", str(checkpoint), *TINY])
-    assert resumed.returncode == 0, resumed.stderr
-    from stable_baselines3 import PPO
-
-    model = PPO.load(only_run(tmp_path / "b") / "final_model.zip", device="cpu")
-    assert model.num_timesteps > 1024  # continued counting from the checkpoint
-
-
-def test_ctrl_c_saves_the_model_before_exiting(tmp_path):
+@pytest.fixture(scope="module")
+def interrupted_run(tmp_path_factory):
+    """A long run stopped by Ctrl-C once it has written a checkpoint (shared by the next two tests)."""
+    runs_dir = tmp_path_factory.mktemp("interrupted")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "train.py", "--total-timesteps", "10000000", "--runs-dir", str(tmp_path), *TINY],
+    proc = subprocess.Popen([sys.executable, "train.py", "--total-timesteps", "10000000", "--runs-dir", str(runs_dir), *TINY],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
-    while time.time() < deadline and not list(tmp_path.glob("*/checkpoints/*.zip")):
+    while time.time() < deadline and not list(runs_dir.glob("*/checkpoints/*.zip")):
         time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
+    return proc.returncode, out, err, only_run(runs_dir)
+
+
+def test_ctrl_c_saves_the_model_before_exiting(interrupted_run):
+    returncode, out, err, run_dir = interrupted_run
+    assert returncode == 130, err
     assert "saving the model" in out
-    assert (only_run(tmp_path) / "final_model.zip").is_file()
+    assert (run_dir / "final_model.zip").is_file()
+
+
+def test_resume_continues_from_a_checkpoint(interrupted_run, tmp_path):
+    *_, run_dir = interrupted_run
+    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
+    steps = int(checkpoint.stem.split("_")[1])
+    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint), *TINY])
+    assert resumed.returncode == 0, resumed.stderr
+    from stable_baselines3 import PPO
+
+    model = PPO.load(only_run(tmp_path) / "final_model.zip", device="cpu")
+    assert model.num_timesteps == steps + 512  # continued counting from the checkpoint's steps
 
 
 @pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
