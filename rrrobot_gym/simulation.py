@@ -870,6 +870,8 @@ def advance(
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
             raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
         records = [None if recorder is None else recorder.rows]
+    elif state.shape[0] <= ROW_BY_ROW_MAX:
+        out, records = _integrate_rows(config, targets, blend, state, t0, h, n_steps, record)
     else:
         blocks = np.array_split(np.arange(state.shape[0]), min(workers, state.shape[0]))
         if len(blocks) == 1:
@@ -902,6 +904,47 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
         start = recorder if recorder is not None else (lambda t, c, mobility: first(t, c, mobility)[0])
         return stepper(f, t0, y, h, n_steps, start, _ServoJacobian(config.gains, h)), recorder
     return stepper(f, t0, y, h, n_steps, recorder), recorder
+
+
+ROW_BY_ROW_MAX = 8
+"""A batch of at most this many robots is integrated one robot at a time on Python floats:
+below it numpy's per-call overhead costs more than the loop (``benchmarks.throughput``,
+``--small``). The choice depends on the batch size only, so ``workers`` never changes a result."""
+
+
+def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
+    """:func:`_integrate` of a small batch (n, 13) robot by robot on floats: (the states (n, 13),
+    [the record's rows (S, 10, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
+    out = np.empty_like(state)
+    rows = []
+    for i in range(len(state)):
+        try:
+            y, recorder = _integrate(config, _RowOf(targets, i), _row_blend(blend, i), state[i].tolist(), t0, h,
+                                     n_steps, record)  # fmt: skip
+            out[i] = y
+            rows.append(None if recorder is None else recorder.rows)
+        except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
+            out[i] = np.nan
+            rows.append(np.full((n_steps, _RECORD_ROWS), np.nan) if record else None)
+    return out, [np.stack(rows, axis=2) if record else None]
+
+
+def _row_blend(blend, i: int):
+    """Robot i's part of a kinematic blend (t0, coeffs1, coeffs2), as floats."""
+    if blend is None:
+        return None
+    t_blend, *coeffs = blend
+    return (t_blend, *(tuple(float(_take(v, i)) for v in c) for c in coeffs))
+
+
+class _RowOf:
+    """A batch's leg-target source as seen by its robot ``i``, as Python floats (for the float steppers)."""
+
+    def __init__(self, targets, i: int):
+        self._targets, self._i = targets, i
+
+    def leg_targets(self, t):
+        return tuple(tuple(float(_take(v, self._i)) for v in triple) for triple in self._targets.leg_targets(t))
 
 
 def _block_inputs(config: SimConfig, targets, blend, state, t0, h, n_steps, record, rows):

@@ -67,3 +67,41 @@ def test_make_vec_with_workers_steps_exactly_as_with_one():
     assert np.any(results[0][2]) or np.any(envs[0].unwrapped.episode_steps < 30)  # resets happened
     with pytest.raises(ValueError, match="workers"):
         gymnasium.make_vec("RRRobot-v0", num_envs=2, workers=0)
+
+
+@pytest.mark.parametrize(
+    "config",
+    [SimConfig(torque_limit=0.3, leg_rate_limit=8.0), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),
+     SimConfig(legs="kinematic", timestep="auto"), SimConfig(integrator="rk3")],
+    ids=["servo-limited", "pivot-rosw", "kinematic-auto", "rk3"],
+)  # fmt: skip
+def test_a_small_batch_run_robot_by_robot_matches_the_array_path_and_one_robot(config, monkeypatch):
+    """Batches up to ROW_BY_ROW_MAX robots run robot by robot on floats: the same motion and
+    record as numpy's batched path (to rounding) and exactly what each robot does alone."""
+    from rrrobot_gym import simulation
+
+    n = simulation.ROW_BY_ROW_MAX
+    states = _states(n, seed=4)
+    ends = np.random.default_rng(2).uniform(0, 3, (n, 2))
+    ramp = RampTargets(states[:, dynamics.LEG_ANGLES], ends, 0.0, 0.05)
+    rows, rows_record = advance(config, states, 0.0, 0.05, ramp, record=True)
+    if config.timestep != "auto":  # (auto chooses one step for the whole batch: alone, a robot may get another)
+        alone = advance(config, states[3], 0.0, 0.05, RampTargets(states[3, dynamics.LEG_ANGLES], ends[3], 0.0, 0.05),
+                        record=True)  # fmt: skip
+        assert np.array_equal(rows[3], alone[0]) and np.array_equal(rows_record.force[:, 3], alone[1].force)
+    monkeypatch.setattr(simulation, "ROW_BY_ROW_MAX", 0)
+    arrays, arrays_record = advance(config, states, 0.0, 0.05, ramp, record=True)
+    np.testing.assert_allclose(rows, arrays, rtol=1e-12, atol=1e-12)
+    assert np.abs(rows - states).max() > 1e-3  # they moved
+    for field in ("torque", "force", "normal", "leg_clearance", "leg_rates"):
+        np.testing.assert_allclose(getattr(rows_record, field), getattr(arrays_record, field), rtol=1e-10, atol=1e-10,
+                                   err_msg=field)  # fmt: skip
+
+
+def test_a_robot_blowing_up_in_a_small_batch_is_a_named_numerical_failure():
+    from rrrobot_gym.simulation import NumericalFailure
+
+    states = _states(3)
+    states[1, dynamics.BODY_RATE] = 1e200  # overflows on floats
+    with pytest.raises(NumericalFailure, match="non-finite state"):
+        advance(SimConfig(), states, 0.0, 0.05, table2_gait(1))
