@@ -88,7 +88,7 @@ def main(argv=None):
     repeats = 3 if args.quick else 5
     single_steps = 100 if args.quick else 400
     rows = [single_env(single_steps, repeats, rng)]
-    sizes = (1, 16, 64, 256) if args.quick else (1, 16, 64, 256, 4096)
+    sizes = (1, 8, 16, 64, 256) if args.quick else (1, 8, 16, 64, 256, 4096)
     for n in sizes:
         steps = max(5, min(200, 20_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
         rows.append(vector_env(n, steps, repeats, rng))
