@@ -31,6 +31,11 @@ from rrrobot_gym.simulation import DEFAULT_TIMESTEP
 
 HERE = Path(__file__).resolve().parent
 DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
+DEFAULT_PIVOT_POLICY = HERE / "agents" / "pretrained_pivot" / "best_model.zip"
+PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
+                    "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time", "action_hold")
+"""Env keywords that change what any agent can do (motors, physics, the model checks): an
+evaluation applies a policy's to every agent it is compared with on that model."""
 COMPASS_DEG = tuple(range(0, 360, 45))
 EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
 """Per-step summaries of the integrator's step record that the evaluation keeps (env info keys)."""
@@ -137,26 +142,49 @@ def score(run, headings_deg, duration):
     return records
 
 
-def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0):
+def physics_of(agents) -> dict:
+    """The :data:`PHYSICS_KEYWORDS` the agents were trained under that differ from the env's
+    defaults (a policy trained with motor limits: its limits). Agents that disagree are an error."""
+    from rrrobot_gym.envs.task import make_task_config
+
+    defaults = make_task_config().to_kwargs()
+    chosen = {}
+    for name, agent in agents.items():
+        for key, value in getattr(agent, "env_kwargs", {}).items():
+            if key in PHYSICS_KEYWORDS and value != defaults[key]:
+                if key in chosen and chosen[key][1] != value:
+                    raise ValueError(f"agents {chosen[key][0]!r} and {name!r} were trained with different {key}: "
+                                     f"{chosen[key][1]!r} and {value!r}; score them in separate evaluations")  # fmt: skip
+                chosen.setdefault(key, (name, value))
+    return {key: value for key, (_, value) in chosen.items()}
+
+
+def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None):
     """Records for every agent, model and heading, plus the runs for plotting.
 
     Headings: the 8 compass directions and each gait's own direction (the heading of its
     net displacement in a first episode), so each gait is also scored where it goes.
+    ``per_model`` ({model: {name: agent}}) adds agents on one model only (a policy trained
+    there; it replaces an agent of the same name). On each model every agent runs under the
+    physics keywords its policies were trained with (:func:`physics_of`, e.g. motor limits),
+    so all are held to the same motors; each record names them under ``physics``.
     """
     records, runs = [], {}
-    gaits = {name: agent for name, agent in agents.items() if name != "ppo"}
     for model in models:
-        first = run_episodes(gaits, model, [0.0], duration, seed) if gaits else {}
+        on_model = {**agents, **(per_model or {}).get(model, {})}
+        physics = physics_of(on_model)
+        gaits = {name: agent for name, agent in on_model.items() if name != "ppo"}
+        first = run_episodes(gaits, model, [0.0], duration, seed, **physics) if gaits else {}
         own = {}
         for name, run in first.items():
             path = run["xy"][:, 0]  # NaN after an episode that left the model: use its last position
             end = path[np.all(np.isfinite(path), axis=1)][-1] - path[0]
             own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
         headings = list(COMPASS_DEG) + list(own.values())
-        for name, run in run_episodes(agents, model, headings, duration, seed).items():
+        for name, run in run_episodes(on_model, model, headings, duration, seed, **physics).items():
             runs[(name, model)] = (headings, run)
             for record in score(run, headings, duration):
-                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG)
+                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=physics)
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
     return records, runs
@@ -206,6 +234,10 @@ def markdown(records, ratio_list):
     lines = []
     for model in sorted({r["model"] for r in records}):
         lines.append(f"### {model}: mean speed along the commanded heading (mm/s), 50 s from rest\n")
+        physics = next(r["physics"] for r in records if r["model"] == model)
+        if physics:
+            lines.append("Every agent under the policy's training keywords: "
+                         + ", ".join(f"{k} = {v}" for k, v in physics.items()) + "\n")  # fmt: skip
         agents = list(dict.fromkeys(r["agent"] for r in records))
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
         lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
@@ -316,6 +348,9 @@ def _reach(run):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--policy", type=Path, default=DEFAULT_POLICY, help="PPO model zip (default: the shipped one)")
+    parser.add_argument("--pivot-policy", type=Path, default=None,
+                        help="PPO model zip scored on the pivot model instead of --policy (default: the shipped pivot "
+                             "policy when --policy is the shipped plane one)")
     parser.add_argument("--no-policy", action="store_true", help="score only the gaits")
     parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"])
     parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
@@ -330,11 +365,18 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
-    agents = {}
+    agents, per_model = {}, {}
     if not args.no_policy:
         if not args.policy.is_file():
             parser.error(f"--policy: no model file at {args.policy}")
         agents["ppo"] = load_ppo_agent(args.policy)
+        pivot_policy = args.pivot_policy
+        if pivot_policy is None and args.policy == DEFAULT_POLICY and DEFAULT_PIVOT_POLICY.is_file():
+            pivot_policy = DEFAULT_PIVOT_POLICY
+        if pivot_policy is not None:
+            if not pivot_policy.is_file():
+                parser.error(f"--pivot-policy: no model file at {pivot_policy}")
+            per_model["pivot"] = {"ppo": load_ppo_agent(pivot_policy)}
     for name in GAIT_AGENT_NAMES:
         agents[name] = gait_agent(name)
     for path in args.gaits:
@@ -346,7 +388,10 @@ def main(argv=None):
         if clash:
             parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
         agents.update(searched)
-    records, runs = evaluate(agents, args.models, args.duration, args.seed)
+    try:
+        records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model)
+    except ValueError as exc:
+        parser.error(str(exc))
     ratio_list = [ratios(records, model) for model in args.models]
     text = markdown(records, ratio_list)
     accuracy = None

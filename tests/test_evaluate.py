@@ -34,3 +34,31 @@ def test_effort_figures_are_the_torques_the_integrator_applied():
     assert record["effort_rms_torque_nm"] == pytest.approx(np.sqrt(np.mean(np.square(rms))), rel=1e-9)
     assert record["peak_torque_nm"] == pytest.approx(max(peak), rel=1e-9)
     assert np.sqrt(np.mean(np.square(rebuilt[4:]))) > 2.0 * np.sqrt(np.mean(np.square(rms[4:])))
+
+
+def test_a_policy_s_motor_limits_hold_every_agent_scored_beside_it_on_its_model_only():
+    """A pivot policy trained under motor limits is compared with the gaits under the same
+    limits: Gait 2, whose servo peaks at about 1.6 N m unlimited, is held to 0.5 N m on the
+    pivot model and not on the plane, where no policy asked for limits."""
+    from evaluate import evaluate
+
+    limited = gait_agent("gait1")
+    limited.env_kwargs = {"torque_limit": 0.5, "leg_rate_limit": 10.0, "healthy_reward": 2.0}
+    records, _ = evaluate({"gait2": gait_agent("gait2")}, ["plane", "pivot"], duration=1.0,
+                          per_model={"pivot": {"ppo": limited}})  # fmt: skip
+    peak = {(r["model"], r["agent"]): max(x["peak_torque_nm"] for x in records
+                                          if (x["model"], x["agent"]) == (r["model"], r["agent"])) for r in records}
+    assert {r["agent"] for r in records if r["model"] == "plane"} == {"gait2"}
+    assert peak[("pivot", "gait2")] <= 0.5 + 1e-9 and peak[("pivot", "ppo")] <= 0.5 + 1e-9
+    assert peak[("plane", "gait2")] > 1.0
+    assert all(r["physics"] == ({"torque_limit": 0.5, "leg_rate_limit": 10.0} if r["model"] == "pivot" else {})
+               for r in records)  # fmt: skip (healthy_reward changes the reward, not the motors: not imposed)
+
+
+def test_agents_trained_under_different_motors_are_not_scored_together():
+    from evaluate import evaluate
+
+    a, b = gait_agent("gait1"), gait_agent("gait3")
+    a.env_kwargs, b.env_kwargs = {"torque_limit": 0.5}, {"torque_limit": 0.8}
+    with pytest.raises(ValueError, match="torque_limit"):
+        evaluate({"a": a, "b": b}, ["pivot"], duration=0.5)
