@@ -1,0 +1,97 @@
+"""Env throughput of this tree against an earlier commit, side by side on this machine.
+
+A target written as an absolute rate ("2,000 steps/s") was measured on a machine whose speed
+is not this one's (the 2-core machines here varied by up to 3.5x in a day). This runs the
+default ``gymnasium.make("RRRobot-v0")`` env (and ``make_vec`` at the given batch sizes) of
+both trees in alternating fresh processes, so both see the same machine, and reports medians
+and their ratio:
+
+    python -m benchmarks.versus f2eac04                 # the commit the throughput targets were set on
+    python -m benchmarks.versus f2eac04 --num-envs 8 64 --rounds 7 --json out.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+
+_MEASURE = r"""
+import sys, time
+import numpy as np
+import gymnasium
+import rrrobot_gym  # noqa: F401
+num_envs, steps = int(sys.argv[1]), int(sys.argv[2])
+rng = np.random.default_rng(0)
+if num_envs == 0:
+    env = gymnasium.make("RRRobot-v0")
+    shape = (2,)
+else:
+    env = gymnasium.make_vec("RRRobot-v0", num_envs=num_envs, vectorization_mode="vector_entry_point")
+    shape = (num_envs, 2)
+phase = rng.uniform(0, 2 * np.pi, shape)
+actions = [(0.05 * np.sin(0.4 * k + phase)).astype(np.float32) for k in range(steps)]
+env.reset(seed=0)
+for action in actions[:20]:
+    env.step(action)
+env.reset(seed=0)
+start = time.perf_counter()
+for action in actions:
+    env.step(action)
+print(max(num_envs, 1) * steps / (time.perf_counter() - start))
+"""
+
+
+def rate(tree: Path, num_envs: int, steps: int) -> float:
+    """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env)."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([sys.executable, "-c", _MEASURE, str(num_envs), str(steps)], cwd=tree, env=env,
+                         capture_output=True, text=True, check=True)  # fmt: skip
+    return float(out.stdout.split()[-1])
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("revision", help="the earlier commit (anything git rev-parse takes)")
+    parser.add_argument("--num-envs", type=int, nargs="*", default=[], help="make_vec batch sizes besides the single env")
+    parser.add_argument("--steps", type=int, default=400, help="env steps per timed run")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating runs of each tree (medians)")
+    parser.add_argument("--json", type=Path, help="write the results here")
+    args = parser.parse_args(argv)
+    for name in ("steps", "rounds"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name} must be a positive integer")
+    if any(n < 1 for n in args.num_envs):
+        parser.error("--num-envs must be positive integers")
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        old = Path(tmp) / "old"
+        subprocess.run(["git", "worktree", "add", "--detach", str(old), args.revision], cwd=HERE, check=True,
+                       capture_output=True)  # fmt: skip
+        try:
+            for num_envs in [0, *args.num_envs]:
+                rates = {"old": [], "new": []}
+                for _ in range(args.rounds):
+                    rates["old"].append(rate(old, num_envs, args.steps))
+                    rates["new"].append(rate(HERE, num_envs, args.steps))
+                old_median, new_median = statistics.median(rates["old"]), statistics.median(rates["new"])
+                results.append({"env": "single" if num_envs == 0 else "vector", "num_envs": max(num_envs, 1),
+                                "old_steps_per_s": old_median, "new_steps_per_s": new_median,
+                                "ratio": new_median / old_median, "rounds": rates})  # fmt: skip
+                print(f"{results[-1]['env']:>6} N={max(num_envs, 1):<5} {args.revision}: {old_median:9,.0f}  "
+                      f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}", flush=True)
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
+    if args.json:
+        args.json.write_text(json.dumps({"revision": args.revision, "steps": args.steps, "results": results}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
