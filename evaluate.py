@@ -361,7 +361,7 @@ def main(argv=None):
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
                         help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable)")
     parser.add_argument("--check-accuracy", action="store_true",
-                        help="also run the policy with a 10x finer integration step and compare its speeds")
+                        help="also run each model's policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
@@ -394,14 +394,17 @@ def main(argv=None):
         parser.error(str(exc))
     ratio_list = [ratios(records, model) for model in args.models]
     text = markdown(records, ratio_list)
-    accuracy = None
-    if args.check_accuracy and "ppo" in agents:
-        accuracy = accuracy_check(agents["ppo"], "plane", args.duration, args.seed)
-        text += "\nPPO speed (mm/s) at the default step and at a 10x finer one (plane):\n\n"
-        text += "| heading | " + " | ".join(f"{int(a['heading_deg'])} deg" for a in accuracy) + " |\n"
-        text += "|---" * (len(accuracy) + 1) + "|\n"
-        text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in accuracy) + " |\n"
-        text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in accuracy) + " |\n"
+    accuracy = {}
+    for model in args.models if args.check_accuracy else ():
+        policy = {**agents, **per_model.get(model, {})}.get("ppo")
+        if policy is None:
+            continue
+        checked = accuracy[model] = accuracy_check(policy, model, args.duration, args.seed)
+        text += f"\nPPO speed (mm/s) at the default step and at a 10x finer one ({model}):\n\n"
+        text += "| heading | " + " | ".join(f"{int(a['heading_deg'])} deg" for a in checked) + " |\n"
+        text += "|---" * (len(checked) + 1) + "|\n"
+        text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
+        text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
     print(text)
     if args.markdown:
         args.markdown.write_text(text + "\n")
