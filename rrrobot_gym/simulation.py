@@ -908,8 +908,8 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
 
 ROW_BY_ROW_MAX = 8
 """A batch of at most this many robots is integrated one robot at a time on Python floats:
-below it numpy's per-call overhead costs more than the loop (``benchmarks.throughput``,
-``--small``). The choice depends on the batch size only, so ``workers`` never changes a result."""
+below it numpy's per-call overhead costs more than the loop (``benchmarks.throughput`` at
+N = 8 and 16, ``benchmarks.versus``). The choice depends on the batch size only, so ``workers`` never changes a result."""
 
 
 def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
@@ -919,8 +919,8 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
     rows = []
     for i in range(len(state)):
         try:
-            y, recorder = _integrate(config, _RowOf(targets, i), _row_blend(blend, i), state[i].tolist(), t0, h,
-                                     n_steps, record)  # fmt: skip
+            y, recorder = _integrate(config, _RowsOf(targets, i, float), _blend_rows(blend, i, float),
+                                     state[i].tolist(), t0, h, n_steps, record)  # fmt: skip
             out[i] = y
             rows.append(None if recorder is None else recorder.rows)
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
@@ -929,30 +929,19 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
     return out, [np.stack(rows, axis=2) if record else None]
 
 
-def _row_blend(blend, i: int):
-    """Robot i's part of a kinematic blend (t0, coeffs1, coeffs2), as floats."""
+def _block_inputs(config: SimConfig, targets, blend, state, t0, h, n_steps, record, rows):
+    """The arguments of :func:`_integrate_block` for the robots ``rows`` (a slice) of a batch."""
+    return config, _RowsOf(targets, rows), _blend_rows(blend, rows), state[rows], t0, h, n_steps, record
+
+
+def _blend_rows(blend, rows, cast=None):
+    """The part of a kinematic blend (t0, coeffs1, coeffs2) for the robots ``rows`` (a slice,
+    or one robot's index with ``cast=float`` for the float steppers)."""
     if blend is None:
         return None
     t_blend, *coeffs = blend
-    return (t_blend, *(tuple(float(_take(v, i)) for v in c) for c in coeffs))
-
-
-class _RowOf:
-    """A batch's leg-target source as seen by its robot ``i``, as Python floats (for the float steppers)."""
-
-    def __init__(self, targets, i: int):
-        self._targets, self._i = targets, i
-
-    def leg_targets(self, t):
-        return tuple(tuple(float(_take(v, self._i)) for v in triple) for triple in self._targets.leg_targets(t))
-
-
-def _block_inputs(config: SimConfig, targets, blend, state, t0, h, n_steps, record, rows):
-    """The arguments of :func:`_integrate_block` for the robots ``rows`` (a slice) of a batch."""
-    if blend is not None:
-        t_blend, (b1, v1, d1), (b2, v2, d2) = blend
-        blend = (t_blend, (_take(b1, rows), _take(v1, rows), d1), (_take(b2, rows), _take(v2, rows), d2))
-    return config, _RowsOf(targets, rows), blend, state[rows], t0, h, n_steps, record
+    take = (lambda v: _take(v, rows)) if cast is None else (lambda v: cast(_take(v, rows)))
+    return (t_blend, *(tuple(take(v) for v in c) for c in coeffs))
 
 
 def _integrate_block(job):
@@ -971,13 +960,17 @@ def _take(value, rows):
 
 
 class _RowsOf:
-    """A leg-target source as seen by some of a batch's robots (a block of :func:`advance`'s workers)."""
+    """A leg-target source as seen by some of a batch's robots (a block of :func:`advance`'s workers),
+    or by one of them (``rows`` an index, ``cast=float``: Python floats for the float steppers)."""
 
-    def __init__(self, targets, rows):
-        self._targets, self._rows = targets, rows
+    def __init__(self, targets, rows, cast=None):
+        self._targets, self._rows, self._cast = targets, rows, cast
 
     def leg_targets(self, t):
-        return tuple(tuple(_take(v, self._rows) for v in pair) for pair in self._targets.leg_targets(t))
+        triples = self._targets.leg_targets(t)
+        if self._cast is None:
+            return tuple(tuple(_take(v, self._rows) for v in triple) for triple in triples)
+        return tuple(tuple(self._cast(_take(v, self._rows)) for v in triple) for triple in triples)
 
 
 @functools.lru_cache(maxsize=None)
