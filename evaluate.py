@@ -159,6 +159,11 @@ def physics_of(agents) -> dict:
     return {key: value for key, (_, value) in chosen.items()}
 
 
+def agents_on(model: str, agents: dict, per_model=None) -> dict:
+    """The agents scored on ``model``: ``agents`` with ``per_model[model]``'s in place of same-named ones."""
+    return {**agents, **(per_model or {}).get(model, {})}
+
+
 def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None):
     """Records for every agent, model and heading, plus the runs for plotting.
 
@@ -171,7 +176,7 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     """
     records, runs = [], {}
     for model in models:
-        on_model = {**agents, **(per_model or {}).get(model, {})}
+        on_model = agents_on(model, agents, per_model)
         physics = physics_of(on_model)
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo"}
         first = run_episodes(gaits, model, [0.0], duration, seed, **physics) if gaits else {}
@@ -396,7 +401,7 @@ def main(argv=None):
     text = markdown(records, ratio_list)
     accuracy = {}
     for model in args.models if args.check_accuracy else ():
-        policy = {**agents, **per_model.get(model, {})}.get("ppo")
+        policy = agents_on(model, agents, per_model).get("ppo")
         if policy is None:
             continue
         checked = accuracy[model] = accuracy_check(policy, model, args.duration, args.seed)
