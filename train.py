@@ -93,12 +93,8 @@ def parse_args(argv=None) -> Args:
         help_text = f"{f.metadata['help']} (default: {f.default})"
         if f.type in ("bool",):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
-        elif f.name in ("direction_deg", "clock_frequency", "torque_limit", "leg_rate_limit"):
-            parser.add_argument(flag, type=float, default=None, help=help_text)
-        elif f.name == "resume":
-            parser.add_argument(flag, type=str, default=None, help=help_text)
-        else:
-            kind = {"int": int, "float": float, "str": str}[f.type]
+        else:  # "float", "float | None", ...: the field's annotation names the type
+            kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
             parser.add_argument(flag, type=kind, default=f.default, help=help_text)
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in ("plane", "pivot"):
