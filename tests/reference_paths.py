@@ -43,8 +43,8 @@ def solve(model: str, gait: int, duration: float = DURATION) -> np.ndarray:
     return np.column_stack([traj.x, traj.y])
 
 
-def load() -> dict:
-    """{(model, gait): path (T, 2)} and {model: description}, as stored."""
+def load() -> tuple[dict, dict]:
+    """({(model, gait): path (T, 2)}, {model: description}), as stored."""
     with np.load(PATH) as data:
         paths = {(m, g): data[key(m, g)] for m, g in CASES}
         described = {m: str(data[f"{m}_described"]) for m in ("plane", "pivot")}
