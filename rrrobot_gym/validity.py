@@ -88,7 +88,8 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
         "normal_force": normal.min(axis=0),
         "friction_ratio": friction_ratio(None, normal, tangential).max(axis=0),
         "leg_clearance": record.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
-        "torque_rms": np.sqrt(np.mean(torque**2, axis=(0, 2))),
+        # (sum / count, not np.mean: at N = 1, the single env, numpy's per-call overhead is the cost)
+        "torque_rms": np.sqrt(np.square(torque).sum(axis=(0, 2)) / (2 * samples)),
         "torque_peak": torque.max(axis=(0, 2)),
         "leg_rate_peak": np.abs(record.leg_rates.reshape(samples, num_robots, 2)).max(axis=(0, 2)),
     }
@@ -97,17 +98,24 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
         measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
         return measures, zero.copy()
     off = normal <= 0.0
-    longest = lost.copy()
-    for row in off:
-        lost = np.where(row, lost + record.step, 0.0)
-        np.maximum(longest, lost, out=longest)
+    spells = _spells_without_contact(off, lost, record.step)
     missing = unprovided_force(normal, tangential, friction_coefficient)
     measures.update(
-        liftoff_fraction=off.mean(axis=0),
-        liftoff_time=longest,
+        liftoff_fraction=off.sum(axis=0) / samples,
+        liftoff_time=np.maximum(lost, spells.max(axis=0)),
         slip_velocity=missing.sum(axis=0) * record.step / config.robot.total_mass,
     )
-    return measures, lost
+    return measures, spells[-1].copy()
+
+
+def _spells_without_contact(off, carried, step):
+    """(S, N) s: how long each robot has been without contact after each sample, ``off`` (S, N)
+    marking the samples without contact (each standing for ``step`` s) and ``carried`` (N,) s the
+    spell already going at the first sample. Vectorised over the samples: the spell after
+    sample k is the time since the last sample with contact, or carried + (k + 1) step if none yet."""
+    count = np.arange(1, off.shape[0] + 1, dtype=float)[:, None]
+    last_contact = np.maximum.accumulate(np.where(off, 0.0, count), axis=0)  # 0: none yet
+    return (count - last_contact) * step + np.where(last_contact == 0.0, carried, 0.0)
 
 
 def unprovided_force(normal, tangential, friction_coefficient):

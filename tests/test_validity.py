@@ -71,3 +71,39 @@ def test_friction_ratio_is_infinite_without_a_push_from_the_ground():
     normal = np.array([0.0, 2.0])
     ratio = validity.friction_ratio(force, normal)
     assert np.isinf(ratio[0]) and ratio[1] == pytest.approx(0.25)
+
+
+def test_spells_without_contact_count_what_was_carried_in_and_restart_on_contact():
+    """Lift-off bookkeeping over a hand-made record: robot 0 touches down twice, robot 1 never
+    does (its spell carried in keeps growing), robot 2 starts on the ground, lifts off, lands."""
+    from rrrobot_gym.simulation import StepRecord
+
+    step = 0.01
+    normal = np.array(
+        [
+            [1.0, -1.0, 2.0],
+            [-1.0, -1.0, -1.0],
+            [-1.0, 0.0, -1.0],  # a normal force of exactly 0 is no contact
+            [1.0, -1.0, 1.0],
+            [-1.0, -1.0, 1.0],
+            [-1.0, -1.0, 1.0],
+            [-1.0, -1.0, 1.0],
+        ]
+    )
+    samples, robots = normal.shape
+    force = np.zeros((samples, robots, 3))
+    force[..., 2] = normal
+    record = StepRecord(
+        times=step * np.arange(samples), step=step, torque=np.zeros((samples, robots, 2)), force=force,
+        normal=normal, leg_clearance=np.ones((samples, robots, 2)), leg_rates=np.zeros((samples, robots, 2)),
+    )  # fmt: skip
+    carried = np.array([0.02, 0.02, 0.0])
+    measures, after = validity.step_measures(record, SimConfig(model="plane"), None, carried)
+    # robot 0: spells 0.01, 0.02 (the carried 0.02 ended at the first sample), then 0.03 at the end
+    # robot 1: carried 0.02 plus all seven samples; robot 2: one spell of 0.02, landed
+    np.testing.assert_allclose(measures["liftoff_time"], [0.03, 0.09, 0.02], rtol=1e-12)
+    np.testing.assert_allclose(after, [0.03, 0.09, 0.0], rtol=1e-12, atol=0)
+    np.testing.assert_allclose(measures["liftoff_fraction"], [5 / 7, 1.0, 2 / 7], rtol=1e-12)
+    # a longer spell carried in than any within the step is the longest
+    measures, _ = validity.step_measures(record, SimConfig(model="plane"), None, np.array([0.5, 0.0, 0.5]))
+    np.testing.assert_allclose(measures["liftoff_time"], [0.5, 0.07, 0.5], rtol=1e-12)
