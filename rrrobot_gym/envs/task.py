@@ -481,8 +481,7 @@ def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
     relative to the task with no singularity anywhere, and they are unchanged when the
     whole scene is turned about the vertical (the dynamics are invariant to world yaw).
     """
-    qw, qx, qy, qz = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
-    rows = dynamics.rotation_rows(qw, qx, qy, qz)
+    rows = _rotation_rows(states)
     cos_t, sin_t = np.cos(targets), np.sin(targets)
     obs = np.empty((len(states), config.observation_size), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
@@ -509,7 +508,16 @@ def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
     return obs
 
 
-def upright_contact_points(states, radius):
+def _rotation_rows(states):
+    """Rows of R(quat) of states (N, 13) (:func:`rrrobot_gym.dynamics.rotation_rows`): Python
+    floats for one robot, (N,) arrays for a batch. At N = 1 (the single env) numpy's per-call
+    overhead on one-element arrays is most of the task code's cost; floats broadcast the same."""
+    if len(states) == 1:
+        return dynamics.rotation_rows(*states[0, 2:6].tolist())
+    return dynamics.rotation_rows(states[:, 2], states[:, 3], states[:, 4], states[:, 5])
+
+
+def upright_contact_points(states, radius, rows=None):
     """(N, 2) m: where the contact point would be if the shell rolled back upright.
 
     Rolling without slip about the horizontal axis that tips the body's z axis back to
@@ -518,26 +526,28 @@ def upright_contact_points(states, radius):
     p - r (tilt / sin(tilt)) b_h: it equals the contact point whenever the shell is upright,
     stays put while the shell merely rocks or tips over about a fixed axis, and moves only
     with net travel (the holonomy of the rocking that makes the robot locomote).
+    ``rows``: the states' :func:`_rotation_rows`, if already computed.
     """
-    qw, qx, qy, qz = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
-    rows = dynamics.rotation_rows(qw, qx, qy, qz)
+    rows = _rotation_rows(states) if rows is None else rows
     lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
     sin_tilt = np.hypot(lean_x, lean_y)
     tilt = np.arctan2(sin_tilt, cos_tilt)
     # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
-    ratio = np.divide(tilt, sin_tilt, out=np.ones_like(tilt), where=sin_tilt > 1e-9)
-    return states[:, 0:2] - radius * ratio[:, None] * np.stack([lean_x, lean_y], axis=-1)
+    leaning = sin_tilt > 1e-9
+    scale = radius * np.where(leaning, tilt / np.where(leaning, sin_tilt, 1.0), 1.0)
+    return np.stack([states[:, 0] - scale * lean_x, states[:, 1] - scale * lean_y], axis=-1)
 
 
 def reset_info(states, targets, config: TaskConfig):
     """The info of a start: (N,) arrays keyed as in :data:`RESET_INFO_KEYS`."""
-    upright = upright_contact_points(states, config.sim.robot.radius)
+    rows = _rotation_rows(states)
+    upright = upright_contact_points(states, config.sim.robot.radius, rows)
     return {
         "x_position": states[:, 0].copy(),
         "y_position": states[:, 1].copy(),
         "x_upright": upright[:, 0],
         "y_upright": upright[:, 1],
-        "tilt": dynamics.tilt(states),
+        "tilt": np.full(len(states), np.arccos(np.clip(rows[2][2], -1.0, 1.0))),  # dynamics.tilt, from the rows
         "target_direction": np.array(targets, dtype=np.float64),
     }
 
@@ -565,9 +575,10 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     info["forward_velocity"] = forward_velocity
     info["reward_forward"] = config.forward_reward_weight * FORWARD_VELOCITY_UNIT * forward_velocity
     info["reward_ctrl"] = -config.ctrl_cost_weight * np.sum(np.square(actions), axis=1)
-    for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
-        info[key][failed] = 0.0
     info["numerical_failure"] = np.array(failed, dtype=bool)
+    if info["numerical_failure"].any():
+        for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
+            info[key][failed] = 0.0
     info.update({key: np.array(value, dtype=np.float64) for key, value in measures.items()})
     info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
     # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
