@@ -246,7 +246,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         after, observation, measures, contact_lost = self._advance(before, action)
         failed = after is None
         if failed:
-            after, observation, measures = before, self._observation, task.FAILED_MEASURES
+            after, observation, measures = before, self._observation, task.failed_measures(1)
         else:
             self.contact_lost = float(contact_lost[0])
         rewards, terminations, infos = task.step_outcome(
@@ -256,7 +256,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             action[None],
             np.array([failed]),
             self.config,
-            {key: np.reshape(value, (1,)) for key, value in measures.items()},
+            measures,  # (1,) arrays
             np.array([self.time]),
         )
         self.state = after

@@ -517,6 +517,13 @@ def _rotation_rows(states):
     return dynamics.rotation_rows(states[:, 2], states[:, 3], states[:, 4], states[:, 5])
 
 
+def _tilt(cos_tilt):
+    """rad, :func:`rrrobot_gym.dynamics.tilt` from its cosine, R[2, 2] (a float or an array)."""
+    if isinstance(cos_tilt, float):
+        return math.acos(min(max(cos_tilt, -1.0), 1.0))
+    return np.arccos(np.clip(cos_tilt, -1.0, 1.0))
+
+
 def upright_contact_points(states, radius, rows=None):
     """(N, 2) m: where the contact point would be if the shell rolled back upright.
 
@@ -530,11 +537,14 @@ def upright_contact_points(states, radius, rows=None):
     """
     rows = _rotation_rows(states) if rows is None else rows
     lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
-    sin_tilt = np.hypot(lean_x, lean_y)
-    tilt = np.arctan2(sin_tilt, cos_tilt)
     # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
-    leaning = sin_tilt > 1e-9
-    scale = radius * np.where(leaning, tilt / np.where(leaning, sin_tilt, 1.0), 1.0)
+    if isinstance(lean_x, float):  # one robot (see _rotation_rows)
+        sin_tilt = math.hypot(lean_x, lean_y)
+        scale = radius * (math.atan2(sin_tilt, cos_tilt) / sin_tilt if sin_tilt > 1e-9 else 1.0)
+    else:
+        sin_tilt = np.hypot(lean_x, lean_y)
+        leaning = sin_tilt > 1e-9
+        scale = radius * np.where(leaning, np.arctan2(sin_tilt, cos_tilt) / np.where(leaning, sin_tilt, 1.0), 1.0)
     return np.stack([states[:, 0] - scale * lean_x, states[:, 1] - scale * lean_y], axis=-1)
 
 
@@ -547,7 +557,7 @@ def reset_info(states, targets, config: TaskConfig):
         "y_position": states[:, 1].copy(),
         "x_upright": upright[:, 0],
         "y_upright": upright[:, 1],
-        "tilt": np.full(len(states), np.arccos(np.clip(rows[2][2], -1.0, 1.0))),  # dynamics.tilt, from the rows
+        "tilt": np.full(len(states), _tilt(rows[2][2])),
         "target_direction": np.array(targets, dtype=np.float64),
     }
 
@@ -579,7 +589,7 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     if info["numerical_failure"].any():
         for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
             info[key][failed] = 0.0
-    info.update({key: np.array(value, dtype=np.float64) for key, value in measures.items()})
+    info.update({key: np.asarray(value, dtype=np.float64) for key, value in measures.items()})
     info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
     # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
     if config.sim.model == "plane":
@@ -598,8 +608,9 @@ MEASURE_KEYS = (
     "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
 )  # fmt: skip
 """The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
-FAILED_MEASURES = {key: np.nan for key in MEASURE_KEYS}
-"""Measures reported for a robot whose step failed numerically (it terminates anyway)."""
+def failed_measures(num_robots: int) -> dict:
+    """The measures reported for robots whose step failed numerically (NaN; they terminate anyway)."""
+    return {key: np.full(num_robots, np.nan) for key in MEASURE_KEYS}
 
 
 def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost, workers=1):

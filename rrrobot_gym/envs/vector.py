@@ -212,7 +212,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
             if len(states) == 1:
-                failed = {key: np.reshape(value, (1,)) for key, value in task.FAILED_MEASURES.items()}
+                failed = task.failed_measures(1)
                 return states.copy(), failed, np.ones(1, dtype=bool), contact_lost.copy()
         half = len(states) // 2
         parts = [
