@@ -140,13 +140,25 @@ class RampTargets:
         end = np.asarray(end, dtype=float)
         if start.shape != end.shape or start.shape[-1:] != (2,) or start.ndim > 2:
             raise ValueError(f"ramp ends must both have shape (2,) or (N, 2), got {start.shape} and {end.shape}")
-        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
-            raise ValueError("ramp ends contain NaN or inf")
         if not (math.isfinite(duration) and duration > 0.0):
             raise ValueError(f"ramp duration must be a positive number of seconds, got {duration}")
         self.t0, self.duration = float(t0), float(duration)
+        if start.ndim == 1:
+            # One robot: Python floats throughout (the single env's every step; same arithmetic).
+            (a1, a2), (b1, b2) = start.tolist(), end.tolist()
+            if not all(math.isfinite(v) for v in (a1, a2, b1, b2)):
+                raise ValueError("ramp ends contain NaN or inf")
+            self._start, self._end, self._change = (a1, a2), (b1, b2), (b1 - a1, b2 - a2)
+            self._slope = ((b1 - a1) / duration, (b2 - a2) / duration)
+            self._still = (0.0, 0.0)
+            return
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
+            raise ValueError("ramp ends contain NaN or inf")
         slope = (end - start) / duration
-        split = (lambda a: tuple(a.tolist())) if start.ndim == 1 else (lambda a: (a[:, 0].copy(), a[:, 1].copy()))
+
+        def split(a):
+            return a[:, 0].copy(), a[:, 1].copy()
+
         self._start, self._end, self._slope = split(start), split(end), split(slope)
         self._still = split(np.zeros_like(start))
         self._change = split(end - start)

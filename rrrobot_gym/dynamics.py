@@ -267,7 +267,7 @@ def derivative_kernel(
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
     rate1, rate2 = c[11], c[12]
-    r, _, ml, h, g, damping, inertia_leg, inv_d, *_, two_ml, neg_ml, _, _, total_h, weight = k
+    r, _, ml, h, g, damping, inertia_leg, inv_d, _, _, _, _, _, _, two_ml, neg_ml, _, _, total_h, weight = k
 
     # Attitude products; rows 0 and 1 of R give the world rate for the contact
     # kinematics (eq. 2 and 4: xdot = r w_y, ydot = -r w_x), row 2 is n.
