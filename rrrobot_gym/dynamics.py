@@ -409,12 +409,15 @@ def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r
     fy = fy + oy * o_s
     fz = fz + oz * o_s - sz * o_sq
     # Each leg: Ml (e phi'' + 2 phi' Omega x e + a phi'^2), e = (-ls, 0, lc), a = -(lc, 0, ls).
-    for lc, ls, rate, acc in ((lc1, ls1, rates[0], leg_accels[0]), (lc2, ls2, rates[1], leg_accels[1])):
-        two_rate = 2.0 * rate
-        rate_sq = rate * rate
-        fx = fx + ml * (two_rate * (oy * lc) - ls * acc - lc * rate_sq)
-        fy = fy - ml * (two_rate * (oz * ls + ox * lc))
-        fz = fz + ml * (lc * acc + two_rate * (oy * ls) - ls * rate_sq)
+    (rate1, rate2), (acc1, acc2) = rates, leg_accels
+    two_rate1, two_rate2 = 2.0 * rate1, 2.0 * rate2
+    rate1_sq, rate2_sq = rate1 * rate1, rate2 * rate2
+    fx = fx + ml * (two_rate1 * (oy * lc1) - ls1 * acc1 - lc1 * rate1_sq)
+    fy = fy - ml * (two_rate1 * (oz * ls1 + ox * lc1))
+    fz = fz + ml * (lc1 * acc1 + two_rate1 * (oy * ls1) - ls1 * rate1_sq)
+    fx = fx + ml * (two_rate2 * (oy * lc2) - ls2 * acc2 - lc2 * rate2_sq)
+    fy = fy - ml * (two_rate2 * (oz * ls2 + ox * lc2))
+    fz = fz + ml * (lc2 * acc2 + two_rate2 * (oy * ls2) - ls2 * rate2_sq)
     fx = fx + weight * nx
     fy = fy + weight * ny
     fz = fz + weight * nz

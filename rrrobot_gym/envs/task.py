@@ -589,7 +589,7 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     if info["numerical_failure"].any():
         for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
             info[key][failed] = 0.0
-    info.update({key: np.asarray(value, dtype=np.float64) for key, value in measures.items()})
+    info.update(measures)  # (N,) float64 arrays (validity.step_measures, failed_measures)
     info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
     # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
     if config.sim.model == "plane":
@@ -608,6 +608,8 @@ MEASURE_KEYS = (
     "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
 )  # fmt: skip
 """The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
+
+
 def failed_measures(num_robots: int) -> dict:
     """The measures reported for robots whose step failed numerically (NaN; they terminate anyway)."""
     return {key: np.full(num_robots, np.nan) for key in MEASURE_KEYS}
