@@ -56,8 +56,8 @@ def friction_ratio(force, normal, tangential=None):
     """
     if tangential is None:
         tangential = np.sqrt(np.maximum(np.linalg.norm(force, axis=-1) ** 2 - normal**2, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(normal > 0, tangential / np.where(normal > 0, normal, 1.0), np.inf)
+    pushed = normal > 0.0
+    return np.where(pushed, tangential / np.where(pushed, normal, 1.0), np.inf)
 
 
 def step_measures(record, config, friction_coefficient, contact_lost=None):
@@ -84,11 +84,9 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     tangential = record.tangential.reshape(samples, num_robots)
     torque = np.abs(record.torque.reshape(samples, num_robots, 2))
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
-    pushed = normal > 0.0
     measures = {
         "normal_force": normal.min(axis=0),
-        # friction_ratio(), without its np.errstate (costly at N = 1): no division by N <= 0
-        "friction_ratio": np.where(pushed, tangential / np.where(pushed, normal, 1.0), np.inf).max(axis=0),
+        "friction_ratio": friction_ratio(None, normal, tangential).max(axis=0),
         "leg_clearance": record.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
         # (sum / count, not np.mean: at N = 1, the single env, numpy's per-call overhead is the cost)
         "torque_rms": np.sqrt(np.square(torque).sum(axis=(0, 2)) / (2 * samples)),
