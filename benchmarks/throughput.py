@@ -6,13 +6,15 @@ An env step is one control step (0.05 s of robot time) of one robot, with everyt
 step does: the physics with its step record (the torques applied and the ground force at
 every integration step), the model checks read from that record, the observation, reward
 and info. Measured beside the bare physics (``advance`` over the same 0.05 s with the same
-ramped targets, no record, one process), so the env's own cost is a ratio from one run;
+ramped targets, no record, one process), each env step timed next to one physics step, in
+alternation, so the env's own cost is a ratio of two measures that saw the same machine;
 rows with ``workers=2`` are the vector env on both cores against that one-process physics.
-Medians of repeats.
+Medians of repeats (the ratio: the median of each repeat's ratio).
 """
 
 from __future__ import annotations
 
+import statistics
 import time
 
 import gymnasium
@@ -23,7 +25,7 @@ from rrrobot_gym.control import RampTargets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import advance
 
-from ._common import machine, markdown_table, median_time, parser, write_json
+from ._common import machine, markdown_table, parser, write_json
 
 
 def _gentle_actions(rng, shape, steps):
@@ -33,53 +35,57 @@ def _gentle_actions(rng, shape, steps):
     return (0.05 * np.sin(0.4 * k + phase)).astype(np.float32)
 
 
+def _paired(env, actions, physics_step, repeats: int):
+    """(env seconds, physics seconds, env / physics throughput) for one run of ``actions``: medians
+    over ``repeats``. Each env step is timed next to one ``physics_step()``, alternately, so the two
+    see the same machine (its speed drifts by tens of per cent within minutes here)."""
+    env_seconds, physics_seconds, ratios = [], [], []
+    for _ in range(repeats):
+        env.reset(seed=0)
+        spent_env = spent_physics = 0.0
+        for action in actions:
+            start = time.perf_counter()
+            env.step(action)
+            middle = time.perf_counter()
+            physics_step()
+            spent_env += middle - start
+            spent_physics += time.perf_counter() - middle
+        env_seconds.append(spent_env)
+        physics_seconds.append(spent_physics)
+        ratios.append(spent_physics / spent_env)
+    return statistics.median(env_seconds), statistics.median(physics_seconds), statistics.median(ratios)
+
+
+def _physics(config, state, targets):
+    """One control step of the bare physics (no record, no checks), advancing its own copy of ``state``."""
+    current = [np.array(state)]
+
+    def step():
+        current[0] = advance(config.sim, current[0], 0.0, config.dt, targets, check=False)
+
+    return step
+
+
 def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
     env = gymnasium.make("RRRobot-v0", **env_kwargs)
     actions = _gentle_actions(rng, (2,), steps)
-
-    def run():
-        env.reset(seed=0)
-        for action in actions:
-            env.step(action)
-
-    seconds = median_time(run, repeats)
-    bare_state = env.unwrapped.state.copy()
+    env.reset(seed=0)
     config = env.unwrapped.config
     targets = RampTargets(np.full(2, 0.5 * np.pi), np.full(2, 0.6 * np.pi), 0.0, config.dt)
-
-    def physics():
-        state = bare_state
-        for _ in range(steps):
-            state = advance(config.sim, state, 0.0, config.dt, targets, check=False)
-
-    physics_seconds = median_time(physics, repeats)
-    name = "single (gymnasium.make)"
-    return {"env": name, "num_envs": 1, "env_steps_per_s": steps / seconds,
-            "physics_only_steps_per_s": steps / physics_seconds}
+    seconds, physics_seconds, ratio = _paired(env, actions, _physics(config, env.unwrapped.state, targets), repeats)
+    return {"env": "single (gymnasium.make)", "num_envs": 1, "env_steps_per_s": steps / seconds,
+            "physics_only_steps_per_s": steps / physics_seconds, "env_over_physics": ratio}
 
 
 def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, **env_kwargs) -> dict:
     env = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers, **env_kwargs)
     actions = _gentle_actions(rng, (num_envs, 2), steps)
-
-    def run():
-        env.reset(seed=0)
-        for action in actions:
-            env.step(action)
-
-    seconds = median_time(run, repeats)
-    states = env.states.copy()
+    env.reset(seed=0)
     targets = RampTargets(np.full((num_envs, 2), 0.5 * np.pi), np.full((num_envs, 2), 0.6 * np.pi), 0.0, env.dt)
-
-    def physics():
-        s = states
-        for _ in range(steps):
-            s = advance(env.config.sim, s, 0.0, env.dt, targets, check=False)
-
-    physics_seconds = median_time(physics, repeats)
+    seconds, physics_seconds, ratio = _paired(env, actions, _physics(env.config, env.states, targets), repeats)
     name = "vector (make_vec)" + (f", workers={workers}" if workers > 1 else "")
     return {"env": name, "num_envs": num_envs, "env_steps_per_s": num_envs * steps / seconds,
-            "physics_only_steps_per_s": num_envs * steps / physics_seconds}
+            "physics_only_steps_per_s": num_envs * steps / physics_seconds, "env_over_physics": ratio}
 
 
 def main(argv=None):
@@ -97,7 +103,7 @@ def main(argv=None):
     table = markdown_table(
         ["env", "N", "env steps/s", "physics alone (advance), steps/s", "env / physics throughput"],
         [[r["env"], r["num_envs"], f"{r['env_steps_per_s']:,.0f}", f"{r['physics_only_steps_per_s']:,.0f}",
-          f"{r['env_steps_per_s'] / r['physics_only_steps_per_s']:.0%}"] for r in rows],
+          f"{r['env_over_physics']:.0%}"] for r in rows],
     )
     print(table)
     write_json(args.json, {"machine": machine(), "results": rows, "time": time.time()})
