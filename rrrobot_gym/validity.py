@@ -98,14 +98,18 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
         measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
         return measures, zero.copy()
     off = normal <= 0.0
-    spells = _spells_without_contact(off, lost, record.step)
+    if off.any():
+        spells = _spells_without_contact(off, lost, record.step)
+        longest, lost = np.maximum(lost, spells.max(axis=0)), spells[-1].copy()
+    else:  # the usual case: every sample in contact, so any spell carried in ended at the first
+        longest, lost = lost, np.zeros(num_robots)
     missing = unprovided_force(normal, tangential, friction_coefficient)
     measures.update(
         liftoff_fraction=off.sum(axis=0) / samples,
-        liftoff_time=np.maximum(lost, spells.max(axis=0)),
+        liftoff_time=longest,
         slip_velocity=missing.sum(axis=0) * record.step / config.robot.total_mass,
     )
-    return measures, spells[-1].copy()
+    return measures, lost
 
 
 def _spells_without_contact(off, carried, step):

@@ -1,5 +1,7 @@
 """The model's validity envelope: the ground force and the legs' clearance."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -107,3 +109,9 @@ def test_spells_without_contact_count_what_was_carried_in_and_restart_on_contact
     # a longer spell carried in than any within the step is the longest
     measures, _ = validity.step_measures(record, SimConfig(model="plane"), None, np.array([0.5, 0.0, 0.5]))
     np.testing.assert_allclose(measures["liftoff_time"], [0.5, 0.07, 0.5], rtol=1e-12)
+    # a step in contact throughout ends the spells carried in, and its longest is the carried one
+    grounded = dataclasses.replace(record, normal=np.abs(normal) + 0.5)
+    measures, after = validity.step_measures(grounded, SimConfig(model="plane"), None, carried)
+    np.testing.assert_array_equal(measures["liftoff_time"], carried)
+    np.testing.assert_array_equal(after, [0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(measures["liftoff_fraction"], [0.0, 0.0, 0.0])
