@@ -82,7 +82,7 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     normal = record.normal.reshape(samples, -1)
     num_robots = normal.shape[1]
     tangential = record.tangential.reshape(samples, num_robots)
-    torque = np.abs(record.torque.reshape(samples, num_robots, 2))
+    torque = record.torque.reshape(samples, num_robots, 2)
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
     measures = {
         "normal_force": normal.min(axis=0),
@@ -90,8 +90,8 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
         "leg_clearance": record.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
         # (sum / count, not np.mean: at N = 1, the single env, numpy's per-call overhead is the cost)
         "torque_rms": np.sqrt(np.square(torque).sum(axis=(0, 2)) / (2 * samples)),
-        "torque_peak": torque.max(axis=(0, 2)),
-        "leg_rate_peak": np.abs(record.leg_rates.reshape(samples, num_robots, 2)).max(axis=(0, 2)),
+        "torque_peak": _largest_magnitude(torque),
+        "leg_rate_peak": _largest_magnitude(record.leg_rates.reshape(samples, num_robots, 2)),
     }
     if config.model != "plane":
         zero = np.zeros(num_robots)
@@ -101,15 +101,23 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     if off.any():
         spells = _spells_without_contact(off, lost, record.step)
         longest, lost = np.maximum(lost, spells.max(axis=0)), spells[-1].copy()
+        held = False
     else:  # the usual case: every sample in contact, so any spell carried in ended at the first
         longest, lost = lost, np.zeros(num_robots)
-    missing = unprovided_force(normal, tangential, friction_coefficient)
-    measures.update(
-        liftoff_fraction=off.sum(axis=0) / samples,
-        liftoff_time=longest,
-        slip_velocity=missing.sum(axis=0) * record.step / config.robot.total_mass,
-    )
+        # and, with the grip needed below the floor's by more than rounding, nothing unprovided
+        held = friction_coefficient is None or measures["friction_ratio"].max() <= friction_coefficient * (1 - 1e-12)
+    if held:
+        slip = np.zeros(num_robots)
+    else:
+        slip = unprovided_force(normal, tangential, friction_coefficient).sum(axis=0) * record.step / config.robot.total_mass
+    measures.update(liftoff_fraction=off.sum(axis=0) / samples, liftoff_time=longest, slip_velocity=slip)
     return measures, lost
+
+
+def _largest_magnitude(values):
+    """max |v| per robot over samples and legs of (S, N, 2) values, from a max and a min (no
+    array of magnitudes: at N = 4096 the record's arrays are large)."""
+    return np.maximum(values.max(axis=(0, 2)), -values.min(axis=(0, 2)))
 
 
 def _spells_without_contact(off, carried, step):
