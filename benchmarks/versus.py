@@ -8,6 +8,11 @@ and their ratio:
 
     python -m benchmarks.versus f2eac04                 # the commit the throughput targets were set on
     python -m benchmarks.versus f2eac04 --num-envs 8 64 --rounds 7 --json out.json
+    python -m benchmarks.versus f2eac04 --instructions 201   # also instructions per env step (valgrind)
+
+``--instructions S`` also counts the instructions an env step takes in each tree under
+valgrind's callgrind (runs of S steps and of 1 step, differenced): the same numbers whatever
+else the machine is doing, so a ratio that does not drift with the machine's load.
 """
 
 from __future__ import annotations
@@ -15,6 +20,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -57,6 +64,23 @@ def rate(tree: Path, num_envs: int, steps: int) -> float:
     return float(out.stdout.split()[-1])
 
 
+def instructions(tree: Path, num_envs: int, steps: int) -> float:
+    """Instructions per env step of ``tree``'s env (num_envs 0: the single env) under callgrind:
+    runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
+
+    def collected(n: int) -> int:
+        env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", "PYTHONHASHSEED": "0"}
+        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable,
+                              "-c", _MEASURE, str(num_envs), str(n)], cwd=tree, env=env, capture_output=True,
+                             text=True, check=True)  # fmt: skip
+        match = re.search(r"Collected : (\d+)", out.stderr)
+        if match is None:
+            raise RuntimeError(f"no instruction count in valgrind's output:\n{out.stderr[-2000:]}")
+        return int(match.group(1))
+
+    return (collected(steps) - collected(1)) / ((steps - 1) * max(num_envs, 1))
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("revision", help="the earlier commit (anything git rev-parse takes)")
@@ -64,7 +88,14 @@ def main(argv=None) -> None:
     parser.add_argument("--steps", type=int, default=400, help="env steps per timed run")
     parser.add_argument("--rounds", type=int, default=5, help="alternating runs of each tree (medians)")
     parser.add_argument("--json", type=Path, help="write the results here")
+    parser.add_argument("--instructions", type=int, metavar="S",
+                        help="also count instructions per env step under valgrind, from runs of S and 1 steps")
     args = parser.parse_args(argv)
+    if args.instructions is not None:
+        if args.instructions < 2:
+            parser.error("--instructions must be at least 2 steps")
+        if shutil.which("valgrind") is None:
+            parser.error("--instructions needs valgrind on the PATH")
     for name in ("steps", "rounds"):
         if getattr(args, name) < 1:
             parser.error(f"--{name} must be a positive integer")
@@ -87,6 +118,13 @@ def main(argv=None) -> None:
                                 "ratio": new_median / old_median, "rounds": rates})  # fmt: skip
                 print(f"{results[-1]['env']:>6} N={max(num_envs, 1):<5} {args.revision}: {old_median:9,.0f}  "
                       f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}", flush=True)
+                if args.instructions is not None:
+                    counts = {name: instructions(tree, num_envs, args.instructions)
+                              for name, tree in (("old", old), ("new", HERE))}  # fmt: skip
+                    results[-1]["instructions_per_env_step"] = counts
+                    print(f"{'':>6} {'':<7} {args.revision}: {counts['old'] / 1e6:8.2f} M  this tree: "
+                          f"{counts['new'] / 1e6:8.2f} M instructions an env step  ratio "
+                          f"{counts['old'] / counts['new']:.2f}", flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
     if args.json:
