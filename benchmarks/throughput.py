@@ -58,10 +58,11 @@ def _paired(env, actions, physics_step, repeats: int):
 
 def _physics(config, state, targets):
     """One control step of the bare physics (no record, no checks), advancing its own copy of ``state``."""
-    current = [np.array(state)]
+    current = np.array(state)
 
     def step():
-        current[0] = advance(config.sim, current[0], 0.0, config.dt, targets, check=False)
+        nonlocal current
+        current = advance(config.sim, current, 0.0, config.dt, targets, check=False)
 
     return step
 
