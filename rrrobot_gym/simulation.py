@@ -18,7 +18,6 @@ integrated on Python floats, which is several times faster than numpy at N = 1.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import functools
 import math
@@ -328,32 +327,37 @@ class SmoothStart:
 # ---------------------------------------------------------------------------
 # Fixed-step integration.
 
-_GLIBC_DEFAULT_TRIM_THRESHOLD = 128 * 1024
-"""bytes, glibc's M_TRIM_THRESHOLD: freed memory at the heap's top beyond this goes back to the OS."""
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # mallopt's options (glibc's malloc.h)
+_MMAP_THRESHOLD_MAX = 32 << 20
+"""bytes: the largest mmap threshold glibc's own dynamic tuning reaches on a 64-bit machine."""
+_heap_kept_for = 0  # the trim threshold set so far (0: malloc untouched)
 
 
-@contextlib.contextmanager
-def _freed_heap_kept(num_robots: int):
-    """While a batch is integrated, keep glibc from handing freed heap back to the OS.
+def _keep_freed_heap(num_robots: int):
+    """Tune glibc's malloc for batches of ``num_robots``, once per process (raised, never lowered).
 
-    A derivative evaluation on N robots allocates and frees ~250 temporary arrays of
-    8N bytes. With glibc's default trim threshold (128 KiB) the top of the heap is
-    returned to the OS after every evaluation and faulted back in page by page on the
-    next: at N = 4096 that makes a batch step 2-4x slower. The threshold is raised to
-    the batch's working set for the duration of the call only and put back to glibc's
-    default afterwards (a process that set its own M_TRIM_THRESHOLD gets the default back).
-    Does nothing off glibc.
+    A derivative evaluation on N robots allocates and frees ~250 temporary arrays of 8N
+    bytes, and the step's record and measures arrays of up to 10 x 15 x 8N. With glibc's
+    trim threshold at its default (128 KiB) the top of the heap goes back to the OS after
+    every evaluation and is faulted back in page by page on the next (at N = 4096 a batch
+    step 2-4x slower); so the trim threshold is raised to the batch's working set.
+
+    This is process-wide and left in place on purpose: glibc turns off its own dynamic mmap
+    threshold the moment any threshold is set through mallopt, and nothing turns it back on.
+    Putting the trim threshold back to 128 KiB after each integration (as an earlier version
+    did) therefore left every later array of 128 KiB or more, ours or the caller's, mmapped
+    and page-faulted afresh: elementwise operations on the (15, 4096) record 10-15x slower.
+    So the mmap threshold is set to the ceiling glibc's dynamic tuning would itself reach
+    (32 MiB), and freed heap up to the trim threshold stays with the process. Does nothing off glibc.
     """
+    global _heap_kept_for
     mallopt = _mallopt()
-    if mallopt is None:
-        yield
+    trim = min(max(64 << 20, 4096 * num_robots), 2**31 - 1)
+    if mallopt is None or trim <= _heap_kept_for:
         return
-    m_trim_threshold = -1
-    mallopt(m_trim_threshold, ctypes.c_int(min(max(64 << 20, 4096 * num_robots), 2**31 - 1)))
-    try:
-        yield
-    finally:
-        mallopt(m_trim_threshold, ctypes.c_int(_GLIBC_DEFAULT_TRIM_THRESHOLD))
+    mallopt(_M_MMAP_THRESHOLD, ctypes.c_int(_MMAP_THRESHOLD_MAX))
+    mallopt(_M_TRIM_THRESHOLD, ctypes.c_int(trim))
+    _heap_kept_for = trim
 
 
 @functools.lru_cache(maxsize=1)
@@ -951,8 +955,9 @@ def _integrate_block(job):
     """:func:`_integrate` on a batch (n, 13), in this process or a worker of :func:`advance`:
     (the states (n, 13), the record's rows (S, 10, n) or None)."""
     config, targets, blend, state, t0, h, n_steps, record = job
-    heap = _freed_heap_kept(len(state)) if len(state) >= 1024 else contextlib.nullcontext()
-    with heap, np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
+    if len(state) >= 1024:
+        _keep_freed_heap(len(state))
+    with np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
         y, recorder = _integrate(config, targets, blend, np.array(state.T, order="C"), t0, h, n_steps, record)
     return y.T.copy(), (None if recorder is None else recorder.rows)
 

@@ -58,14 +58,20 @@ def test_rosw_refuses_what_it_cannot_do():
         SimConfig(integrator="rosw", timestep="auto")
 
 
-def test_a_large_batch_raises_glibcs_trim_threshold_only_while_it_integrates(monkeypatch):
-    """The malloc tuning that keeps big batches fast is scoped to the call, not left on the process."""
+def test_a_large_batch_tunes_glibcs_malloc_once_and_both_thresholds(monkeypatch):
+    """Setting any threshold turns glibc's dynamic mmap threshold off for good, so the tuning
+    sets the mmap threshold too (else big arrays are mmapped and faulted in afresh) and is
+    left in place: raised for a bigger batch, never put back."""
     calls = []
     monkeypatch.setattr(simulation, "_mallopt", lambda: lambda option, value: calls.append((option, value.value)))
+    monkeypatch.setattr(simulation, "_heap_kept_for", 0)
     states = simulation.initial_state(1024)
-    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
-    assert [option for option, _ in calls] == [-1, -1]  # M_TRIM_THRESHOLD, raised then put back
-    assert calls[0][1] >= 64 << 20 and calls[1][1] == 128 * 1024
-    calls.clear()
     simulation.advance(SimConfig(), states[:100], 0.0, 0.01, table2_gait(1))
     assert calls == []  # small batches leave malloc alone
+    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
+    assert calls == [(-3, 32 << 20), (-1, 64 << 20)]  # M_MMAP_THRESHOLD, M_TRIM_THRESHOLD
+    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
+    assert len(calls) == 2  # once per process, not put back after the call
+    big = simulation.initial_state(20_000)
+    simulation.advance(SimConfig(), big, 0.0, 0.001, table2_gait(1))
+    assert calls[2:] == [(-3, 32 << 20), (-1, 4096 * 20_000)]  # raised for a bigger working set
