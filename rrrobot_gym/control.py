@@ -58,6 +58,10 @@ class Gait:
             accels.append(-a * w * w * s)
         return tuple(angles), tuple(rates), tuple(accels)
 
+    def robot(self, i: int) -> "Gait":
+        """The targets of robot ``i`` of a batch: the same gait (see :meth:`RampTargets.robot`)."""
+        return self
+
     def angles(self, times):
         """Target leg angles at an array of times, shape (T, 2), rad."""
         times = np.asarray(times, dtype=float)[..., None]
@@ -90,6 +94,12 @@ class HeldTargets:
 
     def leg_targets(self, t):
         return self._angles, (0.0, 0.0), (0.0, 0.0)
+
+    def robot(self, i: int) -> "HeldTargets":
+        """The targets of robot ``i`` of a batch, on Python floats (see :meth:`RampTargets.robot`)."""
+        if isinstance(self._angles[0], float):
+            return self
+        return HeldTargets([self._angles[0][i], self._angles[1][i]])
 
 
 def pd_torque(gains, leg_angles, leg_rates, targets):
@@ -162,6 +172,15 @@ class RampTargets:
         self._start, self._end, self._slope = split(start), split(end), split(slope)
         self._still = split(np.zeros_like(start))
         self._change = split(end - start)
+
+    def robot(self, i: int) -> "RampTargets":
+        """The ramp of robot ``i`` of a batch, on Python floats: what the simulator integrates a
+        small batch robot by robot with (the float steppers), instead of indexing the batch's
+        arrays at every derivative evaluation. The same arithmetic, so the same results."""
+        if isinstance(self._start[0], float):
+            return self
+        (a1, a2), (b1, b2) = self._start, self._end
+        return RampTargets([a1[i], a2[i]], [b1[i], b2[i]], self.t0, self.duration)
 
     def leg_targets(self, t):
         s = (t - self.t0) / self.duration

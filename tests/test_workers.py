@@ -105,3 +105,26 @@ def test_a_robot_blowing_up_in_a_small_batch_is_a_named_numerical_failure():
     states[1, dynamics.BODY_RATE] = 1e200  # overflows on floats
     with pytest.raises(NumericalFailure, match="non-finite state"):
         advance(SimConfig(), states, 0.0, 0.05, table2_gait(1))
+
+
+def test_each_target_source_gives_a_small_batch_the_targets_each_robot_has_alone():
+    """Robot by robot, a batch's held targets (their ``robot(i)``) and a source without
+    ``robot`` (indexed at every evaluation) drive each robot exactly as it is driven alone."""
+    from rrrobot_gym.control import HeldTargets
+
+    class Indexed:  # a user's source of per-robot targets, without robot(i)
+        def __init__(self, angles):
+            self.angles = angles
+
+        def leg_targets(self, t):
+            return (self.angles[:, 0], self.angles[:, 1]), (0.0, 0.0), (0.0, 0.0)
+
+    n = 5
+    states = _states(n, seed=7)
+    ends = np.random.default_rng(3).uniform(0, 3, (n, 2))
+    for batch_targets in (HeldTargets(ends), Indexed(ends)):
+        batch = advance(SimConfig(), states, 0.0, 0.05, batch_targets)
+        for i in range(n):
+            alone = advance(SimConfig(), states[i], 0.0, 0.05, HeldTargets(ends[i]))
+            assert np.array_equal(batch[i], alone), (type(batch_targets).__name__, i)
+        assert np.abs(batch - states).max() > 1e-3
