@@ -1,0 +1,97 @@
+"""Shared helpers for the yaw study (reuses rrrobot_gym.gait_search / envs.task helpers)."""
+import json, math, time
+from pathlib import Path
+import numpy as np
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
+from rrrobot_gym.envs import task
+from rrrobot_gym.gait_search import sinusoid_angles, repair, PARAMETER_NAMES, BOUNDS, load_gaits
+from rrrobot_gym import dynamics
+
+OWN_JSON = Path(__file__).resolve().parents[2] / "agents" / "searched" / "plane_own.json"
+
+
+def own_gait():
+    return load_gaits(OWN_JSON)[0]
+
+
+def yaw_of(states):
+    """Body yaw (N,) rad: body x axis in world, atan2(R10, R00)."""
+    qw, qx, qy, qz = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
+    r00 = 1.0 - 2.0 * (qy * qy + qz * qz)
+    r10 = 2.0 * (qx * qy + qw * qz)
+    return np.arctan2(r10, r00)
+
+
+def start_states(n_each, seeds, noise_scale=0.01):
+    """Start states for each of seeds (None = paper's start, no noise), noise drawn as the env does."""
+    rows = []
+    for s in seeds:
+        if s is None:
+            rows.append(np.zeros(10))
+        else:
+            rng = np.random.default_rng(s)
+            rows.append(rng.uniform(-noise_scale, noise_scale, size=10))
+    return task.start_states(np.array(rows))
+
+
+def run(controller, starts, steps, record_every=1, targets=0.0, **env_kwargs):
+    """Run N robots from states `starts` (N, 13) in ONE vector env (no autoreset effect: we
+    stop tracking a robot at its first termination). controller(k, states, alive) -> (N, 2)
+    leg target angles (rad) commanded for the end of step k+1 (as GaitAgent does).
+    Returns dict: yaw (T+1, N) unwrapped, up (T+1, N, 2) upright contact points (frozen after
+    termination), terminated (N,), end_step (N,), reason dict, peaks."""
+    n = len(starts)
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model="plane", reset_noise_scale=0.0,
+                           **env_kwargs)
+    env.reset(seed=0, options={"state": starts, "target_direction": targets})
+    reward_forward = np.zeros(n)
+    radius = env.config.sim.robot.radius
+    yaw = [yaw_of(env.states)]
+    up = [task.upright_contact_points(env.states, radius)]
+    alive = np.ones(n, dtype=bool)
+    end_step = np.full(n, steps)
+    why = np.array([""] * n, dtype=object)
+    torque_peak = np.zeros(n); rate_peak = np.zeros(n); slip_max = np.zeros(n); clear_min = np.full(n, np.inf)
+    for k in range(steps):
+        angles = controller(k, env.states, alive)
+        actions = np.clip(task.leg_targets_to_action(angles), -1.0, 1.0).astype(np.float32)
+        _, _, terminated, _, info = env.step(actions)
+        ending = terminated & alive
+        st = env.states.copy()
+        src = info
+        if ending.any():
+            fin = info["final_info"]
+            for i in np.flatnonzero(ending):
+                reasons = []
+                if fin["leg_clearance"][i] <= 0: reasons.append("leg-on-floor")
+                if fin["slip_velocity"][i] > env.config.max_slip_velocity: reasons.append("slip")
+                if fin["liftoff_time"][i] > env.config.max_liftoff_time: reasons.append("liftoff")
+                if fin["tilt"][i] >= dynamics.TILT_LIMIT: reasons.append("tilt")
+                if fin["numerical_failure"][i]: reasons.append("numerical")
+                why[i] = "+".join(reasons) or "?"
+            end_step[ending] = k + 1
+        rf = np.where(ending, info["final_info"]["reward_forward"] if ending.any() else 0.0, info["reward_forward"])
+        reward_forward += np.where(alive, rf, 0.0)
+        running = alive & ~terminated
+        torque_peak[running] = np.maximum(torque_peak[running], info["torque_peak"][running])
+        rate_peak[running] = np.maximum(rate_peak[running], info["leg_rate_peak"][running])
+        slip_max[running] = np.maximum(slip_max[running], np.where(k * env.dt >= task.STARTUP_GRACE, info["slip_velocity"][running], 0))
+        clear_min[running] = np.minimum(clear_min[running], info["leg_clearance"][running])
+        y = yaw_of(st); u = task.upright_contact_points(st, radius)
+        # freeze ended robots
+        y = np.where(alive & ~terminated, y, yaw[-1] if True else y)
+        u = np.where((alive & ~terminated)[:, None], u, up[-1])
+        if ending.any():  # last in-model point: from final_info
+            fin = info["final_info"]
+            u[ending, 0] = fin["x_upright"][ending]; u[ending, 1] = fin["y_upright"][ending]
+        alive = running
+        yaw.append(y); up.append(u)
+    env.close()
+    yaw = np.unwrap(np.array(yaw), axis=0)
+    return dict(reward_forward_sum=reward_forward, yaw=yaw, up=np.array(up), terminated=~alive, end_step=end_step, why=why, dt=env.dt,
+                torque_peak=torque_peak, leg_rate_peak=rate_peak, slip_max=slip_max, clear_min=clear_min)
+
+
+def sinusoid_controller(params, dt):
+    params = np.asarray(params, float)
+    return lambda k, states, alive: sinusoid_angles(params, (k + 1) * dt)

@@ -1,0 +1,68 @@
+"""Step 2b: the spin gait overshoots (spin momentum), so search the turning gait T together with
+the controller's lead and ramp, scored THROUGH the closed-loop TurnThenRun controller:
+fitness = mean over headings {0, 45, 180} (own gait after the turn) and starts {paper, noise seed 21}
+of the upright-contact speed along the heading over DUR s; any termination -> -1 + 0.25 * survived share."""
+import json, math, sys, time
+import numpy as np, cma
+from common import *
+from turn_then_run import TurnThenRun, score, DT
+
+DUR = 20.0; STEPS = int(DUR / DT)
+HEAD = np.array([0.0, 45.0, 180.0]); SEEDS = [None, 21]
+BUDGET = float(sys.argv[1]) if len(sys.argv) > 1 else 420.0
+POP = 32
+lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES] + [0.0, 0.0]); highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES] + [1.5, 2.0])
+def to_params(u):
+    p = lows + np.clip(u, 0, 1) * (highs - lows)
+    p[:6] = repair(p[:6]); return p
+to_unit = lambda p: (np.asarray(p) - lows) / (highs - lows)
+G = own_gait().as_array()
+K = len(HEAD) * len(SEEDS)
+
+def evaluate(params):
+    P = len(params)
+    heads = np.tile(np.repeat(HEAD, len(SEEDS)), P)
+    starts = np.tile(start_states(1, SEEDS), (P * len(HEAD), 1))
+    rows = np.repeat(params, K, axis=0)
+    # T per robot: TurnThenRun takes one T; build per-robot by running the class with row-wise T
+    ctl = TurnThenRunRows(rows[:, :6], G, heads, np.zeros(len(heads), bool), rows[:, 6], rows[:, 7], np.ones(len(heads), bool))
+    r = run(ctl, starts, STEPS, targets=np.radians(heads))
+    sp = score(r, heads, DUR).reshape(P, K)
+    term = r["terminated"].reshape(P, K); share = (r["end_step"] / STEPS).reshape(P, K)
+    fit = np.where(term.any(1), -1 + 0.25 * share.mean(1) + 0.1 * np.clip(sp.mean(1), -1, 1), sp.mean(1))
+    return fit, sp, term
+
+class TurnThenRunRows(TurnThenRun):
+    def __init__(self, Ts, G, *a, **kw):
+        super().__init__(Ts[0], G, *a, **kw)
+        from turn_then_run import seven
+        self.gT = np.array([seven(T, s > 0) for T, s in zip(Ts, self.sign)])
+        self.g_from = self.gT.copy()
+
+if __name__ == "__main__":
+    t0 = time.time(); rng = np.random.default_rng(1)
+    T0 = np.array(json.load(open("yaw_search.json"))["top"][0]["params"])
+    seeds_p = [np.r_[T0, 0.6, 1.0]]
+    for f in (0.3, 0.5, 0.7):   # gentler versions of the spin gait
+        Ts = T0.copy(); Ts[0] *= f; Ts[1] *= f; seeds_p.append(np.r_[Ts, 0.4, 1.0])
+    screen = np.array(seeds_p + [to_params(u) for u in rng.uniform(size=(60, 8))])
+    archive = []
+    def rec(params, out):
+        for i in range(len(params)):
+            archive.append(dict(params=params[i].tolist(), fitness=float(out[0][i]), speeds=out[1][i].tolist(), terminated=out[2][i].tolist()))
+    for ch in np.array_split(screen, 2):
+        rec(ch, evaluate(ch))
+    best = max(archive, key=lambda a: a["fitness"])
+    print(f"screen {len(screen)} {time.time()-t0:.0f}s best {best['fitness']:.4f}", best, flush=True)
+    es = cma.CMAEvolutionStrategy(np.clip(to_unit(best["params"]), 1e-6, 1 - 1e-6), 0.2, {"bounds": [0, 1], "popsize": POP, "seed": 2, "verbose": -9})
+    gen = 0; hist = []
+    while time.time() - t0 < BUDGET and not es.stop():
+        U = es.ask(); params = np.array([to_params(u) for u in U]); out = evaluate(params); rec(params, out)
+        es.tell(U, (-out[0]).tolist()); gen += 1
+        b = max(archive, key=lambda a: a["fitness"])
+        hist.append(dict(gen=gen, t=round(time.time() - t0, 1), best=b["fitness"], median=float(np.median(out[0]))))
+        print(hist[-1], flush=True)
+    archive.sort(key=lambda a: -a["fitness"])
+    json.dump(dict(headings=HEAD.tolist(), seeds=SEEDS, duration=DUR, generations=gen, seconds=time.time() - t0,
+                   evaluations=len(archive), history=hist, top=archive[:10]), open("maneuver_search.json", "w"), indent=1)
+    for a in archive[:3]: print(a)
