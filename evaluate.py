@@ -8,6 +8,7 @@ same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
     python evaluate.py                                  # the shipped policy
     python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
     python evaluate.py --gaits agents/searched/plane_own.json        # searched gaits too
+    python evaluate.py --turn-then-run agents/searched/turn_then_run.json   # the closed-loop baseline (plane)
 
 Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
 (keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
@@ -25,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
+from agents.turn_then_run import load_turn_then_run_agent
 from rrrobot_gym.envs.task import action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import DEFAULT_TIMESTEP
@@ -178,7 +180,8 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     for model in models:
         on_model = agents_on(model, agents, per_model)
         physics = physics_of(on_model)
-        gaits = {name: agent for name, agent in on_model.items() if name != "ppo"}
+        # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
+        gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
         first = run_episodes(gaits, model, [0.0], duration, seed, **physics) if gaits else {}
         own = {}
         for name, run in first.items():
@@ -365,6 +368,9 @@ def main(argv=None):
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
                         help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable)")
+    parser.add_argument("--turn-then-run", type=Path, metavar="FILE",
+                        help="also score the scripted turn-then-run baseline of this file on the plane "
+                             "(agents/searched/turn_then_run.json)")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run each model's policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
@@ -393,6 +399,12 @@ def main(argv=None):
         if clash:
             parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
         agents.update(searched)
+    if args.turn_then_run is not None:
+        try:
+            baseline = load_turn_then_run_agent(args.turn_then_run)
+        except ValueError as exc:
+            parser.error(f"--turn-then-run: {exc}")
+        per_model.setdefault("plane", {})[baseline.name] = baseline
     try:
         records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model)
     except ValueError as exc:

@@ -8,5 +8,7 @@ evaluation code (``evaluate.py``, or SB3's ``evaluate_policy``).
 from .gaits import GAIT_AGENT_NAMES, GaitAgent, gait_agent
 from .ppo import PPOAgent, load_ppo_agent
 from .searched import load_gait_agents
+from .turn_then_run import TurnThenRunAgent, load_turn_then_run_agent
 
-__all__ = ["GAIT_AGENT_NAMES", "GaitAgent", "gait_agent", "PPOAgent", "load_ppo_agent", "load_gait_agents"]
+__all__ = ["GAIT_AGENT_NAMES", "GaitAgent", "gait_agent", "PPOAgent", "load_ppo_agent", "load_gait_agents",
+           "TurnThenRunAgent", "load_turn_then_run_agent"]

@@ -1,0 +1,179 @@
+"""Turn, then run: a scripted closed-loop baseline for travel along any heading on the plane.
+
+A gait's direction of travel is fixed relative to the body's yaw (the plane is isotropic), so
+an open-loop gait goes one way. This agent first turns the body with a turning sinusoid (or its
+leg-exchanged mirror, for the other sense) until a running gait's direction points along the
+commanded heading, then blends into the running gait (or its mirror, whichever needs the
+smaller turn) and runs it. It reads only the observation: the body's yaw relative to the
+heading is atan2((n x h)_x, h_x), with n = ``up_in_body`` and h = ``heading_in_body``.
+
+    from agents.turn_then_run import load_turn_then_run_agent
+    agent = load_turn_then_run_agent("agents/searched/turn_then_run.json")
+
+The switch: when the yaw's moving average over ``window`` control steps, projected ``lead``
+seconds ahead at its current rate, reaches its target, the running gait's phase is shifted so
+its leg targets match the turning gait's there, and the gait parameters are blended over
+``ramp`` seconds with the phase kept continuous. The file's parameters were found by a CMA-ES
+search through this controller (``experiments/turn_then_run``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from rrrobot_gym.envs.task import OBSERVATION_FIELDS, leg_targets_to_action
+from rrrobot_gym.gait_search import load_gaits
+
+_FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
+TURN, BLEND, RUN = 0, 1, 2
+
+
+def _per_leg(gait, mirror=False):
+    """(a1, a2, o1, o2, w, beta1, beta2) of a six-number sinusoid (a1, a2, o1, o2, w, gap);
+    ``mirror`` exchanges the legs (the gait's mirror image: it turns or travels the other way)."""
+    a1, a2, o1, o2, w, gap = np.asarray(gait, dtype=float)
+    return np.array([a2, a1, o2, o1, w, gap, 0.0] if mirror else [a1, a2, o1, o2, w, 0.0, gap])
+
+
+def _angles(g, phase):
+    """Leg targets (n, 2) of per-leg gaits g (n, 7) at gait phases (n,)."""
+    return np.stack([g[:, 2] + g[:, 0] * np.sin(phase + g[:, 5]), g[:, 3] + g[:, 1] * np.sin(phase + g[:, 6])], axis=1)
+
+
+def _rates(g, phase):
+    return g[:, 4:5] * np.stack([g[:, 0] * np.cos(phase + g[:, 5]), g[:, 1] * np.cos(phase + g[:, 6])], axis=1)
+
+
+def _matching_shift(g_from, g_to, phase, candidates=72):
+    """Phase shift (n,) that makes ``g_to`` at phase + shift best match ``g_from`` at phase
+    (leg targets, and their rates weighted 0.002 s^2), from a grid of ``candidates``."""
+    shifts = np.linspace(-math.pi, math.pi, candidates, endpoint=False)
+    angles, rates = _angles(g_from, phase), _rates(g_from, phase)
+    cost = [
+        ((_angles(g_to, phase + c) - angles) ** 2).sum(1) + 0.002 * ((_rates(g_to, phase + c) - rates) ** 2).sum(1)
+        for c in shifts
+    ]
+    return shifts[np.argmin(np.array(cost), axis=0)]
+
+
+def _wrap(angle):
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def relative_yaw(observations):
+    """rad (n,): the body's yaw (the heading of its x axis's horizontal part) minus the
+    commanded heading, from RRRobot-v0 observations (n, size)."""
+    n = observations[:, _FIELDS["up_in_body"]].astype(float)
+    h = observations[:, _FIELDS["heading_in_body"]].astype(float)
+    across = n[:, 1] * h[:, 2] - n[:, 2] * h[:, 1]  # (n x h)_x: body x along (up x heading)
+    return np.arctan2(across, h[:, 0])
+
+
+class TurnThenRunAgent:
+    """Turn, then run (module docstring), with the ``predict`` interface of an SB3 policy.
+
+    ``turn_gait`` and ``run_gait``: six numbers (a1, a2, o1, o2, w, gap) each, the turning
+    gait turning clockwise; ``direction_offset`` (rad): the running gait's direction of travel
+    minus the body's yaw; ``dt``: the env's control step. The recurrent ``state`` is a dict of
+    per-env arrays; ``episode_start`` restarts an env's controller.
+    """
+
+    closed_loop = True  # evaluate.py: no "own direction" to score it along
+
+    def __init__(self, turn_gait, run_gait, *, dt, lead, ramp, direction_offset=0.5 * math.pi, window=15,
+                 name="turn-then-run"):  # fmt: skip
+        self.turn_gait, self.run_gait = np.asarray(turn_gait, dtype=float), np.asarray(run_gait, dtype=float)
+        for label, gait in (("turn_gait", self.turn_gait), ("run_gait", self.run_gait)):
+            if gait.shape != (6,) or not np.all(np.isfinite(gait)):
+                raise ValueError(f"{label} must be 6 finite numbers (a1, a2, o1, o2, w, gap), got {gait.tolist()}")
+        for label, value in (("dt", dt), ("ramp", ramp)):
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{label} must be a positive number of seconds, got {value}")
+        if not (isinstance(window, int) and window >= 1):
+            raise ValueError(f"window must be a positive whole number of control steps, got {window}")
+        self.dt, self.lead, self.ramp = float(dt), float(lead), float(ramp)
+        self.direction_offset, self.window, self.name = float(direction_offset), window, name
+
+    def _start(self, memory, rows, yaw):
+        """Choose each restarted env's turn and gaits from its relative yaw at the start."""
+        turn_own = _wrap(-self.direction_offset - yaw)
+        turn_mirror = _wrap(self.direction_offset - yaw)
+        mirror = np.abs(turn_mirror) < np.abs(turn_own) - 1e-9
+        turn = np.where(mirror, turn_mirror, turn_own)
+        memory["target"][rows] = yaw + turn
+        memory["sense"][rows] = np.where(turn > 0.0, 1.0, -1.0)
+        memory["g_turn"][rows] = [_per_leg(self.turn_gait, t > 0.0) for t in turn]  # the mirror turns anticlockwise
+        memory["g_run"][rows] = [_per_leg(self.run_gait, m) for m in mirror]
+        memory["mode"][rows] = np.where(np.abs(turn) < 1e-6, RUN, TURN)
+        memory["steps"][rows] = 0
+        memory["phase"][rows] = 0.0
+        memory["switched"][rows] = np.nan
+        memory["history"][:, rows] = yaw
+        memory["yaw"][rows] = yaw
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        observation = np.asarray(observation)
+        single = observation.ndim == 1
+        obs = observation[None] if single else observation
+        n = len(obs)
+        if state is None:
+            state = {
+                "target": np.zeros(n), "sense": np.zeros(n), "g_turn": np.zeros((n, 7)), "g_run": np.zeros((n, 7)),
+                "mode": np.zeros(n, dtype=int), "steps": np.zeros(n, dtype=int), "phase": np.zeros(n),
+                "switched": np.zeros(n), "history": np.zeros((2 * self.window, n)), "yaw": np.zeros(n),
+            }  # fmt: skip
+            starting = np.ones(n, dtype=bool)
+        else:
+            state = {key: value.copy() for key, value in state.items()}
+            starting = np.zeros(n, dtype=bool)
+        if episode_start is not None:
+            starting |= np.asarray(episode_start, dtype=bool).reshape(n)
+        yaw = relative_yaw(obs)
+        if starting.any():
+            self._start(state, starting, yaw[starting])
+        # Unwrap the yaw step by step and keep the last two windows of it.
+        yaw = state["yaw"] + _wrap(yaw - state["yaw"])
+        state["yaw"] = yaw
+        state["history"] = np.roll(state["history"], -1, axis=0)
+        state["history"][-1] = yaw
+        steps, w = state["steps"] + 1, self.window
+        recent = state["history"][-w:].mean(axis=0)
+        rate = np.where(steps >= 2 * w, (recent - state["history"][:w].mean(axis=0)) / (w * self.dt), 0.0)
+        projected = recent + rate * self.lead
+        t = (steps - 1) * self.dt
+        switch = (state["mode"] == TURN) & (state["sense"] * (state["target"] - projected) <= 0.0) & (steps >= w)
+        if switch.any():
+            state["mode"][switch] = BLEND
+            state["switched"][switch] = t[switch]
+            shift = _matching_shift(state["g_turn"][switch], state["g_run"][switch], state["phase"][switch])
+            state["g_run"][switch, 5:7] += shift[:, None]
+        blend = np.where(state["mode"] == TURN, 0.0, 1.0)
+        blending = state["mode"] == BLEND
+        if blending.any():
+            x = np.clip((t[blending] - state["switched"][blending]) / self.ramp, 0.0, 1.0)
+            blend[blending] = x * x * (3.0 - 2.0 * x)
+            state["mode"][blending & (blend >= 1.0)] = RUN
+        g = (1.0 - blend)[:, None] * state["g_turn"] + blend[:, None] * state["g_run"]
+        state["phase"] = state["phase"] + g[:, 4] * self.dt
+        state["steps"] = steps
+        actions = np.clip(leg_targets_to_action(_angles(g, state["phase"])), -1.0, 1.0).astype(np.float32)
+        return (actions[0] if single else actions), state
+
+
+def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
+    """The agent of a turn-then-run JSON file (``agents/searched/turn_then_run.json``): its turning
+    gait, lead and ramp, and the running gait named from a gait-search file beside it."""
+    path = Path(path)
+    try:
+        spec = json.loads(path.read_text())
+        run = {gait.name: gait for gait in load_gaits(path.parent / spec["run_gait_file"])}[spec["run_gait"]]
+        return TurnThenRunAgent(
+            spec["turn_gait"], run.as_array(), dt=dt if dt is not None else spec["dt"], lead=spec["lead_s"],
+            ramp=spec["ramp_s"], direction_offset=math.radians(spec["direction_offset_deg"]), window=spec["window_steps"],
+        )  # fmt: skip
+    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None

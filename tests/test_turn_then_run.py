@@ -1,0 +1,78 @@
+"""The scripted turn-then-run baseline: it reads the yaw from the observation and turns the body."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.turn_then_run import TurnThenRunAgent, load_turn_then_run_agent, relative_yaw
+from rrrobot_gym.envs import task
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
+
+FILE = Path(__file__).resolve().parents[1] / "agents" / "searched" / "turn_then_run.json"
+
+
+def _yaw(states):
+    """Heading of the body x axis's horizontal part, from the quaternion (not the observation code)."""
+    qw, qx, qy, qz = states[:, 2], states[:, 3], states[:, 4], states[:, 5]
+    return np.arctan2(2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def test_relative_yaw_from_the_observation_is_the_body_yaw_minus_the_heading():
+    rng = np.random.default_rng(5)
+    states = task.start_states(np.zeros((200, 10)))
+    quat = rng.standard_normal((200, 4))
+    quat[:, 3] *= 3.0  # mostly yaw, with tilts up to the rim
+    states[:, 2:6] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    keep = np.arccos(np.clip(1 - 2 * (states[:, 3] ** 2 + states[:, 4] ** 2), -1, 1)) < 1.2
+    states, targets = states[keep], rng.uniform(-math.pi, math.pi, keep.sum())
+    obs = task.observe(states, targets, task.make_task_config(), np.zeros(len(states)))
+    error = (relative_yaw(obs) - (_yaw(states) - targets) + math.pi) % (2 * math.pi) - math.pi
+    assert len(states) > 50 and np.abs(error).max() < 1e-5  # float32 observations
+
+
+def _run(agent, headings_deg, seconds):
+    env = RRRobotVectorEnv(num_envs=len(headings_deg), max_episode_steps=None, reset_noise_scale=0.0)
+    obs, _ = env.reset(seed=0, options={"target_direction": np.radians(headings_deg)})
+    start, state, ended = env.states.copy(), None, np.zeros(len(headings_deg), dtype=bool)
+    for k in range(int(round(seconds / env.dt))):
+        actions, state = agent.predict(obs, state=state, episode_start=np.full(len(headings_deg), k == 0))
+        obs, _, terminated, _, _ = env.step(actions)
+        ended |= terminated
+    return start, env.states.copy(), ended, state
+
+
+def test_it_turns_the_body_towards_the_heading_and_then_runs_along_it():
+    """Along 0 deg from the paper's start the running gait (93 deg from the body's yaw) needs a
+    quarter turn clockwise: after 12 s the yaw has turned about -90 deg and the robot travels
+    along 0 deg; along 90 deg it runs at once, without turning."""
+    agent = load_turn_then_run_agent(FILE)
+    start, after, ended, state = _run(agent, [0.0, 90.0], 12.0)
+    assert not ended.any()
+    assert state["mode"][1] == 2 and np.isnan(state["switched"][1])  # ran at once
+    turned = np.degrees((_yaw(after) - _yaw(start) + math.pi) % (2 * math.pi) - math.pi)
+    assert state["mode"][0] == 2 and abs(turned[0] + 90.0) < 30.0 and abs(turned[1]) < 30.0
+    _, after, ended, _ = _run(agent, [0.0], 24.0)
+    travel = after[0, 0:2] - start[0, 0:2]
+    assert not ended.any() and travel[0] > 0.6 * 0.094 * 12.0  # most of the last 12 s at ~94 mm/s along +x
+
+
+def test_bad_turn_then_run_input_is_named(tmp_path):
+    with pytest.raises(ValueError, match="turn_gait must be 6 finite numbers"):
+        TurnThenRunAgent([1.0, 2.0], np.zeros(6), dt=0.05, lead=0.5, ramp=1.0)
+    with pytest.raises(ValueError, match="ramp must be a positive"):
+        TurnThenRunAgent(np.zeros(6), np.zeros(6), dt=0.05, lead=0.5, ramp=0.0)
+    bad = tmp_path / "ttr.json"
+    bad.write_text('{"turn_gait": [0, 0, 1, 1, 8, 0]}')
+    with pytest.raises(ValueError, match="KeyError"):
+        load_turn_then_run_agent(bad)
+
+
+def test_evaluate_scores_the_baseline_on_the_plane_with_no_own_direction(capsys):
+    import evaluate
+
+    evaluate.main(["--no-policy", "--models", "plane", "--duration", "0.5", "--turn-then-run", str(FILE)])
+    table = capsys.readouterr().out
+    row = next(line for line in table.splitlines() if line.startswith("| turn-then-run |"))
+    assert row.split("|")[-2].strip() == ""  # no "own direction": scored along the compass headings
