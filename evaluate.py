@@ -246,7 +246,7 @@ def markdown(records, ratio_list):
         if physics:
             lines.append("Every agent under the policy's training keywords: "
                          + ", ".join(f"{k} = {v}" for k, v in physics.items()) + "\n")  # fmt: skip
-        agents = list(dict.fromkeys(r["agent"] for r in records))
+        agents = list(dict.fromkeys(r["agent"] for r in records if r["model"] == model))  # some score on one model only
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
         lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
         for agent in agents:

@@ -69,10 +69,12 @@ def test_bad_turn_then_run_input_is_named(tmp_path):
         load_turn_then_run_agent(bad)
 
 
-def test_evaluate_scores_the_baseline_on_the_plane_with_no_own_direction(capsys):
+def test_evaluate_scores_the_baseline_on_the_plane_only_with_no_own_direction(capsys):
     import evaluate
 
-    evaluate.main(["--no-policy", "--models", "plane", "--duration", "0.5", "--turn-then-run", str(FILE)])
+    records = evaluate.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE)])
     table = capsys.readouterr().out
     row = next(line for line in table.splitlines() if line.startswith("| turn-then-run |"))
     assert row.split("|")[-2].strip() == ""  # no "own direction": scored along the compass headings
+    assert {r["model"] for r in records if r["agent"] == "turn-then-run"} == {"plane"}  # searched there only
+    assert {r["model"] for r in records} == {"plane", "pivot"}
