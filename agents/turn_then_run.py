@@ -128,6 +128,8 @@ class TurnThenRunAgent:
             }  # fmt: skip
             starting = np.ones(n, dtype=bool)
         else:
+            if not isinstance(state, dict) or np.shape(state.get("steps")) != (n,):
+                raise ValueError(f"state must be this agent's state for {n} envs (the one predict returned)")
             state = {key: value.copy() for key, value in state.items()}
             starting = np.zeros(n, dtype=bool)
         if episode_start is not None:

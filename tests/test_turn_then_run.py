@@ -63,6 +63,12 @@ def test_bad_turn_then_run_input_is_named(tmp_path):
         TurnThenRunAgent([1.0, 2.0], np.zeros(6), dt=0.05, lead=0.5, ramp=1.0)
     with pytest.raises(ValueError, match="ramp must be a positive"):
         TurnThenRunAgent(np.zeros(6), np.zeros(6), dt=0.05, lead=0.5, ramp=0.0)
+    agent = load_turn_then_run_agent(FILE)
+    obs = np.zeros((3, 15), dtype=np.float32)
+    obs[:, 2], obs[:, 3] = 1.0, 1.0
+    _, state = agent.predict(obs)
+    with pytest.raises(ValueError, match="state must be this agent's state for 2 envs"):
+        agent.predict(obs[:2], state=state)
     bad = tmp_path / "ttr.json"
     bad.write_text('{"turn_gait": [0, 0, 1, 1, 8, 0]}')
     with pytest.raises(ValueError, match="KeyError"):
