@@ -32,29 +32,29 @@ _FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
 TURN, BLEND, RUN = 0, 1, 2
 
 
-def _per_leg(gait, mirror=False):
+def per_leg_gait(gait, mirror=False):
     """(a1, a2, o1, o2, w, beta1, beta2) of a six-number sinusoid (a1, a2, o1, o2, w, gap);
     ``mirror`` exchanges the legs (the gait's mirror image: it turns or travels the other way)."""
     a1, a2, o1, o2, w, gap = np.asarray(gait, dtype=float)
     return np.array([a2, a1, o2, o1, w, gap, 0.0] if mirror else [a1, a2, o1, o2, w, 0.0, gap])
 
 
-def _angles(g, phase):
+def per_leg_angles(g, phase):
     """Leg targets (n, 2) of per-leg gaits g (n, 7) at gait phases (n,)."""
     return np.stack([g[:, 2] + g[:, 0] * np.sin(phase + g[:, 5]), g[:, 3] + g[:, 1] * np.sin(phase + g[:, 6])], axis=1)
 
 
-def _rates(g, phase):
+def per_leg_rates(g, phase):
     return g[:, 4:5] * np.stack([g[:, 0] * np.cos(phase + g[:, 5]), g[:, 1] * np.cos(phase + g[:, 6])], axis=1)
 
 
-def _matching_shift(g_from, g_to, phase, candidates=72):
+def matching_phase_shift(g_from, g_to, phase, candidates=72):
     """Phase shift (n,) that makes ``g_to`` at phase + shift best match ``g_from`` at phase
     (leg targets, and their rates weighted 0.002 s^2), from a grid of ``candidates``."""
     shifts = np.linspace(-math.pi, math.pi, candidates, endpoint=False)
-    angles, rates = _angles(g_from, phase), _rates(g_from, phase)
+    angles, rates = per_leg_angles(g_from, phase), per_leg_rates(g_from, phase)
     cost = [
-        ((_angles(g_to, phase + c) - angles) ** 2).sum(1) + 0.002 * ((_rates(g_to, phase + c) - rates) ** 2).sum(1)
+        ((per_leg_angles(g_to, phase + c) - angles) ** 2).sum(1) + 0.002 * ((per_leg_rates(g_to, phase + c) - rates) ** 2).sum(1)
         for c in shifts
     ]
     return shifts[np.argmin(np.array(cost), axis=0)]
@@ -106,8 +106,8 @@ class TurnThenRunAgent:
         turn = np.where(mirror, turn_mirror, turn_own)
         memory["target"][rows] = yaw + turn
         memory["sense"][rows] = np.where(turn > 0.0, 1.0, -1.0)
-        memory["g_turn"][rows] = [_per_leg(self.turn_gait, t > 0.0) for t in turn]  # the mirror turns anticlockwise
-        memory["g_run"][rows] = [_per_leg(self.run_gait, m) for m in mirror]
+        memory["g_turn"][rows] = [per_leg_gait(self.turn_gait, t > 0.0) for t in turn]  # the mirror turns anticlockwise
+        memory["g_run"][rows] = [per_leg_gait(self.run_gait, m) for m in mirror]
         memory["mode"][rows] = np.where(np.abs(turn) < 1e-6, RUN, TURN)
         memory["steps"][rows] = 0
         memory["phase"][rows] = 0.0
@@ -151,7 +151,7 @@ class TurnThenRunAgent:
         if switch.any():
             state["mode"][switch] = BLEND
             state["switched"][switch] = t[switch]
-            shift = _matching_shift(state["g_turn"][switch], state["g_run"][switch], state["phase"][switch])
+            shift = matching_phase_shift(state["g_turn"][switch], state["g_run"][switch], state["phase"][switch])
             state["g_run"][switch, 5:7] += shift[:, None]
         blend = np.where(state["mode"] == TURN, 0.0, 1.0)
         blending = state["mode"] == BLEND
@@ -162,7 +162,7 @@ class TurnThenRunAgent:
         g = (1.0 - blend)[:, None] * state["g_turn"] + blend[:, None] * state["g_run"]
         state["phase"] = state["phase"] + g[:, 4] * self.dt
         state["steps"] = steps
-        actions = np.clip(leg_targets_to_action(_angles(g, state["phase"])), -1.0, 1.0).astype(np.float32)
+        actions = np.clip(leg_targets_to_action(per_leg_angles(g, state["phase"])), -1.0, 1.0).astype(np.float32)
         return (actions[0] if single else actions), state
 
 

@@ -7,7 +7,10 @@ from rrrobot_gym.envs import task
 from rrrobot_gym.gait_search import sinusoid_angles, repair, PARAMETER_NAMES, BOUNDS, load_gaits
 from rrrobot_gym import dynamics
 
-OWN_JSON = Path(__file__).resolve().parents[2] / "agents" / "searched" / "plane_own.json"
+ROOT = Path(__file__).resolve().parents[2]
+OWN_JSON = ROOT / "agents" / "searched" / "plane_own.json"
+import sys
+sys.path.insert(0, str(ROOT))  # the agents package (the controller's gait helpers) lives at the repo root
 
 
 def own_gait():

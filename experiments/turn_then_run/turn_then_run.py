@@ -19,27 +19,10 @@ WIN = 15                      # yaw moving-average window, steps (~ one gait per
 DELTA_DEG = 90.0              # own gait: travel direction = cycle-mean body yaw + DELTA (measured 90.2-90.4 over 20 s)
 
 
-def seven(p, mirror=False):
-    a1, a2, o1, o2, w, gap = p
-    g = np.array([a1, a2, o1, o2, w, 0.0, gap])
-    return g[[1, 0, 3, 2, 4, 6, 5]] if mirror else g
-
-
-def angles7(g, theta):
-    return np.stack([g[:, 2] + g[:, 0] * np.sin(theta + g[:, 5]), g[:, 3] + g[:, 1] * np.sin(theta + g[:, 6])], axis=1)
-
-
-def best_shift(gT, gG, theta, n=72):
-    """phase shift c (N,) so that G at theta+c best matches T at theta (angles and rates)."""
-    cs = np.linspace(-math.pi, math.pi, n, endpoint=False)
-    aT = angles7(gT, theta)
-    rT = np.stack([gT[:, 0] * np.cos(theta + gT[:, 5]), gT[:, 1] * np.cos(theta + gT[:, 6])], 1) * gT[:, 4:5]
-    cost = []
-    for c in cs:
-        aG = angles7(gG, theta + c)
-        rG = np.stack([gG[:, 0] * np.cos(theta + c + gG[:, 5]), gG[:, 1] * np.cos(theta + c + gG[:, 6])], 1) * gG[:, 4:5]
-        cost.append(((aG - aT) ** 2).sum(1) + 0.002 * ((rG - rT) ** 2).sum(1))
-    return cs[np.argmin(np.array(cost), axis=0)]
+# The gait helpers are the agent's (agents/turn_then_run.py), which was built from this script.
+from agents.turn_then_run import matching_phase_shift as best_shift
+from agents.turn_then_run import per_leg_angles as angles7
+from agents.turn_then_run import per_leg_gait as seven
 
 
 class TurnThenRun:
