@@ -19,7 +19,7 @@ from rrrobot_gym import dynamics
 from rrrobot_gym.analysis import travel_summary
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.envs import RRRobotEnv
-from rrrobot_gym.envs.task import RESET_INFO_KEYS, STEP_INFO_KEYS, leg_targets_to_action
+from rrrobot_gym.envs.task import RESET_INFO_KEYS, STEP_INFO_KEYS, action_to_leg_targets, leg_targets_to_action
 from rrrobot_gym.simulation import SimConfig, initial_state, simulate
 
 REPO_ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -156,6 +156,26 @@ def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions()
             break
     # every branch of the forward term was exercised on a step that moved
     assert branches["earned"] >= 5 and branches["slip only"] >= 1 and branches["lift-off only"] >= 1, branches
+
+
+def test_a_state_set_by_hand_is_the_one_the_next_steps_velocity_starts_from():
+    """The env reuses the last step's upright contact point as the next step's start, but
+    only for the state it made: a state a user puts in ``env.unwrapped.state`` is measured afresh."""
+    env = RRRobotEnv(terminate_outside_model=False, target_direction=0.0)
+    env.reset(seed=1)
+    action = np.array([0.3, -0.2], dtype=np.float32)
+    for _ in range(5):
+        env.step(action)
+    moved = env.state.copy()
+    moved[0] += 0.5  # half a metre along the heading: no robot travels 10 m/s
+    env.state = moved
+    _, _, _, _, info = env.step(action)
+    twin = RRRobotEnv(terminate_outside_model=False, target_direction=0.0)
+    twin.reset(options={"state": moved})
+    twin.time, twin.leg_targets = 5 * env.dt, action_to_leg_targets(action)  # the first env's clock and targets
+    _, _, _, _, expected = twin.step(action)
+    assert abs(info["forward_velocity"]) < 0.5
+    assert info["forward_velocity"] == expected["forward_velocity"]
 
 
 def test_rocking_in_place_moves_the_contact_point_but_not_the_upright_contact_point():

@@ -213,6 +213,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.leg_targets = None  # (2,) rad, the servo targets at the end of the last step
         self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
         self._observation = None  # the last observation returned, float32
+        self._upright = (None, None)  # (the state, its upright contact point (1, 2)), reused by the next step
         self._path = None  # contact points so far, kept only when rendering
         self._viewer = None
         self._no_window = False  # human mode where no window can open: warned once, nothing shown
@@ -258,13 +259,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self.config,
             measures,  # (1,) arrays
             np.array([self.time]),
+            # (the last step's upright contact point, unless the state was replaced since)
+            upright_before=self._upright[1] if self._upright[0] is before else None,
         )
         self.state = after
         self._observation = observation
         if not failed:
             self.leg_targets = task.action_to_leg_targets(action)
         self.time += self.dt
-        info = {key: value[0].item() for key, value in infos.items()}  # Python floats and bools
+        info = {key: value.item() for key, value in infos.items()}  # Python floats and bools
+        self._upright = (after, np.array([[info["x_upright"], info["y_upright"]]]))
         if self._path is not None:
             self._path.append((info["x_position"], info["y_position"]))
         if self.render_mode == "human":
@@ -293,7 +297,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
 
     def _reset_info(self):
         infos = task.reset_info(self.state[None], self._targets_array(), self.config)
-        return {key: value[0].item() for key, value in infos.items()}
+        info = {key: value.item() for key, value in infos.items()}
+        self._upright = (self.state, np.array([[info["x_upright"], info["y_upright"]]]))
+        return info
 
     def render(self):
         if self.render_mode is None:

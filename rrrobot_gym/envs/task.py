@@ -375,9 +375,10 @@ def check_actions(action, shape) -> np.ndarray:
         raise TypeError(f"action must be an array of numbers of shape {shape}, got {action!r}") from None
     if arr.shape != tuple(shape):
         raise ValueError(f"action must have shape {tuple(shape)}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"action contains NaN or inf: {arr.tolist()}")
-    return np.clip(arr, -1.0, 1.0)
+    # (ndarray methods, not np.clip/np.all: their dispatch costs more than the work at N = 1)
+    return arr.clip(-1.0, 1.0)
 
 
 def action_to_leg_targets(action):
@@ -490,7 +491,7 @@ def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
             obs[:, i] = rows[2][i]
             # (R^T d)_i = R_0i d_x + R_1i d_y, with d horizontal.
             obs[:, 3 + i] = rows[0][i] * cos_t + rows[1][i] * sin_t
-        np.clip(obs[:, 0:6], -1.0, 1.0, out=obs[:, 0:6])
+        obs[:, 0:6].clip(-1.0, 1.0, out=obs[:, 0:6])
         obs[:, 6:9] = states[:, dynamics.BODY_RATE]
         obs[:, 9:11] = states[:, dynamics.LEG_ANGLES]
         obs[:, 11:13] = states[:, dynamics.LEG_RATES]
@@ -545,7 +546,10 @@ def upright_contact_points(states, radius, rows=None):
         sin_tilt = np.hypot(lean_x, lean_y)
         leaning = sin_tilt > 1e-9
         scale = radius * np.where(leaning, np.arctan2(sin_tilt, cos_tilt) / np.where(leaning, sin_tilt, 1.0), 1.0)
-    return np.stack([states[:, 0] - scale * lean_x, states[:, 1] - scale * lean_y], axis=-1)
+    points = np.empty((len(states), 2))  # (cheaper than np.stack for one robot)
+    points[:, 0] = states[:, 0] - scale * lean_x
+    points[:, 1] = states[:, 1] - scale * lean_y
+    return points
 
 
 def reset_info(states, targets, config: TaskConfig):
@@ -557,12 +561,14 @@ def reset_info(states, targets, config: TaskConfig):
         "y_position": states[:, 1].copy(),
         "x_upright": upright[:, 0],
         "y_upright": upright[:, 1],
-        "tilt": np.full(len(states), _tilt(rows[2][2])),
+        "tilt": np.array(_tilt(rows[2][2]), ndmin=1),  # (a copy; (1,) from one robot's float)
         "target_direction": np.array(targets, dtype=np.float64),
     }
 
 
-def step_outcome(states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed):
+def step_outcome(
+    states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed, upright_before=None
+):
     """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step.
 
     reward_forward = forward_reward_weight * 100 * forward_velocity: cm/s of the upright
@@ -573,10 +579,13 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     reward_ctrl = -ctrl_cost_weight * |action|^2 of the clipped action. A ``failed`` robot
     (numerical blow-up; its states_after is its unchanged last finite state) gets reward 0
     and terminates; so does one whose tilt reached the rim limit.
+    ``upright_before`` (N, 2): the upright contact points of ``states_before`` if the caller
+    kept them (the last step's x_upright, y_upright); else they are computed.
     """
     dt = config.dt
+    elapsed = np.asarray(elapsed, dtype=float)
     info = reset_info(states_after, targets, config)
-    before = upright_contact_points(states_before, config.sim.robot.radius)
+    before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
     forward_velocity = (
         (info["x_upright"] - before[:, 0]) * np.cos(targets) + (info["y_upright"] - before[:, 1]) * np.sin(targets)
     ) / dt
@@ -584,7 +593,7 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     info["y_velocity"] = (states_after[:, 1] - states_before[:, 1]) / dt
     info["forward_velocity"] = forward_velocity
     info["reward_forward"] = config.forward_reward_weight * FORWARD_VELOCITY_UNIT * forward_velocity
-    info["reward_ctrl"] = -config.ctrl_cost_weight * np.sum(np.square(actions), axis=1)
+    info["reward_ctrl"] = -config.ctrl_cost_weight * np.einsum("ij,ij->i", actions, actions)
     info["numerical_failure"] = np.array(failed, dtype=bool)
     if info["numerical_failure"].any():
         for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
@@ -594,7 +603,7 @@ def step_outcome(states_before, states_after, targets, actions, failed, config: 
     # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
     if config.sim.model == "plane":
         # Nor does travel in the start-up grace, where slip is forgiven (a kick off the start).
-        unearned = left_the_floor(info, config) | (np.asarray(elapsed, dtype=float) < STARTUP_GRACE - 1e-9)
+        unearned = left_the_floor(info, config) | (elapsed < STARTUP_GRACE - 1e-9)
         info["reward_forward"] = np.where(unearned, 0.0, info["reward_forward"])
     terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
     if config.terminate_outside_model:
@@ -680,4 +689,4 @@ def finite_rows(states, observations):
 
     The observation is checked too: a finite but huge float64 state overflows float32.
     """
-    return np.all(np.isfinite(states), axis=1) & np.all(np.isfinite(observations), axis=1)
+    return np.isfinite(states).all(axis=1) & np.isfinite(observations).all(axis=1)
