@@ -32,15 +32,20 @@ def test_relative_yaw_from_the_observation_is_the_body_yaw_minus_the_heading():
     assert len(states) > 50 and np.abs(error).max() < 1e-5  # float32 observations
 
 
-def _run(agent, headings_deg, seconds):
+def _run(agent, headings_deg, seconds, halfway=False):
+    """Start, end states, which episodes ended and the agent's state; with ``halfway`` also the
+    states and agent state at half the time (one run instead of two)."""
     env = RRRobotVectorEnv(num_envs=len(headings_deg), max_episode_steps=None, reset_noise_scale=0.0)
     obs, _ = env.reset(seed=0, options={"target_direction": np.radians(headings_deg)})
     start, state, ended = env.states.copy(), None, np.zeros(len(headings_deg), dtype=bool)
-    for k in range(int(round(seconds / env.dt))):
+    steps = int(round(seconds / env.dt))
+    for k in range(steps):
         actions, state = agent.predict(obs, state=state, episode_start=np.full(len(headings_deg), k == 0))
         obs, _, terminated, _, _ = env.step(actions)
         ended |= terminated
-    return start, env.states.copy(), ended, state
+        if halfway and k + 1 == steps // 2:
+            middle = env.states.copy(), ended.copy(), state  # predict returns a new state each step
+    return (start, env.states.copy(), ended, state) + (middle if halfway else ())
 
 
 def test_it_turns_the_body_towards_the_heading_and_then_runs_along_it():
@@ -48,14 +53,13 @@ def test_it_turns_the_body_towards_the_heading_and_then_runs_along_it():
     quarter turn clockwise: after 12 s the yaw has turned about -90 deg and the robot travels
     along 0 deg; along 90 deg it runs at once, without turning."""
     agent = load_turn_then_run_agent(FILE)
-    start, after, ended, state = _run(agent, [0.0, 90.0], 12.0)
+    start, end, ended_end, _, after, ended, state = _run(agent, [0.0, 90.0], 24.0, halfway=True)
     assert not ended.any()
     assert state["mode"][1] == 2 and np.isnan(state["switched"][1])  # ran at once
     turned = np.degrees((_yaw(after) - _yaw(start) + math.pi) % (2 * math.pi) - math.pi)
     assert state["mode"][0] == 2 and abs(turned[0] + 90.0) < 30.0 and abs(turned[1]) < 30.0
-    _, after, ended, _ = _run(agent, [0.0], 24.0)
-    travel = after[0, 0:2] - start[0, 0:2]
-    assert not ended.any() and travel[0] > 0.6 * 0.094 * 12.0  # most of the last 12 s at ~94 mm/s along +x
+    travel = end[0, 0:2] - start[0, 0:2]
+    assert not ended_end[0] and travel[0] > 0.6 * 0.094 * 12.0  # most of the last 12 s at ~94 mm/s along +x
 
 
 def test_bad_turn_then_run_input_is_named(tmp_path):
