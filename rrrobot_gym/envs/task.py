@@ -483,7 +483,7 @@ def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
     whole scene is turned about the vertical (the dynamics are invariant to world yaw).
     """
     rows = _rotation_rows(states)
-    cos_t, sin_t = np.cos(targets), np.sin(targets)
+    cos_t, sin_t = _heading_vectors(targets)
     obs = np.empty((len(states), config.observation_size), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -516,6 +516,15 @@ def _rotation_rows(states):
     if len(states) == 1:
         return dynamics.rotation_rows(*states[0, 2:6].tolist())
     return dynamics.rotation_rows(states[:, 2], states[:, 3], states[:, 4], states[:, 5])
+
+
+def _heading_vectors(targets):
+    """cos and sin of the headings ``targets`` (N,) rad: Python floats for one robot (as
+    :func:`_rotation_rows`), (N,) arrays for a batch."""
+    if len(targets) == 1:
+        target = float(targets[0])
+        return math.cos(target), math.sin(target)
+    return np.cos(targets), np.sin(targets)
 
 
 def _tilt(cos_tilt):
@@ -586,9 +595,8 @@ def step_outcome(
     elapsed = np.asarray(elapsed, dtype=float)
     info = reset_info(states_after, targets, config)
     before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
-    forward_velocity = (
-        (info["x_upright"] - before[:, 0]) * np.cos(targets) + (info["y_upright"] - before[:, 1]) * np.sin(targets)
-    ) / dt
+    cos_t, sin_t = _heading_vectors(targets)
+    forward_velocity = ((info["x_upright"] - before[:, 0]) * cos_t + (info["y_upright"] - before[:, 1]) * sin_t) / dt
     info["x_velocity"] = (states_after[:, 0] - states_before[:, 0]) / dt
     info["y_velocity"] = (states_after[:, 1] - states_before[:, 1]) / dt
     info["forward_velocity"] = forward_velocity
