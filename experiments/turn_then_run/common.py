@@ -8,9 +8,47 @@ from rrrobot_gym.gait_search import sinusoid_angles, repair, PARAMETER_NAMES, BO
 from rrrobot_gym import dynamics
 
 ROOT = Path(__file__).resolve().parents[2]
-OWN_JSON = ROOT / "agents" / "searched" / "plane_own.json"
 import sys
 sys.path.insert(0, str(ROOT))  # the agents package (the controller's gait helpers) lives at the repo root
+
+
+def _model_from_argv(argv):
+    """`--model plane|pivot` anywhere on the command line (default plane), removed from argv so
+    each script's positional arguments (budget, duration, file) keep their places."""
+    model = "plane"
+    if "--model" in argv:
+        i = argv.index("--model")
+        model = argv[i + 1] if i + 1 < len(argv) else ""
+        del argv[i:i + 2]
+    if model not in ("plane", "pivot"):
+        raise SystemExit(f"--model must be plane or pivot, got {model!r}")
+    return model
+
+
+def _pivot_physics():
+    """The keywords evaluate.py runs every agent under on the pivot model: evaluate.physics_of
+    applied to the shipped pivot policy's training env keywords (its env_kwargs.json, read as
+    load_ppo_agent reads it, without unpickling the policy) -> torque_limit 0.5 N m,
+    leg_rate_limit 10 rad/s."""
+    from types import SimpleNamespace
+    from agents.ppo import SCENE_KEYWORDS
+    from rrrobot_gym.envs.task import kwargs_from_json
+    from evaluate import DEFAULT_PIVOT_POLICY, physics_of
+    trained = kwargs_from_json(json.loads(DEFAULT_PIVOT_POLICY.with_name("env_kwargs.json").read_text()))
+    return physics_of({"ppo": SimpleNamespace(env_kwargs={k: v for k, v in trained.items() if k not in SCENE_KEYWORDS})})
+
+
+MODEL = _model_from_argv(sys.argv)
+PHYSICS = _pivot_physics() if MODEL == "pivot" else {}   # env keywords every run on MODEL gets
+OWN_FILE = {"plane": "plane_own.json", "pivot": "pivot_own_limited.json"}[MODEL]
+OWN_JSON = ROOT / "agents" / "searched" / OWN_FILE
+SUFFIX = "" if MODEL == "plane" else "_" + MODEL   # plane keeps its file names; pivot: yaw_search_pivot.json, ...
+
+
+def out_name(stem):
+    """This model's file name for an output (or input) JSON of these scripts: yaw_search.json on
+    the plane, yaw_search_pivot.json on the pivot."""
+    return f"{stem}{SUFFIX}.json"
 
 
 def own_gait():
@@ -44,8 +82,8 @@ def run(controller, starts, steps, record_every=1, targets=0.0, **env_kwargs):
     Returns dict: yaw (T+1, N) unwrapped, up (T+1, N, 2) upright contact points (frozen after
     termination), terminated (N,), end_step (N,), reason dict, peaks."""
     n = len(starts)
-    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model="plane", reset_noise_scale=0.0,
-                           **env_kwargs)
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model=MODEL, reset_noise_scale=0.0,
+                           **{**PHYSICS, **env_kwargs})
     env.reset(seed=0, options={"state": starts, "target_direction": targets})
     reward_forward = np.zeros(n)
     radius = env.config.sim.robot.radius
@@ -98,3 +136,10 @@ def run(controller, starts, steps, record_every=1, targets=0.0, **env_kwargs):
 def sinusoid_controller(params, dt):
     params = np.asarray(params, float)
     return lambda k, states, alive: sinusoid_angles(params, (k + 1) * dt)
+
+
+def mirror_gait(params):
+    """The six-number form (a1, a2, o1, o2, w, gap) of a sinusoid's leg-exchanged mirror (the
+    agent's per_leg_gait(params, mirror=True), up to a phase): it turns the other way."""
+    a1, a2, o1, o2, w, gap = np.asarray(params, float)
+    return np.array([a2, a1, o2, o1, w, -gap])

@@ -1,15 +1,24 @@
 """Step 2b: the spin gait overshoots (spin momentum), so search the turning gait T together with
 the controller's lead and ramp, scored THROUGH the closed-loop TurnThenRun controller:
-fitness = mean over headings {0, 45, 180} (own gait after the turn) and starts {paper, noise seed 21}
-of the upright-contact speed along the heading over DUR s; any termination -> -1 + 0.25 * survived share."""
+fitness = mean over headings {0, 45, 180} (after the turn the running gait or its mirror,
+whichever needs the smaller turn, as the agent chooses: on the plane the own gait on all three) and starts {paper, noise seed 21}
+of the upright-contact speed along the heading over DUR s; any termination -> -1 + 0.25 * survived share.
+
+    python maneuver_search.py [--model pivot] [budget_s [warm_start.json]]   # reads yaw_search[_pivot].json, writes maneuver_search[_pivot].json"""
 import json, math, sys, time
 import numpy as np, cma
 from common import *
-from turn_then_run import TurnThenRun, score, DT
+from turn_then_run import TurnThenRun, score, DT, DELTA_DEG, smaller_turn_mirror
 
 DUR = 20.0; STEPS = int(DUR / DT)
 HEAD = np.array([0.0, 45.0, 180.0]); SEEDS = [None, 21]
-BUDGET = float(sys.argv[1]) if len(sys.argv) > 1 else 420.0
+if MODEL == "pivot":
+    # The pivot's running gait drifts clockwise (own; its mirror anticlockwise, direction.py), and a
+    # 45 deg turn in the sense of the drift can leave it spinning: 135 deg (mirror gait after an
+    # anticlockwise 45 deg turn) adds that case. With 0, 45, 180 the four turns are then all scored.
+    HEAD = np.array([0.0, 45.0, 135.0, 180.0])
+BUDGET = float(sys.argv[1]) if __name__ == "__main__" and len(sys.argv) > 1 else 420.0
+WARM = sys.argv[2] if __name__ == "__main__" and len(sys.argv) > 2 else None   # a maneuver JSON whose best joins the screen
 POP = 32
 lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES] + [0.0, 0.0]); highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES] + [1.5, 2.0])
 def to_params(u):
@@ -25,7 +34,7 @@ def evaluate(params):
     starts = np.tile(start_states(1, SEEDS), (P * len(HEAD), 1))
     rows = np.repeat(params, K, axis=0)
     # T per robot: TurnThenRun takes one T; build per-robot by running the class with row-wise T
-    ctl = TurnThenRunRows(rows[:, :6], G, heads, np.zeros(len(heads), bool), rows[:, 6], rows[:, 7], np.ones(len(heads), bool))
+    ctl = TurnThenRunRows(rows[:, :6], G, heads, smaller_turn_mirror(heads), rows[:, 6], rows[:, 7], np.ones(len(heads), bool))
     r = run(ctl, starts, STEPS, targets=np.radians(heads))
     sp = score(r, heads, DUR).reshape(P, K)
     term = r["terminated"].reshape(P, K); share = (r["end_step"] / STEPS).reshape(P, K)
@@ -41,10 +50,15 @@ class TurnThenRunRows(TurnThenRun):
 
 if __name__ == "__main__":
     t0 = time.time(); rng = np.random.default_rng(1)
-    T0 = np.array(json.load(open("yaw_search.json"))["top"][0]["params"])
+    top = json.load(open(out_name("yaw_search")))["top"][0]
+    T0 = np.array(top["params"])
+    if top["yaw_rate"] > 0:   # the controller's turning gait turns clockwise (its mirror anticlockwise)
+        T0 = mirror_gait(T0)
     seeds_p = [np.r_[T0, 0.6, 1.0]]
     for f in (0.3, 0.5, 0.7):   # gentler versions of the spin gait
         Ts = T0.copy(); Ts[0] *= f; Ts[1] *= f; seeds_p.append(np.r_[Ts, 0.4, 1.0])
+    if WARM:
+        seeds_p.append(np.array(json.load(open(WARM))["top"][0]["params"]))
     screen = np.array(seeds_p + [to_params(u) for u in rng.uniform(size=(60, 8))])
     archive = []
     def rec(params, out):
@@ -63,6 +77,6 @@ if __name__ == "__main__":
         hist.append(dict(gen=gen, t=round(time.time() - t0, 1), best=b["fitness"], median=float(np.median(out[0]))))
         print(hist[-1], flush=True)
     archive.sort(key=lambda a: -a["fitness"])
-    json.dump(dict(headings=HEAD.tolist(), seeds=SEEDS, duration=DUR, generations=gen, seconds=time.time() - t0,
-                   evaluations=len(archive), history=hist, top=archive[:10]), open("maneuver_search.json", "w"), indent=1)
+    json.dump(dict(**({} if MODEL == "plane" else dict(model=MODEL, physics=PHYSICS, direction_offset_deg=DELTA_DEG)), headings=HEAD.tolist(), seeds=SEEDS, duration=DUR, generations=gen, seconds=time.time() - t0,
+                   evaluations=len(archive), history=hist, top=archive[:10]), open(out_name("maneuver_search"), "w"), indent=1)
     for a in archive[:3]: print(a)

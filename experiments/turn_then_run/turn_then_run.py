@@ -17,6 +17,11 @@ from common import *
 DT = 0.05
 WIN = 15                      # yaw moving-average window, steps (~ one gait period)
 DELTA_DEG = 90.0              # own gait: travel direction = cycle-mean body yaw + DELTA (measured 90.2-90.4 over 20 s)
+if MODEL != "plane":          # measured by direction.py (run it first; None until then), to the whole degree as on the plane
+    try:                      # (pivot: -89.88, the same to 0.01 deg on 5 starts, own gait and mirror)
+        DELTA_DEG = float(round(json.load(open(out_name("direction")))["direction_offset_deg"]))
+    except FileNotFoundError:
+        DELTA_DEG = None
 
 
 # The gait helpers are the agent's (agents/turn_then_run.py), which was built from this script.
@@ -83,6 +88,20 @@ class TurnThenRun:
         return angles7(g, self.theta)
 
 
+def turn_deg(heading_deg, use_mirror_gait, delta_deg=None):
+    """The yaw turn (deg, in (-180, 180]) from the paper's start (yaw 0) that points the running
+    gait (or its mirror) along each heading."""
+    delta = DELTA_DEG if delta_deg is None else delta_deg
+    t = np.asarray(heading_deg, float) - np.where(use_mirror_gait, -delta, delta)
+    return (t + 180.0) % 360.0 - 180.0
+
+
+def smaller_turn_mirror(heading_deg, delta_deg=None):
+    """Whether the mirror gait needs the smaller turn (ties: the own gait), as the agent chooses."""
+    own, mirror = np.abs(turn_deg(heading_deg, False, delta_deg)), np.abs(turn_deg(heading_deg, True, delta_deg))
+    return mirror < own - 1e-6
+
+
 def score(r, heading_deg, dur):
     h = np.radians(heading_deg)
     d = r["up"][-1] - r["up"][0]
@@ -90,13 +109,16 @@ def score(r, heading_deg, dur):
 
 
 if __name__ == "__main__":
-    T = np.array(json.load(open("yaw_search.json"))["top"][0]["params"])
+    top = json.load(open(out_name("yaw_search")))["top"][0]
+    T = np.array(top["params"])
+    if top["yaw_rate"] > 0:   # TurnThenRun's turning gait turns clockwise
+        T = mirror_gait(T)
     G = own_gait().as_array()
     dur = float(sys.argv[1]) if len(sys.argv) > 1 else 50.0
     headings, mirrors, leads, ramps, reph = [], [], [], [], []
     for hd in (0.0, 45.0, 180.0):
         for m in (False, True):
-            if hd == 45.0 and m: continue    # mirror needs a 135 deg turn
+            if abs(turn_deg(hd, m)) > 91.0: continue    # (plane: the mirror on 45 deg) a 135 deg turn
             for L in (0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.3):
                 for rp in (0.0, 0.4, 1.0, 2.0):
                     for ph in (False, True):
@@ -115,7 +137,7 @@ if __name__ == "__main__":
                          speed_mps=float(sp[i]), reward_speed_mps=float(rew[i]), terminated=bool(r["terminated"][i]), why=r["why"][i],
                          end_s=float(r["end_step"][i] * DT), t_switch=float(ctl.t_switch[i]),
                          yaw_end_deg=float(np.degrees(r["yaw"][-1, i])), yaw_target_deg=float(np.degrees(ctl.target[i]))))
-    json.dump(dict(duration=dur, wall_s=wall, turn_gait=T.tolist(), run_gait=G.tolist(), rows=rows), open(f"sweep_{int(dur)}s.json", "w"), indent=1)
+    json.dump(dict(duration=dur, wall_s=wall, turn_gait=T.tolist(), run_gait=G.tolist(), rows=rows), open(out_name(f"sweep_{int(dur)}s"), "w"), indent=1)
     print(f"{n} robots, {dur} s, wall {wall:.0f} s")
     for hd in (0.0, 45.0, 180.0):
         ok = [x for x in rows if x["heading"] == hd and not x["terminated"]]

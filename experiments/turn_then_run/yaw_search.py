@@ -1,5 +1,7 @@
 """Step 1: search the 6-number sinusoid family for the largest sustained |yaw rate|,
-inside the model from the paper's start and from 2 start-noise seeds. Random screen + CMA-ES."""
+inside the model from the paper's start and from 2 start-noise seeds. Random screen + CMA-ES.
+
+    python yaw_search.py [--model pivot] [budget_s]   # writes yaw_search[_pivot].json"""
 import json, math, sys, time
 import numpy as np, cma
 from common import *
@@ -68,9 +70,9 @@ if __name__ == "__main__":
         hist.append(dict(gen=gen, t=round(time.time() - t_start, 1), best=b["fitness"], median=float(np.median(out[0]))))
         print(hist[-1], flush=True)
     archive.sort(key=lambda a: -a["fitness"])
-    json.dump(dict(seeds=[s for s in SEEDS], duration=DUR, generations=gen, seconds=time.time() - t_start,
+    json.dump(dict(**({} if MODEL == "plane" else dict(model=MODEL, physics=PHYSICS)), seeds=[s for s in SEEDS], duration=DUR, generations=gen, seconds=time.time() - t_start,
                    evaluations=len(archive), history=hist, top=archive[:20],
                    screen_top=sorted(archive[:0] + [a for a in archive], key=lambda a: -a['fitness'])[:5]),
-              open("yaw_search.json", "w"), indent=1)
+              open(out_name("yaw_search"), "w"), indent=1)
     for a in archive[:5]:
         print(a)
