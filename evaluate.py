@@ -8,7 +8,11 @@ same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
     python evaluate.py                                  # the shipped policy
     python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
     python evaluate.py --gaits agents/searched/plane_own.json        # searched gaits too
-    python evaluate.py --turn-then-run agents/searched/turn_then_run.json   # the closed-loop baseline (plane)
+    python evaluate.py --turn-then-run agents/searched/turn_then_run.json \
+        --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
+
+A turn-then-run file is scored on the model its JSON names (``"model"``, default plane) as
+"turn-then-run", under that model's physics keywords like every other agent there.
 
 Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
 (keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
@@ -368,9 +372,10 @@ def main(argv=None):
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
                         help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable)")
-    parser.add_argument("--turn-then-run", type=Path, metavar="FILE",
-                        help="also score the scripted turn-then-run baseline of this file on the plane "
-                             "(agents/searched/turn_then_run.json)")
+    parser.add_argument("--turn-then-run", type=Path, action="append", default=[], metavar="FILE",
+                        help="also score the scripted turn-then-run baseline of this file, as 'turn-then-run', on "
+                             "the model its JSON names ('model', default plane): agents/searched/turn_then_run.json "
+                             "(plane), agents/searched/turn_then_run_pivot.json (pivot); repeatable, one per model")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run each model's policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
@@ -399,12 +404,17 @@ def main(argv=None):
         if clash:
             parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
         agents.update(searched)
-    if args.turn_then_run is not None:
+    baseline_files = {}
+    for path in args.turn_then_run:
         try:
-            baseline = load_turn_then_run_agent(args.turn_then_run)
+            baseline = load_turn_then_run_agent(path)
         except ValueError as exc:
             parser.error(f"--turn-then-run: {exc}")
-        per_model.setdefault("plane", {})[baseline.name] = baseline
+        if baseline.model in baseline_files:
+            parser.error(f"--turn-then-run {path}: a second baseline for the {baseline.model} model "
+                         f"(after {baseline_files[baseline.model]}); give one file per model")
+        baseline_files[baseline.model] = path
+        per_model.setdefault(baseline.model, {})[baseline.name] = baseline
     try:
         records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model)
     except ValueError as exc:

@@ -1,6 +1,6 @@
-"""Turn, then run: a scripted closed-loop baseline for travel along any heading on the plane.
+"""Turn, then run: a scripted closed-loop baseline for travel along any heading.
 
-A gait's direction of travel is fixed relative to the body's yaw (the plane is isotropic), so
+A gait's direction of travel is fixed relative to the body's yaw (the floor is isotropic), so
 an open-loop gait goes one way. This agent first turns the body with a turning sinusoid (or its
 leg-exchanged mirror, for the other sense) until a running gait's direction points along the
 commanded heading, then blends into the running gait (or its mirror, whichever needs the
@@ -8,13 +8,17 @@ smaller turn) and runs it. It reads only the observation: the body's yaw relativ
 heading is atan2((n x h)_x, h_x), with n = ``up_in_body`` and h = ``heading_in_body``.
 
     from agents.turn_then_run import load_turn_then_run_agent
-    agent = load_turn_then_run_agent("agents/searched/turn_then_run.json")
+    agent = load_turn_then_run_agent("agents/searched/turn_then_run.json")        # plane
+    agent = load_turn_then_run_agent("agents/searched/turn_then_run_pivot.json")  # pivot
+    agent.model                                                                   # the model its file was searched on
 
 The switch: when the yaw's moving average over ``window`` control steps, projected ``lead``
 seconds ahead at its current rate, reaches its target, the running gait's phase is shifted so
 its leg targets match the turning gait's there, and the gait parameters are blended over
 ``ramp`` seconds with the phase kept continuous. The file's parameters were found by a CMA-ES
-search through this controller (``experiments/turn_then_run``).
+search through this controller (``experiments/turn_then_run``), on the model named by the
+file's ``"model"`` (``"plane"`` if absent), under the env keywords in its ``"env_kwargs"`` (kept
+on the agent as ``search_env_kwargs`` for reference, not applied: as for searched gaits).
 """
 
 from __future__ import annotations
@@ -83,6 +87,7 @@ class TurnThenRunAgent:
     """
 
     closed_loop = True  # evaluate.py: no "own direction" to score it along
+    model = "plane"  # the model its parameters were searched on (load_turn_then_run_agent: the file's)
 
     def __init__(self, turn_gait, run_gait, *, dt, lead, ramp, direction_offset=0.5 * math.pi, window=15,
                  name="turn-then-run"):  # fmt: skip
@@ -168,14 +173,22 @@ class TurnThenRunAgent:
 
 def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
     """The agent of a turn-then-run JSON file (``agents/searched/turn_then_run.json``): its turning
-    gait, lead and ramp, and the running gait named from a gait-search file beside it."""
+    gait, lead and ramp, and the running gait named from a gait-search file beside it. The
+    agent's ``model`` is the file's ``"model"`` (``"plane"`` if absent): the model to score it on."""
     path = Path(path)
     try:
         spec = json.loads(path.read_text())
         run = {gait.name: gait for gait in load_gaits(path.parent / spec["run_gait_file"])}[spec["run_gait"]]
-        return TurnThenRunAgent(
+        model = spec.get("model", "plane")
+        if model not in ("plane", "pivot"):
+            raise ValueError(f'"model" must be "plane" or "pivot", got {model!r}')
+        agent = TurnThenRunAgent(
             spec["turn_gait"], run.as_array(), dt=dt if dt is not None else spec["dt"], lead=spec["lead_s"],
             ramp=spec["ramp_s"], direction_offset=math.radians(spec["direction_offset_deg"]), window=spec["window_steps"],
         )  # fmt: skip
+        agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
+        return agent
     except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
         raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"turn-then-run file {path}: {exc}") from None
