@@ -9,7 +9,7 @@ from conftest import random_states
 from rrrobot_gym import dynamics, validity
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.params import RobotParams
-from rrrobot_gym.simulation import SimConfig, _derivative_fn, simulate_reference
+from rrrobot_gym.simulation import SimConfig, StepRecord, _derivative_fn, simulate_reference
 
 
 def _centre_of_mass(states, params):
@@ -78,8 +78,6 @@ def test_friction_ratio_is_infinite_without_a_push_from_the_ground():
 def test_spells_without_contact_count_what_was_carried_in_and_restart_on_contact():
     """Lift-off bookkeeping over a hand-made record: robot 0 touches down twice, robot 1 never
     does (its spell carried in keeps growing), robot 2 starts on the ground, lifts off, lands."""
-    from rrrobot_gym.simulation import StepRecord
-
     step = 0.01
     normal = np.array(
         [
@@ -115,3 +113,35 @@ def test_spells_without_contact_count_what_was_carried_in_and_restart_on_contact
     np.testing.assert_array_equal(measures["liftoff_time"], carried)
     np.testing.assert_array_equal(after, [0.0, 0.0, 0.0])
     np.testing.assert_array_equal(measures["liftoff_fraction"], [0.0, 0.0, 0.0])
+
+
+def test_step_measures_summarise_the_record_sample_by_sample():
+    """Each summary against its definition, written out on a hand-made record: robots 0 and 1
+    push on every sample (the in-contact shortcut), robot 2 loses contact once (the general path)."""
+    rng = np.random.default_rng(3)
+    samples, robots, step = 6, 3, 0.01
+    force = rng.normal(0.0, 1.0, (samples, robots, 3))
+    force[..., 2] = rng.uniform(0.5, 3.0, (samples, robots))  # upright body: the normal is F_z
+    force[2, 2, 2] = -0.2
+    torque, rates = rng.normal(0.0, 0.3, (samples, robots, 2)), rng.normal(0.0, 5.0, (samples, robots, 2))
+    clearance = rng.uniform(0.01, 0.05, (samples, robots, 2))
+    record = StepRecord(
+        times=step * np.arange(samples), step=step, torque=torque, force=force, normal=force[..., 2].copy(),
+        leg_clearance=clearance, leg_rates=rates,
+    )  # fmt: skip
+    measures, _ = validity.step_measures(record, SimConfig(model="plane"), None, np.zeros(robots))
+    grip = np.hypot(force[..., 0], force[..., 1]) / force[..., 2]
+    np.testing.assert_allclose(measures["friction_ratio"][:2], grip[:, :2].max(axis=0), rtol=1e-12)
+    assert measures["friction_ratio"][2] == np.inf  # a pull: no friction holds it
+    np.testing.assert_allclose(measures["normal_force"], force[..., 2].min(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(measures["torque_rms"], np.sqrt((torque**2).mean(axis=(0, 2))), rtol=1e-12)
+    np.testing.assert_allclose(measures["torque_peak"], np.abs(torque).max(axis=(0, 2)), rtol=1e-12)
+    np.testing.assert_allclose(measures["leg_rate_peak"], np.abs(rates).max(axis=(0, 2)), rtol=1e-12)
+    np.testing.assert_allclose(measures["leg_clearance"], clearance.min(axis=(0, 2)), rtol=1e-12)
+    np.testing.assert_allclose(measures["liftoff_fraction"], [0.0, 0.0, 1 / samples], rtol=1e-12)
+    # without the pull, all three take the in-contact path and agree with the same definitions
+    record = dataclasses.replace(record, normal=np.abs(record.normal), force=np.abs(force))
+    measures, _ = validity.step_measures(record, SimConfig(model="plane"), None, np.zeros(robots))
+    grip = np.hypot(force[..., 0], force[..., 1]) / np.abs(force[..., 2])
+    np.testing.assert_allclose(measures["friction_ratio"], grip.max(axis=0), rtol=1e-12)
+    np.testing.assert_array_equal(measures["liftoff_fraction"], np.zeros(robots))
