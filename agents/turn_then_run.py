@@ -19,6 +19,24 @@ its leg targets match the turning gait's there, and the gait parameters are blen
 search through this controller (``experiments/turn_then_run``), on the model named by the
 file's ``"model"`` (``"plane"`` if absent), under the env keywords in its ``"env_kwargs"`` (kept
 on the agent as ``search_env_kwargs`` for reference, not applied: as for searched gaits).
+
+Heading correction (optional, off unless the file sets ``"steer_gain"`` or ``"steer_integral"``):
+while blending and running, the running gait is changed by d (in the running gait's own
+six-number frame; its mirror gets the mirror image of the change),
+
+    d = clip(sense * (steer_gain * e + steer_integral * integral of e dt), -steer_limit, +steer_limit)
+    "offset":    o1 + d, o2 - d            "amplitude": a1 (1 + d), a2 (1 - d)
+
+scaled by the blend weight while blending and by a weight rising linearly from 0 at
+``steer_after_s`` s into the episode to 1 ``ramp`` s later (a gait on the edge of the envelope
+slips when changed at its start); e is the wrapped error of the yaw's moving average
+(the switch's window) from the running gait's target yaw, sense +1 for the running gait, -1 for
+its mirror, and the integral runs in mode RUN only (held while d saturates). A positive gain
+suits a gait that a positive d turns clockwise (both searched running gaits:
+``experiments/turn_then_run/steer_response.py``). ``steer_limit`` may be one number or
+[low, high] (low <= 0 <= high) for an asymmetric range. ``"run_at_once_below_deg"`` (default 0):
+a start needing a smaller turn than this runs at once instead (the correction then takes the
+rest); without it only an exact zero turn does.
 """
 
 from __future__ import annotations
@@ -90,7 +108,8 @@ class TurnThenRunAgent:
     model = "plane"  # the model its parameters were searched on (load_turn_then_run_agent: the file's)
 
     def __init__(self, turn_gait, run_gait, *, dt, lead, ramp, direction_offset=0.5 * math.pi, window=15,
-                 name="turn-then-run"):  # fmt: skip
+                 name="turn-then-run", steer_gain=0.0, steer_integral=0.0, steer_limit=0.0,
+                 steer_param="offset", steer_after=0.0, run_at_once_below=0.0):  # fmt: skip
         self.turn_gait, self.run_gait = np.asarray(turn_gait, dtype=float), np.asarray(run_gait, dtype=float)
         for label, gait in (("turn_gait", self.turn_gait), ("run_gait", self.run_gait)):
             if gait.shape != (6,) or not np.all(np.isfinite(gait)):
@@ -102,6 +121,28 @@ class TurnThenRunAgent:
             raise ValueError(f"window must be a positive whole number of control steps, got {window}")
         self.dt, self.lead, self.ramp = float(dt), float(lead), float(ramp)
         self.direction_offset, self.window, self.name = float(direction_offset), window, name
+        for label, value in (("steer_gain", steer_gain), ("steer_integral", steer_integral)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"{label} must be a finite number, got {value!r}")
+        limit = np.atleast_1d(np.asarray(steer_limit, dtype=object))
+        if limit.ndim != 1 or len(limit) not in (1, 2) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in limit
+        ):
+            raise ValueError(f"steer_limit must be a number >= 0 or [low, high], got {steer_limit!r}")
+        limit = limit.astype(float)
+        low, high = (-abs(limit[0]), abs(limit[0])) if len(limit) == 1 else (limit[0], limit[1])
+        if (len(limit) == 1 and limit[0] < 0) or not (low <= 0.0 <= high) or max(-low, high) > 0.5:
+            raise ValueError(f"steer_limit must be a number in [0, 0.5] or [low, high] with -0.5 <= low <= 0 <= high "
+                             f"<= 0.5, got {steer_limit!r}")  # fmt: skip
+        for label, value, top in (("steer_after_s", steer_after, math.inf), ("run_at_once_below_deg", run_at_once_below, 180.0)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= top):
+                raise ValueError(f"{label} must be a number in [0, {top}], got {value!r}")
+        if steer_param not in ("offset", "amplitude"):
+            raise ValueError(f'steer_param must be "offset" or "amplitude", got {steer_param!r}')
+        self.steer_gain, self.steer_integral = float(steer_gain), float(steer_integral)
+        self.steer_limit, self.steer_param = (float(low), float(high)), steer_param
+        self.steering = self.steer_gain != 0.0 or self.steer_integral != 0.0
+        self.steer_after, self.run_at_once_below = float(steer_after), math.radians(run_at_once_below)
 
     def _start(self, memory, rows, yaw):
         """Choose each restarted env's turn and gaits from its relative yaw at the start."""
@@ -113,7 +154,10 @@ class TurnThenRunAgent:
         memory["sense"][rows] = np.where(turn > 0.0, 1.0, -1.0)
         memory["g_turn"][rows] = [per_leg_gait(self.turn_gait, t > 0.0) for t in turn]  # the mirror turns anticlockwise
         memory["g_run"][rows] = [per_leg_gait(self.run_gait, m) for m in mirror]
-        memory["mode"][rows] = np.where(np.abs(turn) < 1e-6, RUN, TURN)
+        memory["run_sense"][rows] = np.where(mirror, -1.0, 1.0)
+        memory["integral"][rows] = 0.0
+        memory["steer"][rows] = 0.0
+        memory["mode"][rows] = np.where(np.abs(turn) < max(1e-6, self.run_at_once_below), RUN, TURN)
         memory["steps"][rows] = 0
         memory["phase"][rows] = 0.0
         memory["switched"][rows] = np.nan
@@ -130,6 +174,7 @@ class TurnThenRunAgent:
                 "target": np.zeros(n), "sense": np.zeros(n), "g_turn": np.zeros((n, 7)), "g_run": np.zeros((n, 7)),
                 "mode": np.zeros(n, dtype=int), "steps": np.zeros(n, dtype=int), "phase": np.zeros(n),
                 "switched": np.zeros(n), "history": np.zeros((2 * self.window, n)), "yaw": np.zeros(n),
+                "run_sense": np.ones(n), "integral": np.zeros(n), "steer": np.zeros(n),
             }  # fmt: skip
             starting = np.ones(n, dtype=bool)
         else:
@@ -165,10 +210,35 @@ class TurnThenRunAgent:
             blend[blending] = x * x * (3.0 - 2.0 * x)
             state["mode"][blending & (blend >= 1.0)] = RUN
         g = (1.0 - blend)[:, None] * state["g_turn"] + blend[:, None] * state["g_run"]
+        if self.steering:
+            g = self._steer(state, g, blend * np.clip((t - self.steer_after) / self.ramp, 0.0, 1.0), recent)
         state["phase"] = state["phase"] + g[:, 4] * self.dt
         state["steps"] = steps
         actions = np.clip(leg_targets_to_action(per_leg_angles(g, state["phase"])), -1.0, 1.0).astype(np.float32)
         return (actions[0] if single else actions), state
+
+    def _steer(self, state, g, weight, recent):
+        """The heading correction (module docstring): g with the running gait's part changed by
+        d x ``weight``; the integral grows only at full weight."""
+        error = _wrap(recent - state["target"])
+        running = (state["mode"] == RUN) & (weight >= 1.0)
+        sense = state["run_sense"]
+        low, high = self.steer_limit
+        raw = sense * (self.steer_gain * error + self.steer_integral * state["integral"])
+        d = np.clip(raw, low, high)
+        # Integrate only while running and not pushing further into the saturation.
+        grow = running & ~(((raw >= high) & (sense * error > 0)) | ((raw <= low) & (sense * error < 0)))
+        state["integral"] = np.where(grow, state["integral"] + error * self.dt, state["integral"])
+        c = sense * d * weight  # per leg: the mirror's legs are exchanged
+        state["steer"] = d * weight
+        g = g.copy()
+        if self.steer_param == "offset":
+            g[:, 2] += c
+            g[:, 3] -= c
+        else:
+            g[:, 0] *= 1.0 + c
+            g[:, 1] *= 1.0 - c
+        return g
 
 
 def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
@@ -185,6 +255,9 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
         agent = TurnThenRunAgent(
             spec["turn_gait"], run.as_array(), dt=dt if dt is not None else spec["dt"], lead=spec["lead_s"],
             ramp=spec["ramp_s"], direction_offset=math.radians(spec["direction_offset_deg"]), window=spec["window_steps"],
+            **{key: spec[key] for key in ("steer_gain", "steer_integral", "steer_limit", "steer_param") if key in spec},
+            **{arg: spec[key] for arg, key in (("steer_after", "steer_after_s"), ("run_at_once_below", "run_at_once_below_deg"))
+               if key in spec},
         )  # fmt: skip
         agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
         return agent

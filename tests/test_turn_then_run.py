@@ -1,5 +1,6 @@
 """The scripted turn-then-run baseline: it reads the yaw from the observation and turns the body."""
 
+import json
 import math
 from pathlib import Path
 
@@ -138,3 +139,134 @@ def test_evaluate_scores_each_baseline_file_on_the_model_its_json_names(capsys, 
     with pytest.raises(SystemExit):
         evaluate.main(["--no-policy", "--turn-then-run", str(bad)])
     assert f"turn-then-run file {bad}: \"model\" must be" in capsys.readouterr().err
+
+
+def _variant(path, tmp_path, name, **changes):
+    """The agent of a copy of ``path`` (beside a copy of its running gait's file) with keys
+    changed (None: removed)."""
+    spec = json.loads(Path(path).read_text())
+    (tmp_path / spec["run_gait_file"]).write_text(Path(path).with_name(spec["run_gait_file"]).read_text())
+    for key, value in changes.items():
+        spec.pop(key, None) if value is None else spec.__setitem__(key, value)
+    (tmp_path / name).write_text(json.dumps(spec))
+    return load_turn_then_run_agent(tmp_path / name)
+
+
+STEER_KEYS = ("steer_gain", "steer_integral", "steer_limit", "steer_param", "steer_after_s", "run_at_once_below_deg")
+
+
+def _heading_of_travel(agents, headings_deg, seconds, last, **env_kwargs):
+    """Direction of travel (deg) over the last ``last`` s minus the heading, one robot per agent
+    along its heading (``headings_deg``) in one env, and which episodes ended."""
+    n = len(agents)
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, reset_noise_scale=0.0, **env_kwargs)
+    obs, _ = env.reset(seed=0, options={"target_direction": np.radians(headings_deg)})
+    states, ended = [None] * n, np.zeros(n, dtype=bool)
+    steps, tail = int(round(seconds / env.dt)), int(round(last / env.dt))
+    for k in range(steps):
+        actions = np.empty((n, 2), dtype=np.float32)
+        for i, agent in enumerate(agents):
+            actions[i : i + 1], states[i] = agent.predict(obs[i : i + 1], state=states[i], episode_start=np.array([k == 0]))
+        obs, _, terminated, _, _ = env.step(actions)
+        ended |= terminated
+        if k + 1 == steps - tail:
+            before = env.states[:, 0:2].copy()
+    travel = env.states[:, 0:2] - before
+    off = np.degrees(np.arctan2(travel[:, 1], travel[:, 0])) - np.asarray(headings_deg)
+    return (off + 180.0) % 360.0 - 180.0, ended
+
+
+def test_the_heading_correction_holds_the_pivot_on_its_heading():
+    """Pivot, 90 deg (the running gait's mirror, no turn needed) and 270 deg (the gait itself),
+    30 s under evaluate.py's pivot motors: the open-loop running gait's yaw drifts about 0.84
+    deg/s, so over the last 10 s the uncorrected agent travels well off the heading (~28 deg);
+    the shipped file's correction holds it within a few degrees, and the same correction with
+    its sign flipped (positive feedback) does not."""
+    corrected = load_turn_then_run_agent(PIVOT_FILE)
+    assert corrected.steering
+    spec = json.loads(PIVOT_FILE.read_text())
+    plain = TurnThenRunAgent(corrected.turn_gait, corrected.run_gait, dt=corrected.dt, lead=corrected.lead,
+                             ramp=corrected.ramp, direction_offset=corrected.direction_offset, window=corrected.window)
+    flipped = TurnThenRunAgent(corrected.turn_gait, corrected.run_gait, dt=corrected.dt, lead=corrected.lead,
+                               ramp=corrected.ramp, direction_offset=corrected.direction_offset, window=corrected.window,
+                               steer_gain=-spec["steer_gain"], steer_integral=-spec["steer_integral"],
+                               steer_limit=spec["steer_limit"])  # fmt: skip
+    off, ended = _heading_of_travel([plain, corrected, flipped, plain, corrected], [90.0] * 3 + [270.0] * 2, 30.0, 10.0,
+                                    model="pivot", torque_limit=0.5, leg_rate_limit=10.0)  # fmt: skip
+    assert not ended.any()
+    assert abs(off[1]) < 5.0 and abs(off[4]) < 5.0, off
+    assert abs(off[0]) > 12.0 and abs(off[2]) > 12.0 and abs(off[3]) > 12.0, off
+
+
+def test_without_the_steering_keys_the_agent_is_the_uncorrected_one(tmp_path):
+    """The steering keys are optional: absent, the agent acts exactly as before they existed (and
+    a zero gain is the same agent)."""
+    for path in (FILE, PIVOT_FILE):
+        plain = _variant(path, tmp_path, "plain.json", **{key: None for key in STEER_KEYS})
+        zero = _variant(path, tmp_path, "zero.json", steer_gain=0.0, steer_integral=0.0, steer_limit=0.1,
+                        steer_after_s=3.0, run_at_once_below_deg=None)
+        assert not plain.steering and not zero.steering and plain.run_at_once_below == 0.0
+        rng = np.random.default_rng(1)
+        states = task.start_states(rng.uniform(-0.05, 0.05, (4, 10)))
+        obs = task.observe(states, np.radians([0.0, 90.0, 180.0, 300.0]), task.make_task_config(), np.zeros(4))
+        a, sa = plain.predict(obs)
+        b, sb = zero.predict(obs)
+        for _ in range(40):
+            a, sa = plain.predict(obs, state=sa)
+            b, sb = zero.predict(obs, state=sb)
+            assert np.array_equal(a, b)
+
+
+def test_bad_steering_values_are_named(tmp_path):
+    bad = {
+        "steer_gain": ("a lot", "steer_gain must be a finite number"),
+        "steer_integral": (float("nan"), "steer_integral must be a finite number"),
+        "steer_limit": (-0.1, "steer_limit must be a number in"),
+        "steer_param": ("phase", "steer_param must be"),
+        "steer_after_s": (-1.0, "steer_after_s must be a number in"),
+        "run_at_once_below_deg": (200.0, "run_at_once_below_deg must be a number in"),
+    }
+    for key, (value, message) in bad.items():
+        with pytest.raises(ValueError, match=f"turn-then-run file .*: {message}"):
+            _variant(PIVOT_FILE, tmp_path, "bad.json", **{key: value})
+    for limit in ([0.1, 0.2], [-0.1, 0.2, 0.3], [-0.6, 0.1], "0.1", [0.1, float("inf")]):
+        with pytest.raises(ValueError, match="steer_limit must be"):
+            TurnThenRunAgent(np.zeros(6), np.zeros(6), dt=0.05, lead=0.5, ramp=1.0, steer_gain=0.1, steer_limit=limit)
+    agent = TurnThenRunAgent(np.zeros(6), np.zeros(6), dt=0.05, lead=0.5, ramp=1.0, steer_gain=0.1, steer_limit=[-0.1, 0.05])
+    assert agent.steer_limit == (-0.1, 0.05)
+
+
+def test_the_steering_change_is_the_documented_one_for_the_gait_and_its_mirror():
+    """Started 4 deg off a running direction (run at once below 10 deg), once ramped in the change
+    d is clip(sense * gain * e) with e the yaw's error from the target, applied as o1 + d, o2 - d
+    (or a1 (1 + d), a2 (1 - d)) in the running gait's own frame, i.e. with the legs exchanged
+    for its mirror; the leg targets are the changed gait's."""
+    from agents.turn_then_run import per_leg_angles, per_leg_gait
+
+    run = np.array([1.2, 1.0, 1.5, 1.6, 8.0, 1.0])
+    states = task.start_states(np.zeros((2, 10)))
+    # The body's yaw (0) 4 deg anticlockwise of the target yaw: the gait (travel = yaw + 90) along
+    # 86 deg, its mirror (travel = yaw - 90) along -94 deg.
+    obs = task.observe(states, np.radians([86.0, -94.0]), task.make_task_config(), np.zeros(2))
+    error = math.radians(4.0)
+    for param in ("offset", "amplitude"):
+        agent = TurnThenRunAgent(np.zeros(6), run, dt=0.05, lead=0.5, ramp=1.0, steer_gain=0.3, steer_limit=[-0.01, 0.02],
+                                 steer_param=param, run_at_once_below=10.0)  # fmt: skip
+        actions, state = agent.predict(obs)
+        assert state["steer"].tolist() == [0.0, 0.0]  # ramped in from 0 at steer_after (0 s) over ramp (1 s)
+        for _ in range(20):
+            actions, state = agent.predict(obs, state=state)
+        assert list(state["mode"]) == [2, 2] and list(state["run_sense"]) == [1.0, -1.0]
+        # the agent's target: the yaw + the (4 deg) turn; the yaw 4 deg anticlockwise of it
+        assert np.allclose(relative_yaw(obs) - state["target"], error, atol=1e-5)
+        d = np.clip(np.array([1.0, -1.0]) * 0.3 * error, -0.01, 0.02)  # own: 0.0209 -> 0.02; mirror: -0.0209 -> -0.01
+        assert np.allclose(state["steer"], d, atol=1e-6)
+        for i, mirror in enumerate((False, True)):
+            changed = run.copy()
+            if param == "offset":
+                changed[2:4] += [d[i], -d[i]]
+            else:
+                changed[0:2] *= [1.0 + d[i], 1.0 - d[i]]
+            g = per_leg_gait(changed, mirror)[None]
+            expected = np.clip(task.leg_targets_to_action(per_leg_angles(g, g[:, 4] * 0.05 * 21)), -1, 1)
+            assert np.allclose(actions[i], expected[0], atol=1e-5)
