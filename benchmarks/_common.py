@@ -10,6 +10,8 @@ import os
 import pickle
 import platform
 import statistics
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -39,6 +41,15 @@ def machine() -> dict:
         "numpy": np.__version__,
         "load_average_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
     }
+
+
+def run_fresh(tree: Path, script: str, *args, prefix=(), **env) -> subprocess.CompletedProcess:
+    """``python -c script args`` in a fresh process importing ``tree``'s rrrobot_gym, with one
+    BLAS thread (``prefix``: a command to run it under, e.g. valgrind; ``env``: more variables).
+    Raises CalledProcessError if it fails; returns it with its stdout and stderr as text."""
+    variables = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", **env}
+    return subprocess.run([*prefix, sys.executable, "-c", script, *map(str, args)], cwd=tree, env=variables,
+                          capture_output=True, text=True, check=True)  # fmt: skip
 
 
 def parser(description: str) -> argparse.ArgumentParser:

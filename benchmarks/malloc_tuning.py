@@ -23,13 +23,11 @@ Medians over rounds.
 from __future__ import annotations
 
 import json
-import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 
-from ._common import machine, markdown_table, parser, write_json
+from ._common import machine, markdown_table, parser, run_fresh, write_json
 
 HERE = Path(__file__).resolve().parents[1]
 SETTINGS = ("tuned", "untuned", "dynamic off")
@@ -59,7 +57,7 @@ start = time.perf_counter()
 for action in actions[5:]:
     env.step(action)
 rate = num_envs * steps / (time.perf_counter() - start)
-inner = env.unwrapped if hasattr(env, "unwrapped") else env
+inner = env.unwrapped
 config = inner.config
 held = RampTargets(inner.leg_targets, inner.leg_targets + 0.01, 0.0, config.dt)
 _, record = simulation.advance(config.sim, inner.states, 0.0, config.dt, held, check=False, record=True)
@@ -77,10 +75,7 @@ print(json.dumps({"env_steps_per_s": rate, "step_measures_ms": 1e3 * float(np.me
 
 def measure(setting: str, num_envs: int, steps: int) -> dict:
     """One fresh process under ``setting``: its env rate, step_measures time and memory."""
-    env = {**os.environ, "PYTHONPATH": str(HERE), "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _MEASURE, setting, str(num_envs), str(steps)], cwd=HERE, env=env,
-                         capture_output=True, text=True, check=True)  # fmt: skip
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return json.loads(run_fresh(HERE, _MEASURE, setting, num_envs, steps).stdout.strip().splitlines()[-1])
 
 
 def main(argv=None) -> None:

@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import shutil
 import statistics
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
+
+from ._common import run_fresh
 
 HERE = Path(__file__).resolve().parents[1]
 
@@ -58,10 +58,7 @@ print(max(num_envs, 1) * steps / (time.perf_counter() - start))
 
 def rate(tree: Path, num_envs: int, steps: int) -> float:
     """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env)."""
-    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([sys.executable, "-c", _MEASURE, str(num_envs), str(steps)], cwd=tree, env=env,
-                         capture_output=True, text=True, check=True)  # fmt: skip
-    return float(out.stdout.split()[-1])
+    return float(run_fresh(tree, _MEASURE, num_envs, steps).stdout.split()[-1])
 
 
 def instructions(tree: Path, num_envs: int, steps: int) -> float:
@@ -69,10 +66,8 @@ def instructions(tree: Path, num_envs: int, steps: int) -> float:
     runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
 
     def collected(n: int) -> int:
-        env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", "PYTHONHASHSEED": "0"}
-        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable,
-                              "-c", _MEASURE, str(num_envs), str(n)], cwd=tree, env=env, capture_output=True,
-                             text=True, check=True)  # fmt: skip
+        out = run_fresh(tree, _MEASURE, num_envs, n, prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"),
+                        PYTHONHASHSEED="0")  # fmt: skip
         match = re.search(r"Collected : (\d+)", out.stderr)
         if match is None:
             raise RuntimeError(f"no instruction count in valgrind's output:\n{out.stderr[-2000:]}")
