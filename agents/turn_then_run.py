@@ -49,6 +49,7 @@ import numpy as np
 
 from rrrobot_gym.envs.task import OBSERVATION_FIELDS, leg_targets_to_action
 from rrrobot_gym.gait_search import load_gaits
+from rrrobot_gym.params import MODELS
 
 _FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
 TURN, BLEND, RUN = 0, 1, 2
@@ -250,8 +251,8 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
         spec = json.loads(path.read_text())
         run = {gait.name: gait for gait in load_gaits(path.parent / spec["run_gait_file"])}[spec["run_gait"]]
         model = spec.get("model", "plane")
-        if model not in ("plane", "pivot"):
-            raise ValueError(f'"model" must be "plane" or "pivot", got {model!r}')
+        if model not in MODELS:
+            raise ValueError(f'"model" must be one of {", ".join(MODELS)}, got {model!r}')
         agent = TurnThenRunAgent(
             spec["turn_gait"], run.as_array(), dt=dt if dt is not None else spec["dt"], lead=spec["lead_s"],
             ramp=spec["ramp_s"], direction_offset=math.radians(spec["direction_offset_deg"]), window=spec["window_steps"],
