@@ -17,6 +17,11 @@ import numpy as np
 from .params import _require_finite
 
 
+TARGETS_HELD, TARGETS_RAMP, TARGETS_SINUSOID = 0, 1, 2
+"""The kinds of leg-target source the compiled stepper knows (``compiled_targets()``, see
+:func:`rrrobot_gym.compiled.target_arrays`): held angles, a ramp, a sinusoid."""
+
+
 @dataclass(frozen=True)
 class Gait:
     """phi_k(t) = amplitude sin(frequency t + phase_k) + offset_k (paper Section III)."""
@@ -48,15 +53,13 @@ class Gait:
         return Gait(self.amplitude, self.frequency, self.phase[::-1], self.offset, name)
 
     def leg_targets(self, t):
-        a, w = self.amplitude, self.frequency
-        angles, rates, accels = [], [], []
-        for k in range(2):
-            arg = w * t + self.phase[k]
-            s, c = math.sin(arg), math.cos(arg)
-            angles.append(a * s + self.offset[k])
-            rates.append(a * w * c)
-            accels.append(-a * w * w * s)
-        return tuple(angles), tuple(rates), tuple(accels)
+        a = self.amplitude
+        return sinusoid_targets(t, (a, a), self.frequency, self.phase, self.offset)
+
+    def compiled_targets(self):
+        """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
+        a = self.amplitude
+        return TARGETS_SINUSOID, (a, a, self.frequency, *self.phase, *self.offset), ()
 
     def robot(self, i: int) -> "Gait":
         """The targets of robot ``i`` of a batch: the same gait (see :meth:`RampTargets.robot`)."""
@@ -66,6 +69,21 @@ class Gait:
         """Target leg angles at an array of times, shape (T, 2), rad."""
         times = np.asarray(times, dtype=float)[..., None]
         return self.amplitude * np.sin(self.frequency * times + np.asarray(self.phase)) + np.asarray(self.offset)
+
+
+def sinusoid_targets(t, amplitude, frequency, phase, offset):
+    """Targets of phi_k(t) = a_k sin(w t + beta_k) + o_k at time t (a float): ``amplitude``,
+    ``phase`` and ``offset`` are (leg 1, leg 2) pairs, ``frequency`` w in rad/s. The one
+    sinusoid of the gaits (:class:`Gait`, ``gait_search.SinusoidGait``) and of the compiled
+    stepper (:mod:`rrrobot_gym.compiled`)."""
+    (a1, a2), (b1, b2), (o1, o2), w = amplitude, phase, offset, frequency
+    s1, c1 = math.sin(w * t + b1), math.cos(w * t + b1)
+    s2, c2 = math.sin(w * t + b2), math.cos(w * t + b2)
+    return (
+        (a1 * s1 + o1, a2 * s2 + o2),
+        (a1 * w * c1, a2 * w * c2),
+        (-a1 * w * w * s1, -a2 * w * w * s2),
+    )
 
 
 GAIT_OFFSETS = {1: 0.5 * math.pi, 2: 0.0, 3: 0.25 * math.pi}
@@ -95,6 +113,10 @@ class HeldTargets:
     def leg_targets(self, t):
         return self._angles, (0.0, 0.0), (0.0, 0.0)
 
+    def compiled_targets(self):
+        """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
+        return TARGETS_HELD, self._angles, ()
+
     def robot(self, i: int) -> "HeldTargets":
         """The targets of robot ``i`` of a batch, on Python floats (see :meth:`RampTargets.robot`)."""
         if isinstance(self._angles[0], float):
@@ -121,20 +143,26 @@ def limit_torque(torque, leg_rates, torque_limit, rate_limit=None):
     """
     if torque_limit is None:
         return torque
-    limited = []
-    for tau, rate in zip(torque, leg_rates):
-        high = low = torque_limit
-        if rate_limit is not None:
-            drop = torque_limit * rate / rate_limit
-            if isinstance(drop, float):
-                high, low = min(high, torque_limit - drop), min(low, torque_limit + drop)
-            else:
-                high, low = np.minimum(high, torque_limit - drop), np.minimum(low, torque_limit + drop)
-        if isinstance(tau, float) and isinstance(high, float):
-            limited.append(min(max(tau, -low), high))
+    return (
+        motor_torque(torque[0], leg_rates[0], torque_limit, rate_limit),
+        motor_torque(torque[1], leg_rates[1], torque_limit, rate_limit),
+    )
+
+
+def motor_torque(tau, rate, torque_limit, rate_limit=None):
+    """One leg's part of :func:`limit_torque`: the servo's ``tau`` as the motor can give it at
+    leg rate ``rate`` (floats, or arrays of a batch). Also compiled by :mod:`rrrobot_gym.compiled`."""
+    high = low = torque_limit
+    if rate_limit is not None:
+        drop = torque_limit * rate / rate_limit
+        if isinstance(rate, float):
+            high, low = min(high, torque_limit - drop), min(low, torque_limit + drop)
         else:
-            limited.append(np.minimum(np.maximum(tau, -low), high))
-    return tuple(limited)
+            high, low = np.minimum(high, torque_limit - drop), np.minimum(low, torque_limit + drop)
+    # (the bounds are floats when the rate is, or when there is no rate limit)
+    if isinstance(tau, float) and (rate_limit is None or isinstance(rate, float)):
+        return min(max(tau, -low), high)
+    return np.minimum(np.maximum(tau, -low), high)
 
 
 class RampTargets:
@@ -173,6 +201,10 @@ class RampTargets:
         self._still = split(np.zeros_like(start))
         self._change = split(end - start)
 
+    def compiled_targets(self):
+        """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
+        return TARGETS_RAMP, (*self._start, *self._end, *self._change, *self._slope), (self.t0, self.duration)
+
     def robot(self, i: int) -> "RampTargets":
         """The ramp of robot ``i`` of a batch, on Python floats: what the simulator integrates a
         small batch robot by robot with (the float steppers), instead of indexing the batch's
@@ -183,12 +215,19 @@ class RampTargets:
         return RampTargets([a1[i], a2[i]], [b1[i], b2[i]], self.t0, self.duration)
 
     def leg_targets(self, t):
-        s = (t - self.t0) / self.duration
-        # Closed at the end: RK4's last stage falls on t0 + duration up to rounding, and the
-        # rate must not depend on which side of it rounding lands.
-        if s > 1.0 + 1e-9:
-            return self._end, self._still, self._still
-        if s < 0.0:
-            s = 0.0
-        (a1, a2), (d1, d2) = self._start, self._change
-        return (a1 + d1 * s, a2 + d2 * s), self._slope, self._still
+        return ramp_targets(t, self.t0, self.duration, self._start, self._end, self._change, self._slope, self._still)
+
+
+def ramp_targets(t, t0, duration, start, end, change, slope, still):
+    """The targets of :class:`RampTargets` at time t (a float); ``start``, ``end``, ``change``
+    (end - start), ``slope`` (change / duration) and ``still`` (zeros) are (leg 1, leg 2) pairs
+    of floats or (N,) arrays. Also compiled by :mod:`rrrobot_gym.compiled`."""
+    s = (t - t0) / duration
+    # Closed at the end: RK4's last stage falls on t0 + duration up to rounding, and the
+    # rate must not depend on which side of it rounding lands.
+    if s > 1.0 + 1e-9:
+        return end, still, still
+    if s < 0.0:
+        s = 0.0
+    (a1, a2), (d1, d2) = start, change
+    return (a1 + d1 * s, a2 + d2 * s), slope, still

@@ -59,6 +59,7 @@ import numpy as np
 
 from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, leg_targets_to_action
 from .analysis import json_safe
+from .control import TARGETS_SINUSOID, sinusoid_targets
 from .params import whole_number
 
 SCHEMA = "rrrobot_gym.gait_search/1"
@@ -189,15 +190,15 @@ class SinusoidGait:
         """Target leg angles at an array of times, shape (T, 2), rad."""
         return sinusoid_angles(self.as_array(), np.asarray(times, dtype=float))
 
+    def compiled_targets(self):
+        """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
+        params = (self.amplitude_1, self.amplitude_2, self.frequency, 0.0, self.phase_gap, self.offset_1, self.offset_2)
+        return TARGETS_SINUSOID, params, ()
+
     def leg_targets(self, t):
-        a, o, w = (self.amplitude_1, self.amplitude_2), (self.offset_1, self.offset_2), self.frequency
-        angles, rates, accels = [], [], []
-        for k, beta in enumerate((0.0, self.phase_gap)):
-            s, c = math.sin(w * t + beta), math.cos(w * t + beta)
-            angles.append(o[k] + a[k] * s)
-            rates.append(a[k] * w * c)
-            accels.append(-a[k] * w * w * s)
-        return tuple(angles), tuple(rates), tuple(accels)
+        return sinusoid_targets(
+            t, (self.amplitude_1, self.amplitude_2), self.frequency, (0.0, self.phase_gap), (self.offset_1, self.offset_2)
+        )
 
 
 # ---------------------------------------------------------------- scoring a population

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import dynamics
+from . import compiled, dynamics
 from .control import limit_torque, pd_torque
 from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth, whole_number
 
@@ -42,6 +42,13 @@ LEG_MODES = ("servo", "kinematic")
 """How the legs move (``SimConfig.legs``): "servo" integrates the PD servo with the
 body (the paper's model); "kinematic" makes the legs follow a smooth path to their
 targets exactly, so the stiff servo leaves the integration (see :func:`advance`)."""
+
+BACKENDS = ("auto", "numpy", "numba")
+"""How :func:`advance` integrates (``SimConfig.backend``): "numba", the compiled stepper of
+:mod:`rrrobot_gym.compiled` (numba installed; servo legs, RK4, and the ramp, held or sinusoid
+targets of :mod:`rrrobot_gym.control`); "numpy", the Python and numpy steppers here; "auto"
+(default), the compiled stepper where numba is installed and it covers the scene and targets,
+else numpy. Both integrate the same equations (:func:`rrrobot_gym.dynamics.derivative_kernel`)."""
 
 DEFAULT_TIMESTEP = 1.0 / 300.0
 """s, RK4 step of the defaults; keeps the contact point within 1 mm of the
@@ -60,9 +67,22 @@ class SimConfig:
     legs: str = "servo"  # "servo" (PD servo dynamics) or "kinematic" (legs follow a smooth path exactly)
     torque_limit: float | None = None  # N m, the leg motors' stall torque; None: unlimited (the paper's servo)
     leg_rate_limit: float | None = None  # rad/s, the motors' no-load speed (needs torque_limit); None: unlimited
+    # "auto", "numpy" or "numba" (BACKENDS): how, not what, is integrated, so it is left out of the repr
+    # (which describes the physics: tests/reference_paths.py keys its stored paths on it)
+    backend: str = field(default="auto", repr=False)
 
     def __post_init__(self):
         check_model(self.model)
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown backend {self.backend!r}: expected one of {', '.join(BACKENDS)}")
+        if self.backend == "numba":
+            if not compiled.available():
+                raise ImportError("SimConfig.backend='numba' needs numba: pip install 'rrrobot_gym[fast]' (or numba)")
+            if not compiled.supports(self):
+                raise ValueError(
+                    f"SimConfig.backend='numba' compiles servo legs with integrator 'rk4' only, got legs "
+                    f"{self.legs!r} and integrator {self.integrator!r}: use backend 'auto' or 'numpy'"
+                )
         for name in ("torque_limit", "leg_rate_limit"):
             value = getattr(self, name)
             if value is not None:
@@ -868,7 +888,11 @@ def advance(
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps = max(1, math.ceil(duration / step - 1e-9))
     h = duration / n_steps
-    if state.ndim == 1:
+    described = _compiled_targets(config, targets)
+    if described is not None:
+        out, rows = compiled.integrate(config, described, state, t0, h, n_steps, record, workers)
+        records = [rows]
+    elif state.ndim == 1:
         try:
             out, recorder = _integrate(config, targets, blend, state.tolist(), t0, h, n_steps, record)
             out = np.array(out)
@@ -899,6 +923,24 @@ def advance(
     if record:
         return out, _Recorder.merge(records, t0, h)
     return out
+
+
+def _compiled_targets(config: SimConfig, targets):
+    """The targets as :func:`rrrobot_gym.compiled.target_arrays` describes them if :func:`advance`
+    takes the compiled stepper for this scene and these targets, else None."""
+    if config.backend == "numpy" or not compiled.supports(config):
+        return None
+    if config.backend == "auto" and not compiled.available():
+        return None
+    described = compiled.target_arrays(targets)
+    if described is not None:
+        return described
+    if config.backend == "numba":
+        raise TypeError(
+            f"backend 'numba' knows the leg targets of rrrobot_gym.control (RampTargets, HeldTargets, Gait) and "
+            f"gait_search.SinusoidGait, not {type(targets).__name__}: use backend 'auto' or 'numpy' for it"
+        )
+    return None
 
 
 def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool):

@@ -63,15 +63,16 @@ def test_a_large_batch_tunes_glibcs_malloc_once_and_both_thresholds(monkeypatch)
     sets the mmap threshold too (else big arrays are mmapped and faulted in afresh) and is
     left in place: raised for a bigger batch, never put back."""
     calls = []
+    numpy = SimConfig(backend="numpy")  # the compiled stepper makes no temporaries: nothing to tune
     monkeypatch.setattr(simulation, "_mallopt", lambda: lambda option, value: calls.append((option, value.value)))
     monkeypatch.setattr(simulation, "_heap_kept_for", 0)
     states = simulation.initial_state(1024)
-    simulation.advance(SimConfig(), states[:100], 0.0, 0.01, table2_gait(1))
+    simulation.advance(numpy, states[:100], 0.0, 0.01, table2_gait(1))
     assert calls == []  # small batches leave malloc alone
-    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
+    simulation.advance(numpy, states, 0.0, 0.01, table2_gait(1))
     assert calls == [(-3, 32 << 20), (-1, 64 << 20)]  # M_MMAP_THRESHOLD, M_TRIM_THRESHOLD
-    simulation.advance(SimConfig(), states, 0.0, 0.01, table2_gait(1))
+    simulation.advance(numpy, states, 0.0, 0.01, table2_gait(1))
     assert len(calls) == 2  # once per process, not put back after the call
     big = simulation.initial_state(20_000)
-    simulation.advance(SimConfig(), big, 0.0, 0.001, table2_gait(1))
+    simulation.advance(numpy, big, 0.0, 0.001, table2_gait(1))
     assert calls[2:] == [(-3, 32 << 20), (-1, 4096 * 20_000)]  # raised for a bigger working set

@@ -147,6 +147,11 @@ class TaskConfig:
         shown="`1/300`",
     )
     integrator: str = _keyword("rk4", "fixed-step integrator, one of `rrrobot_gym.simulation.INTEGRATORS`")
+    backend: str = _keyword(
+        "auto",
+        '`"numba"`: the compiled stepper (numba installed; servo legs and rk4); `"numpy"`: the numpy one; '
+        '`"auto"`: numba where it applies (`rrrobot_gym.simulation.BACKENDS`)',
+    )
     model: str = _keyword("plane", '`"plane"` (rolling on a plane) or `"pivot"` (the paper\'s Pivoting Dynamics model)')
     robot: RobotParams | None = _keyword(
         None, "geometry, masses, gravity, damping (`rrrobot_gym.params.RobotParams`); None: the paper's robot",
@@ -222,6 +227,7 @@ class TaskConfig:
             robot=robot,
             gains=PDGains(kp=self.kp, kd=self.kd),
             integrator=self.integrator,
+            backend=self.backend,
             timestep=self.timestep,
             legs=self.legs,
             torque_limit=self.torque_limit,

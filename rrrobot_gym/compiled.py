@@ -1,0 +1,235 @@
+"""The compiled stepper: RK4 with the leg servo, JIT-compiled by numba (an optional extra).
+
+Nothing here is a second implementation. The equations of motion are
+:func:`rrrobot_gym.dynamics.derivative_kernel` and its helpers, and the servo, the motor
+limit and the leg targets are the functions of :mod:`rrrobot_gym.control`: this module
+compiles those very functions (copies of the function objects, sharing their code, whose
+globals point at the compiled helpers instead of the Python ones). The stepper around them
+does what :func:`rrrobot_gym.simulation.advance` does for one robot on Python floats, in the
+same order of operations, so its results are those of the float stepper to the last bit
+(``tests/test_compiled.py``), for every batch size; robots are independent, so a batch may be
+split across threads (``workers``) without changing a bit either.
+
+Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the
+scene is one it covers: servo legs, ``integrator="rk4"``, and targets from
+:class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
+:class:`~rrrobot_gym.control.Gait` or ``gait_search.SinusoidGait`` (any source with a
+``compiled_targets()`` method). Everything else takes the numpy path.
+
+Compiling takes several seconds the first time; the result is cached on disk in a directory
+named by the content of the compiled sources (:func:`cache_dir`), so later processes load it
+and an edit to the equations can never meet a stale build.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+import types
+from collections import namedtuple
+
+import numpy as np
+
+from . import control, dynamics
+
+_DYNAMICS = ("_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
+             "_contact_force", "derivative_kernel")  # fmt: skip
+_CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
+RECORD_ROWS = 10  # as simulation._RECORD_ROWS: torque (2), force (3), normal, clearance (2), leg rates (2)
+
+_Gains = namedtuple("_Gains", "kp kd")  # what pd_torque reads of a PDGains, in a form numba takes
+
+
+@functools.lru_cache(maxsize=1)
+def available() -> bool:
+    """True if numba can be imported (``pip install "rrrobot_gym[fast]"``)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def supports(config) -> bool:
+    """True if the compiled stepper covers this :class:`~rrrobot_gym.simulation.SimConfig`'s scene
+    (the targets are checked by :func:`target_arrays`)."""
+    return config.integrator == "rk4" and config.legs == "servo"
+
+
+def target_arrays(targets):
+    """(kind, per-robot parameters (M, P), shared parameters) of a leg-target source, M = 1 when
+    every robot has the same targets; None for a source the compiled stepper does not know."""
+    describe = getattr(targets, "compiled_targets", None)
+    if describe is None:
+        return None
+    kind, per_robot, shared = describe()
+    columns = [np.asarray(v, dtype=float) for v in per_robot]
+    rows = max((c.size for c in columns if c.ndim), default=1)
+    params = np.empty((rows, len(columns)))
+    for j, c in enumerate(columns):
+        params[:, j] = c
+    return kind, params, np.asarray(shared, dtype=float)
+
+
+def _compiled_copies(module, names, njit, namespace=None):
+    """The functions ``names`` of ``module`` compiled, in a copy of its namespace (or in ``namespace``)
+    in which each refers to the compiled others (numba resolves a function's globals when it compiles it)."""
+    namespace = dict(vars(module)) if namespace is None else namespace
+    for name in names:
+        fn = getattr(module, name)
+        namespace[name] = njit(types.FunctionType(fn.__code__, namespace, name, fn.__defaults__, fn.__closure__))
+    return namespace
+
+
+# The stepper. Plain Python here (it runs uncompiled too, slowly: ``prange`` is ``range``);
+# :func:`_stepper` compiles copies whose globals are the compiled kernel, servo and targets.
+prange = range
+derivative_kernel = dynamics.derivative_kernel
+pd_torque, motor_torque = control.pd_torque, control.motor_torque
+ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
+_HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
+
+
+def _leg_targets(kind, p, shared, t):
+    if kind == _HELD:
+        return (p[0], p[1]), (0.0, 0.0), (0.0, 0.0)
+    if kind == _RAMP:
+        return ramp_targets(t, shared[0], shared[1], (p[0], p[1]), (p[2], p[3]), (p[4], p[5]), (p[6], p[7]), (0.0, 0.0))
+    return sinusoid_targets(t, (p[0], p[1]), p[2], (p[3], p[4]), (p[5], p[6]))
+
+
+def _torque(c, t, gains, torque_limit, rate_limit, kind, p, shared):
+    """simulation._stage_fns' servo: the PD law on the targets at t, then the motor limit if any."""
+    tau = pd_torque(gains, (c[6], c[7]), (c[11], c[12]), _leg_targets(kind, p, shared, t))
+    if torque_limit is None:
+        return tau
+    return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
+
+
+def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i):
+    """simulation._rk4_floats on robot i's state y (13,), in place, with the record of simulation._Recorder
+    into rows[:, :, i] (when rows has any)."""
+    half, sixth = 0.5 * h, h / 6.0
+    stage = np.empty(13)
+    contact = np.empty(6)
+    for step in range(n_steps):
+        tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+        if rows.shape[0]:
+            k1 = derivative_kernel(y, tau, k, None, None, None, contact)
+            rows[step, 0, i], rows[step, 1, i] = tau[0], tau[1]
+            for j in range(6):
+                rows[step, 2 + j, i] = contact[j]
+            rows[step, 8, i], rows[step, 9, i] = y[11], y[12]
+        else:
+            k1 = derivative_kernel(y, tau, k)
+        for j in range(13):
+            stage[j] = y[j] + half * k1[j]
+        k2 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            stage[j] = y[j] + half * k2[j]
+        k3 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            stage[j] = y[j] + h * k3[j]
+        k4 = derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+        inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        y[2] *= inv
+        y[3] *= inv
+        y[4] *= inv
+        y[5] *= inv
+        t += h
+
+
+def _batch(y, t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, rows):
+    """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot."""
+    shared_targets = params.shape[0] == 1
+    for i in prange(y.shape[0]):
+        p = params[0] if shared_targets else params[i]
+        _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i)
+
+
+_STEPPER = ("_leg_targets", "_torque", "_one_robot")
+
+
+def cache_dir(sources=None):
+    """Where compiled code is cached: one directory per content of the compiled sources (this
+    module, dynamics, control), numba and Python. numba itself re-checks only a function's own
+    file, so an edit to the equations would otherwise meet a stale stepper; here any edit, or a
+    new numba, makes a new directory. ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
+    import hashlib
+    import os
+    import platform
+    import sys
+
+    import numba
+
+    digest = hashlib.sha256(f"{numba.__version__} {sys.version} {platform.machine()}".encode())
+    for path in sources or (__file__, dynamics.__file__, control.__file__):
+        with open(path, "rb") as f:
+            digest.update(f.read())
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(root, "rrrobot_gym", "numba-" + digest.hexdigest()[:16])
+
+
+@functools.lru_cache(maxsize=None)
+def _stepper(parallel: bool):
+    """The compiled :func:`_batch`, threaded over robots if ``parallel``; cached on disk (:func:`cache_dir`)."""
+    import os
+
+    import numba
+
+    directory = cache_dir()
+    try:
+        os.makedirs(directory, exist_ok=True)
+        cache = os.access(directory, os.W_OK)
+    except OSError:
+        cache = False
+    previous = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = directory  # read when a dispatcher is made, not later
+    try:
+        # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
+        njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
+        namespace = dict(vars(sys.modules[__name__]))
+        namespace["derivative_kernel"] = _compiled_copies(dynamics, _DYNAMICS, njit)["derivative_kernel"]
+        namespace.update({name: fn for name, fn in _compiled_copies(control, _CONTROL, njit).items() if name in _CONTROL})
+        namespace["prange"] = numba.prange
+        _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
+        batch = _batch
+        return njit(types.FunctionType(batch.__code__, namespace, "_batch"), parallel=parallel)
+    finally:
+        numba.config.CACHE_DIR = previous
+
+
+def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
+    """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
+    (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, and the record's rows
+    ((S, 10) for one robot, (S, 10, N) for a batch) or None. ``targets`` is what
+    :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
+    shared among that many threads."""
+    kind, params, shared = targets
+    y = np.array(state, dtype=float, order="C").reshape(-1, dynamics.STATE_SIZE)
+    if params.shape[0] not in (1, y.shape[0]):
+        raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
+    rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
+    parallel = workers > 1 and y.shape[0] > 1
+    step = _stepper(parallel)
+    k = dynamics.constants(config.robot, config.depth)
+    gains = _Gains(float(config.gains.kp), float(config.gains.kd))
+    args = (y, float(t0), float(h), int(n_steps), k, gains, config.torque_limit, config.leg_rate_limit,
+            kind, params, shared, rows)  # fmt: skip
+    if parallel:
+        import numba
+
+        previous = numba.get_num_threads()
+        numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))
+        try:
+            step(*args)
+        finally:
+            numba.set_num_threads(previous)
+    else:
+        step(*args)
+    out = y.reshape(np.shape(state))
+    if not record:
+        return out, None
+    return out, (rows[:, :, 0] if np.ndim(state) == 1 else rows)

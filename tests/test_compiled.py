@@ -1,0 +1,213 @@
+"""The compiled stepper (numba) integrates exactly what the Python float stepper does.
+
+Both run derivative_kernel's own code, the compiled one through numba, with the same order
+of operations, so a run must agree to the last bit: robot by robot, with the record, under
+every kind of target it takes, with motor limits, and whatever the batch size or thread count.
+"""
+
+from dataclasses import replace
+
+import gymnasium
+import numpy as np
+import pytest
+
+import rrrobot_gym  # noqa: F401
+import rrrobot_gym.control
+from rrrobot_gym import compiled, dynamics
+from rrrobot_gym.control import Gait, HeldTargets, RampTargets, table2_gait
+from rrrobot_gym.gait_search import SinusoidGait
+from rrrobot_gym.simulation import NumericalFailure, SimConfig, advance, initial_state
+
+pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
+
+RECORD_FIELDS = ("times", "torque", "force", "normal", "leg_clearance", "leg_rates")
+
+
+def _states(n, seed=0):
+    rng = np.random.default_rng(seed)
+    states = initial_state(n)
+    quat = np.column_stack([np.ones(n), 0.2 * rng.standard_normal((n, 3))])
+    states[:, dynamics.QUAT] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    states[:, dynamics.LEG_ANGLES] = rng.uniform(0.0, 3.0, (n, 2))
+    states[:, dynamics.BODY_RATE] = rng.standard_normal((n, 3))
+    states[:, dynamics.LEG_RATES] = 3.0 * rng.standard_normal((n, 2))
+    return states
+
+
+def _targets(kind, n, rng):
+    if kind == "ramp":
+        return RampTargets(rng.uniform(0.0, 3.0, (n, 2)), rng.uniform(0.0, 3.0, (n, 2)), 0.1, 0.05)
+    if kind == "held":
+        return HeldTargets(rng.uniform(-1.0, 4.0, (n, 2)))
+    if kind == "gait":
+        return Gait(amplitude=0.9, frequency=11.0, phase=(0.3, 2.0), offset=(1.2, 1.9))
+    return SinusoidGait(0.8, 1.1, 7.0, 2.1, 1.6, 1.5)
+
+
+def _float_path(config, states, targets, t0, duration):
+    """Each robot alone on the numpy backend's Python-float stepper: (states, record fields)."""
+    runs = []
+    for i, state in enumerate(states):
+        robot = targets.robot(i) if hasattr(targets, "robot") else targets
+        runs.append(advance(replace(config, backend="numpy"), state, t0, duration, robot, record=True))
+    fields = {f: np.stack([getattr(r, f) for _, r in runs], axis=1) for f in RECORD_FIELDS if f != "times"}
+    return np.stack([s for s, _ in runs]), fields
+
+
+@pytest.mark.parametrize("kind", ["ramp", "held", "gait", "sinusoid"])
+@pytest.mark.parametrize(
+    "config",
+    [SimConfig(), SimConfig(model="pivot"), SimConfig(torque_limit=0.3),
+     SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto")],
+    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step"],
+)  # fmt: skip
+def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
+    # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
+    # each is compared with its own run on Python floats.
+    rng = np.random.default_rng(7)
+    states = _states(33)
+    targets = _targets(kind, 33, rng)
+    fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
+    slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
+    assert np.array_equal(fast, slow)
+    for field, values in slow_fields.items():
+        assert np.array_equal(getattr(record, field), values), field
+    if config.torque_limit is not None:
+        peak = np.max(np.abs(record.torque))
+        assert peak <= config.torque_limit
+        if kind in ("ramp", "held"):  # far targets: the limit binds, so the limited torques were compared
+            assert peak == config.torque_limit
+
+
+def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit():
+    # 4 s of Gait 2 from the paper's start, the hardest start transient, in env-sized steps.
+    config = SimConfig()
+    fast = slow = initial_state()
+    for i in range(80):
+        fast, fast_record = advance(config, fast, 0.05 * i, 0.05, table2_gait(2), record=True)
+        slow, slow_record = advance(replace(config, backend="numpy"), slow, 0.05 * i, 0.05, table2_gait(2), record=True)
+        assert np.array_equal(fast, slow), i
+    for field in RECORD_FIELDS:
+        assert np.array_equal(getattr(fast_record, field), getattr(slow_record, field)), field
+    assert np.hypot(fast[0], fast[1]) > 1e-3  # it travelled
+
+
+def test_compiled_agrees_with_the_numpy_batch_to_rounding():
+    # The batched numpy stepper sums RK4's stages in another order: equal to rounding, not to the bit.
+    states = _states(40, seed=3)
+    targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(2).uniform(0, 3, (40, 2)), 0.0, 0.05)
+    fast = advance(SimConfig(backend="numba"), states, 0.0, 0.05, targets)
+    numpy = advance(SimConfig(backend="numpy"), states, 0.0, 0.05, targets)
+    assert not np.array_equal(fast, numpy)  # the two paths really are different code
+    np.testing.assert_allclose(fast, numpy, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_threads_give_the_one_thread_result(workers):
+    states = _states(50, seed=4)
+    targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (50, 2)), 0.0, 0.05)
+    config = SimConfig(backend="numba")
+    one, one_record = advance(config, states, 0.0, 0.05, targets, record=True)
+    many, many_record = advance(config, states, 0.0, 0.05, targets, record=True, workers=workers)
+    assert np.array_equal(one, many)
+    for field in RECORD_FIELDS:
+        assert np.array_equal(getattr(one_record, field), getattr(many_record, field)), field
+
+
+def test_auto_takes_numba_where_it_applies_and_numpy_elsewhere(monkeypatch):
+    states = _states(30, seed=6)
+    gait = table2_gait(1)
+    numpy = advance(SimConfig(backend="numpy"), states, 0.0, 0.05, gait)
+    numba = advance(SimConfig(backend="numba"), states, 0.0, 0.05, gait)
+    assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, gait), numba)
+    # scenes and targets it does not cover go to numpy under "auto"
+    rk3 = SimConfig(integrator="rk3")
+    assert np.array_equal(advance(rk3, states, 0.0, 0.05, gait), advance(replace(rk3, backend="numpy"), states, 0.0, 0.05, gait))
+
+    class Custom:
+        def leg_targets(self, t):
+            return gait.leg_targets(t)
+
+    assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, Custom()), numpy)
+    # without numba, "auto" is numpy
+    monkeypatch.setattr(compiled, "available", lambda: False)
+    assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, gait), numpy)
+    with pytest.raises(ImportError, match="numba"):
+        SimConfig(backend="numba")
+
+
+def test_bad_backend_requests_name_the_problem():
+    with pytest.raises(ValueError, match="unknown backend 'numbaa'"):
+        SimConfig(backend="numbaa")
+    with pytest.raises(ValueError, match="servo legs with integrator 'rk4'.*kinematic"):
+        SimConfig(backend="numba", legs="kinematic")
+    with pytest.raises(ValueError, match="rosw"):
+        SimConfig(backend="numba", integrator="rosw", timestep=1 / 300)
+
+    class Custom:
+        def leg_targets(self, t):
+            return (1.0, 1.0), (0.0, 0.0), (0.0, 0.0)
+
+    with pytest.raises(TypeError, match="not Custom"):
+        advance(SimConfig(backend="numba"), initial_state(), 0.0, 0.05, Custom())
+    with pytest.raises(ValueError, match="unknown backend"):
+        gymnasium.make("RRRobot-v0", backend="fortran")
+
+
+def test_a_compiled_blow_up_is_a_numerical_failure():
+    state = initial_state()
+    state[dynamics.BODY_RATE] = (0.0, 0.0, 5000.0)  # far past the ~1,100 rad/s where RK4 fails
+    with pytest.raises(NumericalFailure, match="turns too fast"):
+        advance(SimConfig(backend="numba"), state, 0.0, 0.05, table2_gait(1))
+
+
+def test_envs_step_alike_on_both_backends():
+    # one robot and a batch of up to ROW_BY_ROW_MAX take the float stepper on numpy: bit-identical
+    for make in (lambda **kw: gymnasium.make("RRRobot-v0", **kw),
+                 lambda **kw: gymnasium.make_vec("RRRobot-v0", num_envs=5, vectorization_mode="vector_entry_point", **kw)):  # fmt: skip
+        envs = [make(backend=b, target_direction=0.5) for b in ("numba", "numpy")]
+        obs = [env.reset(seed=11)[0] for env in envs]
+        rng = np.random.default_rng(0)
+        for _ in range(10):
+            action = rng.uniform(-1.0, 1.0, envs[0].action_space.shape).astype(np.float32)
+            steps = [env.step(action) for env in envs]
+            assert np.array_equal(steps[0][0], steps[1][0])
+            assert np.array_equal(steps[0][1], steps[1][1])
+        assert not np.array_equal(obs[0], steps[0][0])
+
+
+def test_the_cache_directory_follows_every_compiled_source(tmp_path):
+    # numba re-checks only a function's own file; the directory must change with any of them
+    sources = [compiled.__file__, dynamics.__file__, rrrobot_gym.control.__file__]
+    copies = []
+    for i, path in enumerate(sources):
+        copy = tmp_path / f"{i}.py"
+        copy.write_bytes(open(path, "rb").read())
+        copies.append(str(copy))
+    base = compiled.cache_dir(copies)
+    assert base == compiled.cache_dir(sources)
+    for copy in copies:
+        original = open(copy, "rb").read()
+        open(copy, "ab").write(b"\n# an edit\n")
+        assert compiled.cache_dir(copies) != base, copy
+        open(copy, "wb").write(original)
+
+
+def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    script = (
+        "from rrrobot_gym import compiled, simulation as sim\n"
+        "from rrrobot_gym.control import table2_gait\n"
+        "sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1))\n"
+        "stats = compiled._stepper(False).stats\n"
+        "print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), compiled.cache_dir())\n"
+    )
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+            for _ in range(2)]  # fmt: skip
+    (hits1, misses1, where1), (hits2, misses2, where2) = (r.stdout.split() for r in runs)
+    assert (hits1, misses1) == ("0", "1") and (hits2, misses2) == ("1", "0")
+    assert where1 == where2 and where1.startswith(str(tmp_path)) and os.listdir(where1)
