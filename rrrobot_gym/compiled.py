@@ -63,6 +63,8 @@ def target_arrays(targets):
     if describe is None:
         return None
     kind, per_robot, shared = describe()
+    if all(type(v) is float for v in per_robot):  # one set of targets (a gait, one robot's ramp)
+        return kind, np.array([per_robot]), np.array(shared, dtype=float)
     columns = [np.asarray(v, dtype=float) for v in per_robot]
     rows = max((c.size for c in columns if c.ndim), default=1)
     params = np.empty((rows, len(columns)))
@@ -201,6 +203,12 @@ def _stepper(parallel: bool):
         numba.config.CACHE_DIR = previous
 
 
+@functools.lru_cache(maxsize=32)
+def _scene(robot, depth, gains):
+    """The constants of the equations of motion and the servo gains, as the stepper takes them."""
+    return dynamics.constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
+
+
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
     (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, and the record's rows
@@ -214,8 +222,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
     step = _stepper(parallel)
-    k = dynamics.constants(config.robot, config.depth)
-    gains = _Gains(float(config.gains.kp), float(config.gains.kd))
+    k, gains = _scene(config.robot, config.depth, config.gains)
     args = (y, float(t0), float(h), int(n_steps), k, gains, config.torque_limit, config.leg_rate_limit,
             kind, params, shared, rows)  # fmt: skip
     if parallel:

@@ -918,7 +918,7 @@ def advance(
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
         out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
-    if not np.all(np.isfinite(out)):
+    if not np.isfinite(out).all():
         raise NumericalFailure(_diagnose(config, state, t0, duration, h))
     if record:
         return out, _Recorder.merge(records, t0, h)

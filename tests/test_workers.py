@@ -21,9 +21,9 @@ def _states(n, seed=0):
 
 @pytest.mark.parametrize(
     "config",
-    [SimConfig(), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),
+    [SimConfig(), SimConfig(backend="numpy"), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),
      SimConfig(legs="kinematic", timestep="auto")],
-    ids=["servo-rk4", "pivot-rosw", "kinematic-auto"],
+    ids=["servo-rk4", "servo-rk4-numpy-processes", "pivot-rosw", "kinematic-auto"],
 )  # fmt: skip
 @pytest.mark.parametrize("workers", [2, 3])
 def test_workers_give_bit_identical_states_and_records(config, workers):
