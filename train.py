@@ -77,6 +77,10 @@ class Args:
         default=None,
         metadata={"help": "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default unlimited"},
     )
+    backend: str = field(
+        default="auto",
+        metadata={"help": "simulator backend (the env's backend): auto (numba where installed), numba or numpy"},
+    )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
@@ -99,6 +103,10 @@ def parse_args(argv=None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in ("plane", "pivot"):
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
+    from rrrobot_gym.simulation import BACKENDS
+
+    if args.backend not in BACKENDS:
+        parser.error(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
     if args.direction_deg is not None and not math.isfinite(args.direction_deg):
         parser.error("--direction-deg must be a finite number of degrees")
     if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
@@ -123,7 +131,7 @@ def env_kwargs(args: Args) -> dict:
     direction = None if args.direction_deg is None else math.radians(args.direction_deg)
     return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
             "clock_frequency": args.clock_frequency, "torque_limit": args.torque_limit,
-            "leg_rate_limit": args.leg_rate_limit}
+            "leg_rate_limit": args.leg_rate_limit, "backend": args.backend}
 
 
 def env_config(args: Args) -> dict:

@@ -20,6 +20,7 @@ import pstats
 
 import numpy as np
 
+from rrrobot_gym import compiled
 from rrrobot_gym.control import HeldTargets
 from rrrobot_gym.simulation import SimConfig, advance, check_state, initial_state
 
@@ -30,15 +31,21 @@ EVALS_PER_STEP = {"rk4": 4, "rk3": 3}
 
 
 def setting_list(quick: bool):
+    """(name, config, workers) of each setting measured."""
     out = [
-        ("plane, defaults (servo, rk4 1/300 s)", SimConfig(model="plane")),
-        ("pivot, defaults (servo, rk4 1/300 s)", SimConfig(model="pivot")),
-        ("plane, servo, rk3 1/340 s", SimConfig(model="plane", integrator="rk3", timestep=ENV_STEP / 17)),
-        ("pivot, servo, timestep=auto", SimConfig(model="pivot", timestep="auto")),
-        ("plane, kinematic legs, rk4 1/20 s", SimConfig(model="plane", legs="kinematic", timestep=ENV_STEP)),
-        ("pivot, kinematic legs, rk4 1/20 s", SimConfig(model="pivot", legs="kinematic", timestep=ENV_STEP)),
+        ("plane, defaults, numpy (servo, rk4 1/300 s)", SimConfig(model="plane", backend="numpy"), 1),
+        ("pivot, defaults, numpy (servo, rk4 1/300 s)", SimConfig(model="pivot", backend="numpy"), 1),
+        ("plane, defaults, numba", SimConfig(model="plane", backend="numba"), 1),
+        ("pivot, defaults, numba", SimConfig(model="pivot", backend="numba"), 1),
+        ("plane, defaults, numba, workers=2 (threads)", SimConfig(model="plane", backend="numba"), 2),
+        ("plane, servo, rk3 1/340 s (numpy)", SimConfig(model="plane", integrator="rk3", timestep=ENV_STEP / 17), 1),
+        ("pivot, servo, timestep=auto, numba", SimConfig(model="pivot", timestep="auto", backend="numba"), 1),
+        ("plane, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="plane", legs="kinematic", timestep=ENV_STEP), 1),
+        ("pivot, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="pivot", legs="kinematic", timestep=ENV_STEP), 1),
     ]
-    return out[:1] + out[4:5] if quick else out
+    if not compiled.available():
+        out = [s for s in out if s[1].backend != "numba"]
+    return [out[0], out[2]] if quick and compiled.available() else out[:1] if quick else out
 
 
 def random_state(num_robots: int, rng) -> np.ndarray:
@@ -47,7 +54,7 @@ def random_state(num_robots: int, rng) -> np.ndarray:
     return state
 
 
-def measure(config: SimConfig, num_robots: int, repeats: int, calls: int, rng, check: bool = False) -> dict:
+def measure(config: SimConfig, num_robots: int, repeats: int, calls: int, rng, check: bool = False, workers: int = 1) -> dict:
     state = random_state(num_robots, rng) if num_robots > 1 else random_state(1, rng)[0]
     shape = (num_robots, 2) if num_robots > 1 else (2,)
     targets = [HeldTargets(rng.uniform(0.0, math.pi, shape)) for _ in range(calls)]
@@ -56,10 +63,10 @@ def measure(config: SimConfig, num_robots: int, repeats: int, calls: int, rng, c
     def run():
         s = box["state"]
         for i in range(calls):
-            s = advance(config, s, i * ENV_STEP, ENV_STEP, targets[i], check=check)
+            s = advance(config, s, i * ENV_STEP, ENV_STEP, targets[i], check=check, workers=workers)
         box["state"] = s
 
-    run()  # warm up (first-call allocations, heap tuning)
+    run()  # warm up (first-call allocations, heap tuning, numba's compilation)
     per_call = median_time(run, repeats) / calls
     n_steps = math.ceil(ENV_STEP / config.step - 1e-9)
     evals = n_steps * EVALS_PER_STEP[config.integrator]
@@ -93,12 +100,12 @@ def main(argv=None):
     repeats = 3 if args.quick else 7
     rng = np.random.default_rng(0)
     results = []
-    for name, config in setting_list(args.quick):
+    for name, config, workers in setting_list(args.quick):
         for n in sizes:
             calls = {1: 40, 16: 10, 256: 5, 4096: 2}[n]
             if args.quick:
                 calls = max(1, calls // 2)
-            rec = measure(config, n, repeats, calls, rng)
+            rec = measure(config, n, repeats, calls, rng, workers=workers)
             rec["setting"] = name
             results.append(rec)
             print(f"{name:42s} N={n:5d}: {rec['env_steps_per_s']:10.0f} env steps/s, "
@@ -118,7 +125,7 @@ def main(argv=None):
 
     header = ["setting"] + [f"N={n} env steps/s" for n in sizes] + ["us / derivative at N=4096"]
     rows = []
-    for name, _ in setting_list(args.quick):
+    for name, _, _ in setting_list(args.quick):
         recs = {r["num_robots"]: r for r in results if r["setting"] == name}
         rows.append([name] + [fmt(recs[n]["env_steps_per_s"]) for n in sizes] + [fmt(recs[4096]["us_per_derivative_eval"])])
     text = markdown_table(header, rows)

@@ -9,7 +9,9 @@ and info. Measured beside the bare physics (``advance`` over the same 0.05 s wit
 ramped targets, no record, one process), each env step timed next to one physics step, in
 alternation, so the env's own cost is a ratio of two measures that saw the same machine;
 rows with ``workers=2`` are the vector env on both cores against that one-process physics.
-Medians of repeats (the ratio: the median of each repeat's ratio).
+Medians of repeats (the ratio: the median of each repeat's ratio). Each backend
+(``--backends``, default: numba, if installed, and numpy) is measured in turn, after one
+warm-up step (numba compiles on its first).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import gymnasium
 import numpy as np
 
 import rrrobot_gym  # noqa: F401  (registers the env)
+from rrrobot_gym import compiled
 from rrrobot_gym.control import RampTargets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import advance
@@ -67,14 +70,23 @@ def _physics(config, state, targets):
     return step
 
 
+def _warm_up(env, actions, physics_step):
+    """One env step and one physics step before timing (numba compiles on the first call)."""
+    env.reset(seed=0)
+    env.step(actions[0])
+    physics_step()
+
+
 def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
     env = gymnasium.make("RRRobot-v0", **env_kwargs)
     actions = _gentle_actions(rng, (2,), steps)
     env.reset(seed=0)
     config = env.unwrapped.config
     targets = RampTargets(np.full(2, 0.5 * np.pi), np.full(2, 0.6 * np.pi), 0.0, config.dt)
-    seconds, physics_seconds, ratio = _paired(env, actions, _physics(config, env.unwrapped.state, targets), repeats)
-    return {"env": "single (gymnasium.make)", "num_envs": 1, "env_steps_per_s": steps / seconds,
+    physics = _physics(config, env.unwrapped.state, targets)
+    _warm_up(env, actions, physics)
+    seconds, physics_seconds, ratio = _paired(env, actions, physics, repeats)
+    return {"env": "single (gymnasium.make)", "backend": config.sim.backend, "num_envs": 1, "env_steps_per_s": steps / seconds,
             "physics_only_steps_per_s": steps / physics_seconds, "env_over_physics": ratio}
 
 
@@ -83,27 +95,37 @@ def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, *
     actions = _gentle_actions(rng, (num_envs, 2), steps)
     env.reset(seed=0)
     targets = RampTargets(np.full((num_envs, 2), 0.5 * np.pi), np.full((num_envs, 2), 0.6 * np.pi), 0.0, env.dt)
-    seconds, physics_seconds, ratio = _paired(env, actions, _physics(env.config, env.states, targets), repeats)
+    physics = _physics(env.config, env.states, targets)
+    _warm_up(env, actions, physics)
+    seconds, physics_seconds, ratio = _paired(env, actions, physics, repeats)
     name = "vector (make_vec)" + (f", workers={workers}" if workers > 1 else "")
-    return {"env": name, "num_envs": num_envs, "env_steps_per_s": num_envs * steps / seconds,
+    return {"env": name, "backend": env.config.sim.backend, "num_envs": num_envs, "env_steps_per_s": num_envs * steps / seconds,
             "physics_only_steps_per_s": num_envs * steps / physics_seconds, "env_over_physics": ratio}
 
 
 def main(argv=None):
-    args = parser(__doc__.split("\n\n")[0]).parse_args(argv)
+    p = parser(__doc__.split("\n\n")[0])
+    default = ["numba", "numpy"] if compiled.available() else ["numpy"]
+    p.add_argument("--backends", nargs="+", choices=("numba", "numpy"), default=default,
+                   help=f"simulator backends to measure, in turn (default: {' '.join(default)})")  # fmt: skip
+    args = p.parse_args(argv)
     rng = np.random.default_rng(0)
     repeats = 3 if args.quick else 5
     single_steps = 100 if args.quick else 400
-    rows = [single_env(single_steps, repeats, rng)]
-    sizes = (1, 8, 16, 64, 256) if args.quick else (1, 8, 16, 64, 256, 4096)
-    for n in sizes:
-        steps = max(5, min(200, 20_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
-        rows.append(vector_env(n, steps, repeats, rng))
-        if n >= 256:  # both cores, beside one (the physics column stays one process)
-            rows.append(vector_env(n, steps, repeats, rng, workers=2))
+    rows = []
+    for backend in args.backends:
+        rows.append(single_env(single_steps, repeats, rng, backend=backend))
+        sizes = (1, 8, 16, 64, 256) if args.quick else (1, 8, 16, 64, 256, 4096)
+        for n in sizes:
+            steps = max(5, min(200, 20_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
+            if backend == "numba":  # ~10x faster: more steps for the same timing resolution
+                steps = min(4 * steps, 1000)
+            rows.append(vector_env(n, steps, repeats, rng, backend=backend))
+            if n >= 64:  # both cores, beside one (the physics column stays one process / thread)
+                rows.append(vector_env(n, steps, repeats, rng, workers=2, backend=backend))
     table = markdown_table(
-        ["env", "N", "env steps/s", "physics alone (advance), steps/s", "env / physics throughput"],
-        [[r["env"], r["num_envs"], f"{r['env_steps_per_s']:,.0f}", f"{r['physics_only_steps_per_s']:,.0f}",
+        ["env", "backend", "N", "env steps/s", "physics alone (advance), steps/s", "env / physics throughput"],
+        [[r["env"], r["backend"], r["num_envs"], f"{r['env_steps_per_s']:,.0f}", f"{r['physics_only_steps_per_s']:,.0f}",
           f"{r['env_over_physics']:.0%}"] for r in rows],
     )
     print(table)
