@@ -26,7 +26,7 @@ import numpy as np
 from . import analysis, dynamics, plotting
 from .control import GAIT_OFFSETS, table2_gait
 from .params import MODELS, PDGains, RobotParams
-from .simulation import DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
+from .simulation import BACKENDS, DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
 
 PROG = "rrrobot"
 PAPER_DURATION = 50.0
@@ -220,6 +220,12 @@ def _add_run_options(parser):
         default=DEFAULT_TIMESTEP,
         help="s, RK4 step, or 'auto': derived from the gains, masses and model (default: 1/300)",
     )
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="auto",
+        help="'numba': the compiled stepper; 'numpy'; 'auto': numba where installed (default: %(default)s)",
+    )
 
 
 def sim_config(args, model: str) -> SimConfig:
@@ -227,8 +233,8 @@ def sim_config(args, model: str) -> SimConfig:
     try:
         robot = RobotParams(**{**dict(args.param), "damping": args.damping})
         gains = PDGains(kp=args.kp, kd=args.kd)
-        return SimConfig(model=model, robot=robot, gains=gains, timestep=args.timestep)
-    except (TypeError, ValueError) as exc:
+        return SimConfig(model=model, robot=robot, gains=gains, timestep=args.timestep, backend=args.backend)
+    except (TypeError, ValueError, ImportError) as exc:
         raise UsageError(str(exc)) from None
 
 

@@ -150,6 +150,7 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         (("--model", "plane", "--gait", "1", "--kp", "-2"), "kp"),
         (("--model", "plane", "--gait", "1", "--timestep", "automatic"), "--timestep"),
         (("--model", "plane", "--gait", "1", "--timestep", "1/50"), "stability limit"),
+        (("--model", "plane", "--gait", "1", "--backend", "fortran"), "--backend"),
     ],
 )
 def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
@@ -172,6 +173,21 @@ def test_simulate_takes_the_scene_derived_step(tmp_path):
             "--timestep", "auto", "--out", tmp_path / "auto.npz")  # fmt: skip
     data = np.load(tmp_path / "auto.npz")
     assert np.all(np.isfinite(data["phi"])) and data["t"][-1] == pytest.approx(0.05)
+
+
+def test_simulate_on_either_backend_gives_the_same_run(tmp_path):
+    from rrrobot_gym import compiled
+
+    if not compiled.available():
+        pytest.skip("numba is not installed")
+    runs = {}
+    for backend in ("numba", "numpy"):
+        rrrobot("simulate", "--model", "plane", "--gait", "2", "--duration", "1", "--backend", backend,
+                "--out", tmp_path / f"{backend}.npz")  # fmt: skip
+        runs[backend] = np.load(tmp_path / f"{backend}.npz")
+    assert runs["numba"]["x"][-1] != 0.0
+    for key in runs["numpy"].files:
+        assert np.array_equal(runs["numba"][key], runs["numpy"][key]), key
 
 
 # ---------------------------------------------------------------- figures
