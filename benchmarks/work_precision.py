@@ -72,7 +72,9 @@ def settings(quick: bool):
 def config_for(model: str, legs: str, integrator: str, n, robot=None, gains=None) -> SimConfig:
     kwargs = {"robot": robot or RobotParams(), "gains": gains or PDGains()}
     timestep = "auto" if n == "auto" else ENV_STEP / n
-    return SimConfig(model=model, legs=legs, integrator=integrator, timestep=timestep, **kwargs)
+    # numpy for every row, so CPU times compare integrators, not backends (numba's runs are the
+    # numpy float stepper's to the bit: same errors, ~10x less CPU; benchmarks.core_throughput)
+    return SimConfig(model=model, legs=legs, integrator=integrator, timestep=timestep, backend="numpy", **kwargs)
 
 
 def run_steps(config: SimConfig, targets, state, n_env_steps: int):

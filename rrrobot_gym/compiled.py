@@ -197,8 +197,12 @@ def _stepper(parallel: bool):
         namespace.update({name: fn for name, fn in _compiled_copies(control, _CONTROL, njit).items() if name in _CONTROL})
         namespace["prange"] = numba.prange
         _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
-        batch = _batch
-        return njit(types.FunctionType(batch.__code__, namespace, "_batch"), parallel=parallel)
+        batch = types.FunctionType(_batch.__code__, namespace, "_batch")
+        # numba's cache files are named by the function's qualified name and keyed by its
+        # signature, not by parallel=: the threaded copy needs a name of its own, else one
+        # version is loaded for the other
+        batch.__qualname__ = "_batch_threaded" if parallel else "_batch"
+        return njit(batch, parallel=parallel)
     finally:
         numba.config.CACHE_DIR = previous
 

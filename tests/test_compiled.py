@@ -201,13 +201,19 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
     script = (
         "from rrrobot_gym import compiled, simulation as sim\n"
         "from rrrobot_gym.control import table2_gait\n"
-        "sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1))\n"
-        "stats = compiled._stepper(False).stats\n"
-        "print(sum(stats.cache_hits.values()), sum(stats.cache_misses.values()), compiled.cache_dir())\n"
+        "for workers in (1, 2):\n"
+        "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
+        "stats = [compiled._stepper(parallel).stats for parallel in (False, True)]\n"
+        "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
+        "      compiled.cache_dir())\n"
     )
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
     runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
             for _ in range(2)]  # fmt: skip
     (hits1, misses1, where1), (hits2, misses2, where2) = (r.stdout.split() for r in runs)
-    assert (hits1, misses1) == ("0", "1") and (hits2, misses2) == ("1", "0")
-    assert where1 == where2 and where1.startswith(str(tmp_path)) and os.listdir(where1)
+    assert (hits1, misses1) == ("0", "2") and (hits2, misses2) == ("2", "0")
+    assert where1 == where2 and where1.startswith(str(tmp_path))
+    # numba names cache files by the function's name, not by parallel=: the threaded stepper
+    # must have files of its own, or one process would load the serial code for it
+    names = [name for folder in os.listdir(where1) for name in os.listdir(os.path.join(where1, folder))]
+    assert any(n.startswith("compiled._batch-") for n in names) and any(n.startswith("compiled._batch_threaded-") for n in names)
