@@ -10,6 +10,7 @@ from dataclasses import replace
 import gymnasium
 import numpy as np
 import pytest
+from conftest import random_states
 
 import rrrobot_gym  # noqa: F401
 import rrrobot_gym.control
@@ -24,14 +25,7 @@ RECORD_FIELDS = ("times", "torque", "force", "normal", "leg_clearance", "leg_rat
 
 
 def _states(n, seed=0):
-    rng = np.random.default_rng(seed)
-    states = initial_state(n)
-    quat = np.column_stack([np.ones(n), 0.2 * rng.standard_normal((n, 3))])
-    states[:, dynamics.QUAT] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
-    states[:, dynamics.LEG_ANGLES] = rng.uniform(0.0, 3.0, (n, 2))
-    states[:, dynamics.BODY_RATE] = rng.standard_normal((n, 3))
-    states[:, dynamics.LEG_RATES] = 3.0 * rng.standard_normal((n, 2))
-    return states
+    return random_states(np.random.default_rng(seed), n)
 
 
 def _targets(kind, n, rng):
