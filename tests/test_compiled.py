@@ -211,3 +211,16 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
     # must have files of its own, or one process would load the serial code for it
     names = [name for folder in os.listdir(where1) for name in os.listdir(os.path.join(where1, folder))]
     assert any(n.startswith("compiled._batch-") for n in names) and any(n.startswith("compiled._batch_threaded-") for n in names)
+
+
+def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
+    # compiled._batch is ordinary Python (prange is range until compiled): run it uncompiled
+    config = SimConfig(torque_limit=0.4, leg_rate_limit=9.0)
+    states = _states(3, seed=8)
+    targets = compiled.target_arrays(_targets("ramp", 3, np.random.default_rng(9)))
+    k, gains = compiled._scene(config.robot, config.depth, config.gains)
+    y = states.copy()
+    rows = np.empty((15, compiled.RECORD_ROWS, 3))
+    compiled._batch(y, 0.1, 0.05 / 15, 15, k, gains, 0.4, 9.0, *targets, rows)
+    fast, fast_rows = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 15, True)
+    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows)
