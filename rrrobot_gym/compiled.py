@@ -35,7 +35,7 @@ from . import control, dynamics
 _DYNAMICS = ("_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
              "_contact_force", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
-RECORD_ROWS = 10  # as simulation._RECORD_ROWS: torque (2), force (3), normal, clearance (2), leg rates (2)
+RECORD_ROWS = 10  # rows of a step record, both backends: torque (2), force (3), normal, clearance (2), leg rates (2)
 
 _Gains = namedtuple("_Gains", "kp kd")  # what pd_torque reads of a PDGains, in a form numba takes
 

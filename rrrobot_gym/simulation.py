@@ -747,7 +747,7 @@ class StepRecord:
         return np.sqrt(np.maximum(np.einsum("...j,...j->...", self.force, self.force) - self.normal**2, 0.0))
 
 
-_RECORD_ROWS = 10  # torque (2), force (3), normal, clearance (2), leg rates (2)
+_RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, clearance (2), leg rates (2): one layout for both backends
 
 
 class _Recorder:
