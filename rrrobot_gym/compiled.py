@@ -162,7 +162,6 @@ def cache_dir(sources=None):
     import hashlib
     import os
     import platform
-    import sys
 
     import numba
 
@@ -192,9 +191,10 @@ def _stepper(parallel: bool):
     try:
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
-        namespace = dict(vars(sys.modules[__name__]))
+        namespace = dict(globals())
         namespace["derivative_kernel"] = _compiled_copies(dynamics, _DYNAMICS, njit)["derivative_kernel"]
-        namespace.update({name: fn for name, fn in _compiled_copies(control, _CONTROL, njit).items() if name in _CONTROL})
+        compiled_control = _compiled_copies(control, _CONTROL, njit)
+        namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
         _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
         batch = types.FunctionType(_batch.__code__, namespace, "_batch")
