@@ -175,16 +175,21 @@ def test_simulate_takes_the_scene_derived_step(tmp_path):
     assert np.all(np.isfinite(data["phi"])) and data["t"][-1] == pytest.approx(0.05)
 
 
-def test_simulate_on_either_backend_gives_the_same_run(tmp_path):
+def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):
     from rrrobot_gym import compiled
 
     if not compiled.available():
         pytest.skip("numba is not installed")
+    # the runs agree to the bit, so whether --backend took effect shows in numba's cache: only
+    # the numba run compiles (into an empty cache here)
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(cache))
     runs = {}
-    for backend in ("numba", "numpy"):
+    for backend in ("numpy", "numba"):
         rrrobot("simulate", "--model", "plane", "--gait", "2", "--duration", "1", "--backend", backend,
                 "--out", tmp_path / f"{backend}.npz")  # fmt: skip
         runs[backend] = np.load(tmp_path / f"{backend}.npz")
+        assert (cache / "rrrobot_gym").exists() == (backend == "numba"), backend
     assert runs["numba"]["x"][-1] != 0.0
     for key in runs["numpy"].files:
         assert np.array_equal(runs["numba"][key], runs["numpy"][key]), key

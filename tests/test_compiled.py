@@ -160,6 +160,8 @@ def test_envs_step_alike_on_both_backends():
     for make in (lambda **kw: gymnasium.make("RRRobot-v0", **kw),
                  lambda **kw: gymnasium.make_vec("RRRobot-v0", num_envs=5, vectorization_mode="vector_entry_point", **kw)):  # fmt: skip
         envs = [make(backend=b, target_direction=0.5) for b in ("numba", "numpy")]
+        # the results agree to the bit, so check that each env really got the backend it was asked for
+        assert [env.unwrapped.config.sim.backend for env in envs] == ["numba", "numpy"]
         obs = [env.reset(seed=11)[0] for env in envs]
         rng = np.random.default_rng(0)
         for _ in range(10):
