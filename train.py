@@ -87,6 +87,13 @@ class Args:
     resume: str | None = field(default=None, metadata={"help": "a model zip to continue from (its vecnormalize.pkl beside it)"})
     runs_dir: str = field(default="runs", metadata={"help": "where runs are written"})
     progress_bar: bool = field(default=True, metadata={"help": "show a progress bar (needs tqdm and rich)"})
+    residual_on: str | None = field(
+        default=None,
+        metadata={"help": "a turn-then-run JSON (agents/searched/turn_then_run.json): learn a residual on that agent's actions"},
+    )
+    residual_scale: float = field(
+        default=0.05, metadata={"help": "with --residual-on: the largest change of the base's action (action units)"}
+    )
     torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
 
 
@@ -121,6 +128,17 @@ def parse_args(argv=None) -> Args:
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
+    if not (math.isfinite(args.residual_scale) and 0 < args.residual_scale <= 2):
+        parser.error(f"--residual-scale must be a number in (0, 2] action units, got {args.residual_scale}")
+    if args.residual_on is not None:
+        from agents.turn_then_run import load_turn_then_run_agent
+
+        try:
+            base = load_turn_then_run_agent(args.residual_on)
+        except ValueError as exc:
+            parser.error(f"--residual-on: {exc}")
+        if base.model != args.model:
+            parser.error(f"--residual-on: {args.residual_on} was made for the {base.model} model, not {args.model}")
     if args.resume is not None and not Path(args.resume).is_file():
         parser.error(f"--resume: no model file at {args.resume}")
     return args
@@ -155,7 +173,17 @@ def make_env(args: Args, num_envs: int, seed: int):
 
     venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
     venv.seed(seed)
-    return VecMonitor(venv)
+    return on_base(args, VecMonitor(venv))
+
+
+def on_base(args: Args, venv):
+    """With --residual-on, the policy's actions become residuals on the base agent's (agents/residual.py)."""
+    if args.residual_on is None:
+        return venv
+    from agents.residual import make_residual_vec_env
+    from agents.turn_then_run import load_turn_then_run_agent
+
+    return make_residual_vec_env(venv, load_turn_then_run_agent(args.residual_on), args.residual_scale)
 
 
 class CompassEval:
@@ -189,7 +217,7 @@ def make_eval_env(args: Args, seed: int):
         num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
     )
     venv.seed(seed)
-    return VecMonitor(venv)
+    return on_base(args, VecMonitor(venv))
 
 
 def stop_on_ctrl_c():
@@ -255,6 +283,10 @@ def main(argv=None) -> Path:
     (run_dir / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
     (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
     (run_dir / "env_kwargs.json").write_text(json.dumps(env_config(args), indent=2))
+    if args.residual_on is not None:
+        from agents.residual import save_residual
+
+        save_residual(run_dir, args.residual_on, args.residual_scale)
 
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)

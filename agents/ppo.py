@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .residual import ResidualAgent, load_base
+
 
 SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
 """Env keywords whoever runs a policy chooses (evaluate.py: the model, the heading of each
@@ -77,7 +79,9 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
     (:func:`normalization_path`), its VecNormalize statistics, and ``env_kwargs.json``
     beside it (the training env's keywords; older runs saved only the observation's, the
-    rest then default). Unpickles the model and the statistics: trusted files only.
+    rest then default). A run with ``residual.json`` beside the model (``train.py
+    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
+    Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
 
@@ -93,7 +97,10 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     kwargs_path = model_path.with_name("env_kwargs.json")
     env_config = kwargs_from_json(json.loads(kwargs_path.read_text())) if kwargs_path.exists() else {}
     if vecnormalize_path is None:
-        return PPOAgent(model, env_config=env_config)
-    with open(vecnormalize_path, "rb") as handle:
-        stats = pickle.load(handle)
-    return PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
+        agent = PPOAgent(model, env_config=env_config)
+    else:
+        with open(vecnormalize_path, "rb") as handle:
+            stats = pickle.load(handle)
+        agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
+    base = load_base(model_path.parent)  # a residual policy (train.py --residual-on): its base agent
+    return agent if base is None else ResidualAgent(agent, *base)
