@@ -145,3 +145,10 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
     assert evaluated.returncode == 0, evaluated.stderr
     assert "| ppo |" in evaluated.stdout
+
+
+def test_the_shipped_residual_policy_loads_from_its_directory_alone():
+    from agents import load_ppo_agent
+
+    agent = load_ppo_agent(ROOT / "agents" / "pretrained_residual" / "best_model.zip")
+    assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
