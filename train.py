@@ -128,8 +128,12 @@ def parse_args(argv=None) -> Args:
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
-    if not (math.isfinite(args.residual_scale) and 0 < args.residual_scale <= 2):
-        parser.error(f"--residual-scale must be a number in (0, 2] action units, got {args.residual_scale}")
+    from agents.residual import check_scale
+
+    try:
+        check_scale(args.residual_scale)
+    except ValueError as exc:
+        parser.error(f"--residual-scale: {exc}")
     if args.residual_on is not None:
         from agents.turn_then_run import load_turn_then_run_agent
 
