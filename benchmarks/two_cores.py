@@ -13,8 +13,14 @@ processes started together, nothing shared or shipped between them:
   of sending work or results (the *split ceiling*: below the machine's where a batch of
   N/2 costs more than half of N, numpy's per-call overhead);
 
-and beside them ``advance(..., workers=2)``, our split in worker processes. Medians of
-rounds; each round measures every case back to back, so all see the same machine.
+and beside them ``advance(..., workers=2)``, our split (numba threads with the compiled
+stepper, worker processes on numpy). Medians of rounds; each round measures every case back to
+back, so all see the same machine.
+
+Then the whole env, as a user runs it: two ``make_vec`` envs of N robots, ``workers=1`` and
+``workers=2``, stepped in alternation with the same actions (each env step of one timed next to
+one of the other, so both see the same machine), their physics, checks, observation, reward and
+info; the speed-up is the median over rounds of each round's ratio.
 """
 
 from __future__ import annotations
@@ -25,7 +31,9 @@ import time
 
 import numpy as np
 
+from rrrobot_gym import compiled
 from rrrobot_gym.control import RampTargets
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 from ._common import machine, markdown_table, parser, write_json
@@ -91,15 +99,74 @@ def measure(num_envs: int, calls: int, rounds: int) -> dict:
     }
 
 
+def _gentle_actions(num_envs: int, steps: int) -> np.ndarray:
+    """(steps, N, 2) smooth targets near vertical: every robot stays in the model (no resets in the timing)."""
+    phase = np.random.default_rng(0).uniform(0, 2 * np.pi, (num_envs, 2))
+    return (0.05 * np.sin(0.4 * np.arange(steps)[:, None, None] + phase)).astype(np.float32)
+
+
+def _backend(sim: SimConfig) -> str:
+    """The backend ``advance`` takes for this config ("auto" resolved)."""
+    if sim.backend != "auto":
+        return sim.backend
+    return "numba" if compiled.available() and compiled.supports(sim) else "numpy"
+
+
+def measure_env(num_envs: int, steps: int, rounds: int) -> dict:
+    """The vector env with ``workers=1`` and ``workers=2``, each step timed beside the other's."""
+    envs = {workers: RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers) for workers in (1, 2)}
+    actions = _gentle_actions(num_envs, steps)
+    for env in envs.values():  # warm up: numba compiles (or loads) each stepper on its first call
+        env.reset(seed=0)
+        env.step(actions[0])
+    one, two, ratios = [], [], []
+    for _ in range(rounds):
+        spent = {workers: 0.0 for workers in envs}
+        for env in envs.values():
+            env.reset(seed=0)
+        for action in actions:
+            for workers, env in envs.items():
+                start = time.perf_counter()
+                env.step(action)
+                spent[workers] += time.perf_counter() - start
+        one.append(num_envs * steps / spent[1])
+        two.append(num_envs * steps / spent[2])
+        ratios.append(spent[1] / spent[2])
+    return {
+        "num_envs": num_envs,
+        "backend": _backend(envs[1].config.sim),
+        "env_workers1_steps_per_s": statistics.median(one),
+        "env_workers2_steps_per_s": statistics.median(two),
+        "env_workers2_speedup": statistics.median(ratios),
+        "env_workers2_speedup_range": [min(ratios), max(ratios)],
+    }
+
+
 def main(argv=None) -> None:
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--num-envs", type=int, nargs="+", default=[64, 4096], help="batch sizes")
+    p.add_argument("--env-only", action="store_true", help="measure only the env with workers=1 against workers=2")
     args = p.parse_args(argv)
     rounds = 3 if args.quick else 5
-    rows = []
+    rows, env_rows = [], []
     for num_envs in args.num_envs:
         calls = max(2, round((4 if args.quick else 12) * 4096 / max(num_envs, 256)))
-        rows.append(measure(num_envs, calls, rounds))
+        env_rows.append(measure_env(num_envs, 2 * calls, 2 * rounds - 1))
+        if not args.env_only:
+            rows.append(measure(num_envs, calls, rounds))
+    print(
+        markdown_table(
+            ["N", "backend", "env, workers=1 (env steps/s)", "env, workers=2", "speed-up (median; range)"],
+            [[r["num_envs"], r["backend"], f"{r['env_workers1_steps_per_s']:,.0f}",
+              f"{r['env_workers2_steps_per_s']:,.0f}",
+              f"{r['env_workers2_speedup']:.2f}x ({r['env_workers2_speedup_range'][0]:.2f}-"
+              f"{r['env_workers2_speedup_range'][1]:.2f})"]
+             for r in env_rows],
+        )  # fmt: skip
+    )
+    if args.env_only:
+        write_json(args.json, {"machine": machine(), "rounds": 2 * rounds - 1, "env_rows": env_rows})
+        return
     print(
         markdown_table(
             ["N", "alone (env steps/s)", "machine ceiling: 2 x N at once", "split ceiling: 2 x N/2 at once",
@@ -111,7 +178,8 @@ def main(argv=None) -> None:
              for r in rows],
         )  # fmt: skip
     )
-    write_json(args.json, {"machine": machine(), "rounds": rounds, "rows": rows})
+    write_json(args.json, {"machine": machine(), "rounds": rounds, "rows": rows, "env_rounds": 2 * rounds - 1,
+                           "env_rows": env_rows})
 
 
 if __name__ == "__main__":

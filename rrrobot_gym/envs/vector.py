@@ -108,6 +108,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._observations = None
         self._generators = [None] * self.num_envs
         self._paths = None
+        self._upright = None  # (N, 2) m, the upright contact points of self.states (task.upright_contact_points)
 
     @property
     def dt(self) -> float:
@@ -134,6 +135,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
+        self._upright = _upright_points(info)
         masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
         return self._observations.copy(), _with_masks(info, masks)
 
@@ -177,7 +179,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         observations[failed] = self._observations[failed]
 
         elapsed = self.episode_steps * self.dt
-        rewards, terminated, info = task.step_outcome(before, after, targets, actions, failed, self.config, measures, elapsed)
+        rewards, terminated, info = task.step_outcome(
+            before, after, targets, actions, failed, self.config, measures, elapsed, upright_before=self._upright
+        )
         self.episode_steps += 1
         if self.max_episode_steps is None:
             truncated = np.zeros(self.num_envs, dtype=bool)
@@ -194,6 +198,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         done = terminated | truncated
         if done.any():
             observations = self._autoreset(done, observations, info, masks)
+        # (the next step's upright points before: a reset sub-env's info is its new start's)
+        self._upright = _upright_points(info)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
     def _advance(self, states, actions, previous_targets, contact_lost):
@@ -288,6 +294,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
     RRRobotVectorEnv.__init__, before=("workers",), after=("render_mode", "width", "height")
 )
+
+
+def _upright_points(info):
+    """(N, 2) m: the upright contact points an info reports (``x_upright``, ``y_upright``), copied."""
+    return np.column_stack((info["x_upright"], info["y_upright"]))
 
 
 def _with_masks(info, masks):
