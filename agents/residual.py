@@ -45,11 +45,6 @@ def combine(base_actions, residual, scale):
     return np.clip(np.asarray(base_actions, dtype=np.float64) + scale * residual, -1.0, 1.0).astype(np.float32)
 
 
-def _rows(state, rows):
-    """The base agent's state for some envs only (``history`` is (window, n), the rest (n, ...))."""
-    return {key: (value[:, rows] if key == "history" else value[rows]) for key, value in state.items()}
-
-
 def check_scale(scale):
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not (0.0 < scale <= 2.0):
         raise ValueError(f"residual scale must be a number in (0, 2] action units, got {scale!r}")
@@ -99,7 +94,7 @@ def make_residual_vec_env(venv, base, scale):
                 # The episode's last observation as the policy would have seen it (PPO bootstraps
                 # truncated episodes' values from it): the base agent's next step, thrown away.
                 final = infos[i]["terminal_observation"][None]
-                actions, state = self.base.predict(final, state=_rows(self.base_state, [i]))
+                actions, state = self.base.predict(final, state=self.base.state_rows(self.base_state, [i]))
                 infos[i]["terminal_observation"] = np.concatenate([final, base_features(state, actions)], axis=1)[0]
             return self._extend(observations, dones), rewards, dones, infos
 

@@ -165,6 +165,12 @@ class TurnThenRunAgent:
         memory["history"][:, rows] = yaw
         memory["yaw"][rows] = yaw
 
+    @staticmethod
+    def state_rows(state, rows):
+        """The part of a batch's ``state`` (what :meth:`predict` returned) for the envs ``rows``
+        only: a state :meth:`predict` takes for those envs."""
+        return {key: (value[:, rows] if key == "history" else value[rows]) for key, value in state.items()}
+
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         observation = np.asarray(observation)
         single = observation.ndim == 1
