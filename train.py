@@ -143,9 +143,38 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--residual-on: {exc}")
         if base.model != args.model:
             parser.error(f"--residual-on: {args.residual_on} was made for the {base.model} model, not {args.model}")
-    if args.resume is not None and not Path(args.resume).is_file():
-        parser.error(f"--resume: no model file at {args.resume}")
+    if args.resume is not None:
+        if not Path(args.resume).is_file():
+            parser.error(f"--resume: no model file at {args.resume}")
+        _check_resumed_residual(parser, args)
     return args
+
+
+def _check_resumed_residual(parser, args):
+    """A residual policy (residual.json in its run directory) resumes only as one, on the same scale;
+    a plain one never does (their observations differ in size, which SB3 would report unnamed)."""
+    import json
+
+    from agents.residual import RESIDUAL_FILE
+
+    model_dir = Path(args.resume).parent
+    if model_dir.name == "checkpoints":  # a checkpoint: the run's directory is one up
+        model_dir = model_dir.parent
+    saved = model_dir / RESIDUAL_FILE
+    if not saved.exists():
+        if args.residual_on is not None:
+            parser.error(f"--residual-on: the --resume model {args.resume} is not a residual policy (no {saved})")
+        return
+    try:
+        spec = json.loads(saved.read_text())
+        scale = spec["scale"]
+    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
+        parser.error(f"--resume: cannot read {saved}: {exc}")
+    if args.residual_on is None:
+        parser.error(f"--resume: {args.resume} is a residual policy ({saved}): give --residual-on (its base, "
+                     f"e.g. {model_dir / spec.get('base', '')}) and --residual-scale {scale} as it was trained")
+    if args.residual_scale != scale:
+        parser.error(f"--residual-scale: the --resume model was trained with scale {scale}, not {args.residual_scale}")
 
 
 def env_kwargs(args: Args) -> dict:

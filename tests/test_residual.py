@@ -122,6 +122,30 @@ def test_bad_residual_arguments_are_named(argv, named, capsys):
     assert named in capsys.readouterr().err
 
 
+SHIPPED_RESIDUAL = ROOT / "agents" / "pretrained_residual" / "best_model.zip"
+SHIPPED_PLAIN = ROOT / "agents" / "pretrained" / "best_model.zip"
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--resume", str(SHIPPED_RESIDUAL)], "--residual-on"),
+    (["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.1"], "scale 0.05"),
+    (["--resume", str(SHIPPED_PLAIN), "--residual-on", str(BASE)], "not a residual policy"),
+])
+def test_a_resumed_run_must_match_the_residual_it_was_trained_as(argv, named, capsys):
+    import train
+
+    with pytest.raises(SystemExit):
+        train.parse_args(argv)
+    assert named in capsys.readouterr().err
+
+
+def test_a_residual_run_resumes_as_one():
+    import train
+
+    args = train.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05"])
+    assert args.residual_scale == 0.05 and args.resume == str(SHIPPED_RESIDUAL)
+
+
 def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
     """train.py --residual-on writes residual.json and copies of the base's files; load_ppo_agent
     rebuilds the residual agent from the run directory alone; evaluate.py scores it."""
