@@ -10,9 +10,12 @@ same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
     python evaluate.py --gaits agents/searched/plane_own.json        # searched gaits too
     python evaluate.py --turn-then-run agents/searched/turn_then_run.json \
         --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
+    python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
 
 A turn-then-run file is scored on the model its JSON names (``"model"``, default plane) as
-"turn-then-run", under that model's physics keywords like every other agent there.
+"turn-then-run", under that model's physics keywords like every other agent there. An
+``--also-policy NAME=FILE`` is scored as NAME on the model it was trained on (its
+``env_kwargs.json``), beside "ppo".
 
 Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
 (keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
@@ -376,6 +379,9 @@ def main(argv=None):
                         help="also score the scripted turn-then-run baseline of this file, as 'turn-then-run', on "
                              "the model its JSON names ('model', default plane): agents/searched/turn_then_run.json "
                              "(plane), agents/searched/turn_then_run_pivot.json (pivot); repeatable, one per model")
+    parser.add_argument("--also-policy", action="append", default=[], metavar="NAME=FILE",
+                        help="also score the PPO model zip FILE as agent NAME, on the model it was trained on "
+                             "(its env_kwargs.json; default plane); repeatable")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run each model's policy with a 10x finer integration step and compare its speeds")
     args = parser.parse_args(argv)
@@ -415,6 +421,18 @@ def main(argv=None):
                          f"(after {baseline_files[baseline.model]}); give one file per model")
         baseline_files[baseline.model] = path
         per_model.setdefault(baseline.model, {})[baseline.name] = baseline
+    for spec in args.also_policy:
+        name, sep, path = spec.partition("=")
+        name = name.strip()
+        if not sep or not name or not path:
+            parser.error(f"--also-policy: expected NAME=FILE, got {spec!r}")
+        taken = set(agents) | {"ppo"} | {n for on_model in per_model.values() for n in on_model}
+        if name in taken:
+            parser.error(f"--also-policy {spec}: agent name {name!r} already taken")
+        if not Path(path).is_file():
+            parser.error(f"--also-policy {spec}: no model file at {path}")
+        policy = load_ppo_agent(path)
+        per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
     try:
         records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model)
     except ValueError as exc:

@@ -32,6 +32,7 @@ class PPOAgent:
     """
 
     name = "ppo"
+    closed_loop = True  # (it reads the observation: evaluate.py gives it no open-loop "own direction")
 
     def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8, env_config=None):
         self.model = model

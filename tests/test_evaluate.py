@@ -62,3 +62,33 @@ def test_agents_trained_under_different_motors_are_not_scored_together():
     a.env_kwargs, b.env_kwargs = {"torque_limit": 0.5}, {"torque_limit": 0.8}
     with pytest.raises(ValueError, match="torque_limit"):
         evaluate({"a": a, "b": b}, ["pivot"], duration=0.5)
+
+
+def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself(capsys):
+    """--also-policy NAME=FILE: the shipped pivot policy under a second name scores exactly what
+    it scores as "ppo" (the default pivot policy), heading by heading; it gets no open-loop own
+    direction (it is closed loop), and runs only on the pivot model it was trained on."""
+    from evaluate import COMPASS_DEG, main
+
+    records = main(["--models", "plane", "pivot", "--duration", "0.5",
+                    "--also-policy", "again=agents/pretrained_pivot/best_model.zip"])  # fmt: skip
+    again = {r["heading_deg"]: r["speed_mps"] for r in records if r["agent"] == "again"}
+    ppo = {r["heading_deg"]: r["speed_mps"] for r in records if r["agent"] == "ppo" and r["model"] == "pivot"}
+    assert {r["model"] for r in records if r["agent"] == "again"} == {"pivot"}
+    assert set(COMPASS_DEG) <= set(again) and again == ppo  # (and along the gaits' own directions, as every agent)
+    assert not any("again" in r["own_direction_of"] for r in records)
+    assert "| again |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("spec, named", [
+    ("again", "NAME=FILE"),
+    ("gait1=agents/pretrained_pivot/best_model.zip", "already taken"),
+    ("ppo=agents/pretrained_pivot/best_model.zip", "already taken"),
+    ("again=missing.zip", "no model file"),
+])
+def test_bad_second_policies_are_named(spec, named, capsys):
+    from evaluate import main
+
+    with pytest.raises(SystemExit):
+        main(["--no-policy", "--duration", "0.5", "--also-policy", spec])
+    assert named in capsys.readouterr().err
