@@ -131,6 +131,26 @@ def test_a_numerical_blow_up_in_one_sub_env_leaves_the_others_running():
         assert reward[i] == pytest.approx(single_reward, abs=STATE_TOLERANCE)
 
 
+def test_a_robot_whose_observation_overflows_reports_the_state_it_keeps():
+    """A finite float64 state whose float32 observation overflows (a contact point at 1e39 m)
+    fails; it keeps its last state, and its info (tilt, upright contact point) describes that
+    state, not the one the integrator reached."""
+    env = RRRobotVectorEnv(num_envs=2, reset_noise_scale=0.0, target_direction=0.0,
+                           exclude_current_positions_from_observation=False)  # fmt: skip
+    starts = initial_state(2)
+    starts[:, dynamics.QUAT] = dynamics.quat_from_paper_angles(np.array([0.1, 0.2, 0.05]))
+    starts[:, dynamics.BODY_RATE] = (0.5, -0.3, 0.2)  # the attitude moves within a step
+    starts[1, 0] = 1e39
+    _, start_info = env.reset(seed=0, options={"state": starts})
+    _, _, terminated, _, info = env.step(np.zeros((2, 2), dtype=np.float32))
+    np.testing.assert_array_equal(terminated, [False, True])
+    final = info["final_info"]
+    assert final["numerical_failure"][1]
+    for key in ("tilt", "x_upright", "y_upright"):
+        assert final[key][1] == start_info[key][1]
+    assert info["tilt"][0] != start_info["tilt"][0]  # (the other robot's attitude did move)
+
+
 @pytest.mark.parametrize(
     "call, error, message",
     [

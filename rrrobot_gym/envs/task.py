@@ -479,17 +479,19 @@ def parse_reset_options(options, num_envs: int | None):
 # Observation, reward, termination
 
 
-def observe(states, targets, config: TaskConfig, times=None) -> np.ndarray:
+def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=None) -> np.ndarray:
     """Observations (N, config.observation_size) float32 of states (N, 13), targets (N,) rad
     and the time since each episode began, ``times`` (N,) s (used by the clock only).
+    ``rows`` and ``heading``: the states' :func:`_rotation_rows` and the targets'
+    :func:`_heading_vectors`, if the caller already has them.
 
     Layout in :data:`OBSERVATION_FIELDS`. The attitude enters as two unit vectors seen from
     the body, world up and the commanded heading: together they fix the body's attitude
     relative to the task with no singularity anywhere, and they are unchanged when the
     whole scene is turned about the vertical (the dynamics are invariant to world yaw).
     """
-    rows = _rotation_rows(states)
-    cos_t, sin_t = _heading_vectors(targets)
+    rows = _rotation_rows(states) if rows is None else rows
+    cos_t, sin_t = _heading_vectors(targets) if heading is None else heading
     obs = np.empty((len(states), config.observation_size), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -567,9 +569,10 @@ def upright_contact_points(states, radius, rows=None):
     return points
 
 
-def reset_info(states, targets, config: TaskConfig):
-    """The info of a start: (N,) arrays keyed as in :data:`RESET_INFO_KEYS`."""
-    rows = _rotation_rows(states)
+def reset_info(states, targets, config: TaskConfig, rows=None):
+    """The info of a start: (N,) arrays keyed as in :data:`RESET_INFO_KEYS` (``rows``: the
+    states' :func:`_rotation_rows`, if already computed)."""
+    rows = _rotation_rows(states) if rows is None else rows
     upright = upright_contact_points(states, config.sim.robot.radius, rows)
     return {
         "x_position": states[:, 0].copy(),
@@ -582,7 +585,8 @@ def reset_info(states, targets, config: TaskConfig):
 
 
 def step_outcome(
-    states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed, upright_before=None
+    states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed, upright_before=None,
+    rows_after=None, heading=None,
 ):
     """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step.
 
@@ -595,13 +599,15 @@ def step_outcome(
     (numerical blow-up; its states_after is its unchanged last finite state) gets reward 0
     and terminates; so does one whose tilt reached the rim limit.
     ``upright_before`` (N, 2): the upright contact points of ``states_before`` if the caller
-    kept them (the last step's x_upright, y_upright); else they are computed.
+    kept them (the last step's x_upright, y_upright); else they are computed. ``rows_after``
+    and ``heading``: the :func:`_rotation_rows` of ``states_after`` and the targets'
+    :func:`_heading_vectors`, if the caller already has them.
     """
     dt = config.dt
     elapsed = np.asarray(elapsed, dtype=float)
-    info = reset_info(states_after, targets, config)
+    info = reset_info(states_after, targets, config, rows_after)
     before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
-    cos_t, sin_t = _heading_vectors(targets)
+    cos_t, sin_t = _heading_vectors(targets) if heading is None else heading
     forward_velocity = ((info["x_upright"] - before[:, 0]) * cos_t + (info["y_upright"] - before[:, 1]) * sin_t) / dt
     info["x_velocity"] = (states_after[:, 0] - states_before[:, 0]) / dt
     info["y_velocity"] = (states_after[:, 1] - states_before[:, 1]) / dt

@@ -109,6 +109,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._generators = [None] * self.num_envs
         self._paths = None
         self._upright = None  # (N, 2) m, the upright contact points of self.states (task.upright_contact_points)
+        self._headings = None  # (headings (N,), their (cos, sin)): see _heading_vectors
 
     @property
     def dt(self) -> float:
@@ -172,15 +173,22 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         before = self.states
         targets = self.episode_target_directions
         after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
-        observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt)
+        # The rotations of the new states and the headings' cos and sin, computed once for the
+        # observation and the step's outcome (at N = 64 the task code is most of a step).
+        rows = task._rotation_rows(after)
+        heading = self._heading_vectors(targets)
+        observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt, rows, heading)
         failed |= ~task.finite_rows(after, observations)
-        # A failed robot keeps its last finite state and observation (never NaN out).
-        after[failed] = before[failed]
-        observations[failed] = self._observations[failed]
+        if failed.any():
+            # A failed robot keeps its last finite state and observation (never NaN out).
+            after[failed] = before[failed]
+            observations[failed] = self._observations[failed]
+            rows = None  # (the rows of the states restored: computed afresh)
 
         elapsed = self.episode_steps * self.dt
         rewards, terminated, info = task.step_outcome(
-            before, after, targets, actions, failed, self.config, measures, elapsed, upright_before=self._upright
+            before, after, targets, actions, failed, self.config, measures, elapsed, upright_before=self._upright,
+            rows_after=rows, heading=heading,
         )
         self.episode_steps += 1
         if self.max_episode_steps is None:
@@ -194,13 +202,22 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if self._paths is not None:
             for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
                 path.append((x, y))
-        masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
+        every = np.ones(self.num_envs, dtype=bool)
+        masks = {key: every.copy() for key in info}
         done = terminated | truncated
         if done.any():
             observations = self._autoreset(done, observations, info, masks)
         # (the next step's upright points before: a reset sub-env's info is its new start's)
         self._upright = _upright_points(info)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+
+    def _heading_vectors(self, targets):
+        """cos and sin of the headings ``targets`` (N,), kept while the headings stay the same
+        (they change at resets and by ``set_attr``, in place: compared by value each step)."""
+        kept = self._headings
+        if kept is None or not np.array_equal(kept[0], targets):
+            kept = self._headings = (targets.copy(), task._heading_vectors(targets))
+        return kept[1]
 
     def _advance(self, states, actions, previous_targets, contact_lost):
         """(new states, step measures, failed mask, contact_lost): one control step for every robot, isolating failures.
