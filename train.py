@@ -153,26 +153,22 @@ def parse_args(argv=None) -> Args:
 def _check_resumed_residual(parser, args):
     """A residual policy (residual.json in its run directory) resumes only as one, on the same scale;
     a plain one never does (their observations differ in size, which SB3 would report unnamed)."""
-    import json
+    from agents.residual import RESIDUAL_FILE, load_base, run_directory
 
-    from agents.residual import RESIDUAL_FILE
-
-    model_dir = Path(args.resume).parent
-    if model_dir.name == "checkpoints":  # a checkpoint: the run's directory is one up
-        model_dir = model_dir.parent
-    saved = model_dir / RESIDUAL_FILE
-    if not saved.exists():
-        if args.residual_on is not None:
-            parser.error(f"--residual-on: the --resume model {args.resume} is not a residual policy (no {saved})")
-        return
+    run_dir = run_directory(args.resume)
     try:
-        spec = json.loads(saved.read_text())
-        scale = spec["scale"]
-    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
-        parser.error(f"--resume: cannot read {saved}: {exc}")
+        saved = load_base(run_dir)
+    except ValueError as exc:
+        parser.error(f"--resume: {exc}")
+    if saved is None:
+        if args.residual_on is not None:
+            parser.error(f"--residual-on: the --resume model {args.resume} is not a residual policy "
+                         f"(no {run_dir / RESIDUAL_FILE})")
+        return
+    scale = saved[1]
     if args.residual_on is None:
-        parser.error(f"--resume: {args.resume} is a residual policy ({saved}): give --residual-on (its base, "
-                     f"e.g. {model_dir / spec.get('base', '')}) and --residual-scale {scale} as it was trained")
+        parser.error(f"--resume: {args.resume} is a residual policy ({run_dir / RESIDUAL_FILE}): give --residual-on "
+                     f"(its base is copied in {run_dir / 'residual_base'}) and --residual-scale {scale} as it was trained")
     if args.residual_scale != scale:
         parser.error(f"--residual-scale: the --resume model was trained with scale {scale}, not {args.residual_scale}")
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .residual import ResidualAgent, load_base
+from .residual import ResidualAgent, load_base, run_directory
 
 
 SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
@@ -80,8 +80,8 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
     (:func:`normalization_path`), its VecNormalize statistics, and ``env_kwargs.json``
     beside it (the training env's keywords; older runs saved only the observation's, the
-    rest then default). A run with ``residual.json`` beside the model (``train.py
-    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
+    rest then default). A run with ``residual.json`` in its directory (``train.py
+    --residual-on``; a checkpoint's run is one directory up) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
     Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
@@ -103,5 +103,5 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         with open(vecnormalize_path, "rb") as handle:
             stats = pickle.load(handle)
         agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
-    base = load_base(model_path.parent)  # a residual policy (train.py --residual-on): its base agent
+    base = load_base(run_directory(model_path))  # a residual policy (train.py --residual-on): its base agent
     return agent if base is None else ResidualAgent(agent, *base)

@@ -137,8 +137,16 @@ def save_residual(run_dir, base_path, scale):
     (run_dir / RESIDUAL_FILE).write_text(json.dumps(record, indent=2) + "\n")
 
 
+def run_directory(model_path):
+    """The directory of the train.py run a model zip belongs to: the zip's own directory, or the
+    one above for a checkpoint (``RUN/checkpoints/ppo_N_steps.zip``)."""
+    directory = Path(model_path).parent
+    return directory.parent if directory.name == "checkpoints" else directory
+
+
 def load_base(model_dir, dt=None):
-    """(base agent, scale) of a run directory holding ``residual.json``, or None without one."""
+    """(base agent, scale) of a run directory holding ``residual.json``, or None without one.
+    Raises ValueError naming the file if it cannot be read."""
     path = Path(model_dir) / RESIDUAL_FILE
     if not path.exists():
         return None

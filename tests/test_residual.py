@@ -176,3 +176,25 @@ def test_the_shipped_residual_policy_loads_from_its_directory_alone():
 
     agent = load_ppo_agent(ROOT / "agents" / "pretrained_residual" / "best_model.zip")
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
+
+
+def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_path, capsys):
+    """A checkpoint lives in RUN/checkpoints/, one directory below the run's residual.json: it
+    loads on its base as the run's models do, and resuming it asks for the residual's flags."""
+    import shutil
+
+    import train
+    from agents import load_ppo_agent
+
+    shipped = SHIPPED_RESIDUAL.parent
+    run_dir = tmp_path / "run"
+    shutil.copytree(shipped / "residual_base", run_dir / "residual_base")
+    shutil.copy(shipped / "residual.json", run_dir / "residual.json")
+    (run_dir / "checkpoints").mkdir()
+    checkpoint = run_dir / "checkpoints" / "ppo_1000_steps.zip"
+    shutil.copy(SHIPPED_RESIDUAL, checkpoint)
+    agent = load_ppo_agent(checkpoint)
+    assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
+    with pytest.raises(SystemExit):
+        train.parse_args(["--resume", str(checkpoint)])
+    assert "--residual-on" in capsys.readouterr().err
