@@ -52,6 +52,14 @@ def run_fresh(tree: Path, script: str, *args, prefix=(), **env) -> subprocess.Co
                           capture_output=True, text=True, check=True)  # fmt: skip
 
 
+def gentle_actions(rng, shape, steps):
+    """(steps, *shape) smooth leg targets near vertical, from random phases: every robot stays
+    inside the model, so no resets muddle a timing."""
+    phase = rng.uniform(0, 2 * np.pi, shape)
+    k = np.arange(steps)[:, None, None] if len(shape) == 2 else np.arange(steps)[:, None]
+    return (0.05 * np.sin(0.4 * k + phase)).astype(np.float32)
+
+
 def parser(description: str) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--quick", action="store_true", help="fewer, shorter runs (under a minute)")

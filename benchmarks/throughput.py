@@ -28,14 +28,7 @@ from rrrobot_gym.control import RampTargets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import advance
 
-from ._common import machine, markdown_table, parser, write_json
-
-
-def _gentle_actions(rng, shape, steps):
-    """Smooth leg targets near vertical: the robot stays inside the model, so no resets muddle the timing."""
-    phase = rng.uniform(0, 2 * np.pi, shape)
-    k = np.arange(steps)[:, None, None] if len(shape) == 2 else np.arange(steps)[:, None]
-    return (0.05 * np.sin(0.4 * k + phase)).astype(np.float32)
+from ._common import gentle_actions, machine, markdown_table, parser, write_json
 
 
 def _paired(env, actions, physics_step, repeats: int):
@@ -79,7 +72,7 @@ def _warm_up(env, actions, physics_step):
 
 def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
     env = gymnasium.make("RRRobot-v0", **env_kwargs)
-    actions = _gentle_actions(rng, (2,), steps)
+    actions = gentle_actions(rng, (2,), steps)
     env.reset(seed=0)
     config = env.unwrapped.config
     targets = RampTargets(np.full(2, 0.5 * np.pi), np.full(2, 0.6 * np.pi), 0.0, config.dt)
@@ -92,7 +85,7 @@ def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
 
 def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, **env_kwargs) -> dict:
     env = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers, **env_kwargs)
-    actions = _gentle_actions(rng, (num_envs, 2), steps)
+    actions = gentle_actions(rng, (num_envs, 2), steps)
     env.reset(seed=0)
     targets = RampTargets(np.full((num_envs, 2), 0.5 * np.pi), np.full((num_envs, 2), 0.6 * np.pi), 0.0, env.dt)
     physics = _physics(env.config, env.states, targets)

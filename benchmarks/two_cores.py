@@ -36,7 +36,7 @@ from rrrobot_gym.control import RampTargets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
-from ._common import machine, markdown_table, parser, write_json
+from ._common import gentle_actions, machine, markdown_table, parser, write_json
 
 
 def _batch(num_envs: int):
@@ -99,12 +99,6 @@ def measure(num_envs: int, calls: int, rounds: int) -> dict:
     }
 
 
-def _gentle_actions(num_envs: int, steps: int) -> np.ndarray:
-    """(steps, N, 2) smooth targets near vertical: every robot stays in the model (no resets in the timing)."""
-    phase = np.random.default_rng(0).uniform(0, 2 * np.pi, (num_envs, 2))
-    return (0.05 * np.sin(0.4 * np.arange(steps)[:, None, None] + phase)).astype(np.float32)
-
-
 def _backend(sim: SimConfig) -> str:
     """The backend ``advance`` takes for this config ("auto" resolved)."""
     if sim.backend != "auto":
@@ -115,7 +109,7 @@ def _backend(sim: SimConfig) -> str:
 def measure_env(num_envs: int, steps: int, rounds: int) -> dict:
     """The vector env with ``workers=1`` and ``workers=2``, each step timed beside the other's."""
     envs = {workers: RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers) for workers in (1, 2)}
-    actions = _gentle_actions(num_envs, steps)
+    actions = gentle_actions(np.random.default_rng(0), (num_envs, 2), steps)
     for env in envs.values():  # warm up: numba compiles (or loads) each stepper on its first call
         env.reset(seed=0)
         env.step(actions[0])
