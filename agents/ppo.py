@@ -78,10 +78,11 @@ def normalization_path(model_path) -> Path:
 
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
     """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
-    (:func:`normalization_path`), its VecNormalize statistics, and ``env_kwargs.json``
-    beside it (the training env's keywords; older runs saved only the observation's, the
-    rest then default). A run with ``residual.json`` in its directory (``train.py
-    --residual-on``; a checkpoint's run is one directory up) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
+    (:func:`normalization_path`), its VecNormalize statistics, and its run's ``env_kwargs.json``
+    (the training env's keywords; older runs saved only the observation's, the rest then
+    default). The run's directory holds the zip, or is one up for a checkpoint
+    (:func:`agents.residual.run_directory`). A run with ``residual.json`` (``train.py
+    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
     Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
@@ -95,7 +96,8 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     if vecnormalize_path is None:
         candidate = normalization_path(model_path)
         vecnormalize_path = candidate if candidate.exists() else None
-    kwargs_path = model_path.with_name("env_kwargs.json")
+    run_dir = run_directory(model_path)  # (a checkpoint's run is one directory up)
+    kwargs_path = run_dir / "env_kwargs.json"
     env_config = kwargs_from_json(json.loads(kwargs_path.read_text())) if kwargs_path.exists() else {}
     if vecnormalize_path is None:
         agent = PPOAgent(model, env_config=env_config)
@@ -103,5 +105,5 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         with open(vecnormalize_path, "rb") as handle:
             stats = pickle.load(handle)
         agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
-    base = load_base(run_directory(model_path))  # a residual policy (train.py --residual-on): its base agent
+    base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
     return agent if base is None else ResidualAgent(agent, *base)

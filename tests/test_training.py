@@ -217,3 +217,20 @@ def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(
     np.testing.assert_allclose(sampled, table2_gait(1).angles(times), atol=1e-6)
     vector = gymnasium.make_vec("RRRobot-v0", num_envs=2, **kwargs)
     assert gait_agent("gait1", env=vector).dt == env.unwrapped.dt
+
+
+def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
+    """Checkpoints sit in RUN/checkpoints/ and the run's env_kwargs.json one directory up: a
+    checkpoint of a pivot run under motor limits loads with those keywords, not the defaults."""
+    import shutil
+
+    from agents import load_ppo_agent
+
+    shipped = ROOT / "agents" / "pretrained_pivot"
+    (tmp_path / "checkpoints").mkdir()
+    shutil.copy(shipped / "env_kwargs.json", tmp_path / "env_kwargs.json")
+    checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
+    shutil.copy(shipped / "best_model.zip", checkpoint)
+    agent = load_ppo_agent(checkpoint)
+    assert agent.env_config["model"] == "pivot"
+    assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
