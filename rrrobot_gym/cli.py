@@ -188,6 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="fresh start seeds the best gaits are re-scored on, 0: none (default: %(default)s)")
     search.add_argument("--robustness-duration", type=_positive_seconds, default=50.0,
                         help="episode length of the re-score, s (default: %(default)g, the paper's)")
+    search.add_argument("--robust-pool", type=_positive_int, default=32,
+                        help="the fittest gaits re-scored on the new starts; those that stay in the model on every "
+                             "start are written first (default: %(default)s)")
     search.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
                         help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)")
     search.add_argument("--ray-address", metavar="ADDR", help="evaluate populations as Ray tasks on this cluster ('local' starts one)")
@@ -511,7 +514,7 @@ def run_gait_search(args) -> None:
             popsize=args.popsize, screen=args.screen, duration=args.duration,
             start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale, keep=args.keep,
             robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
-            progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
+            robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
         )
     except (TypeError, ValueError) as exc:
         raise UsageError(str(exc)) from None
@@ -535,6 +538,8 @@ def format_search(result) -> str:
         )
         if gait["terminated_starts"]:
             line += f" (left the model on {gait['terminated_starts']} starts)"
+        if gait.get("robust") is not None:
+            line += f" [search rank {gait['search_rank']}{'' if gait['robust'] else ', NOT robust'}]"
         robust = gait.get("robustness")
         if robust:
             line += (

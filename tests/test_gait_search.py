@@ -292,3 +292,56 @@ def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
     assert model.num_timesteps == 512
     assert any(not np.allclose(b.numpy(), a.detach().numpy()) for b, a in zip(before, model.policy.parameters()))
     venv.close()
+
+
+def _report(terminated=(False, False), paper=False):
+    return {"terminated": list(terminated), "paper_start_terminated": paper}
+
+
+def test_rank_robust_first_puts_gaits_that_never_left_the_model_first_in_search_order():
+    gaits = [
+        {"search_rank": 1, "terminated_starts": 0, "robustness": _report((False, True))},  # a new start ended it
+        {"search_rank": 2, "terminated_starts": 1, "robustness": _report()},  # a search start ended it
+        {"search_rank": 3, "terminated_starts": 0, "robustness": _report()},
+        {"search_rank": 4, "terminated_starts": 0, "robustness": _report(paper=True)},  # the paper's start ended it
+        {"search_rank": 5, "terminated_starts": 0, "robustness": _report()},
+    ]
+    ranked = gait_search.rank_robust_first(gaits)
+    assert [g["search_rank"] for g in ranked] == [3, 5, 1, 2, 4]
+    assert [g["robust"] for g in ranked] == [True, True, False, False, False]
+
+
+def test_search_writes_the_fittest_robust_gait_first(monkeypatch):
+    # The fittest gait of a tiny search is made to leave the model on one new start: the search must
+    # then put the next robust gait first, and keep the fittest, marked, behind the robust ones
+    # (keep = the pool: every re-scored gait is written).
+    real = gait_search.robustness
+    pools = []
+
+    def one_new_start_ends_the_fittest(parameters, **kwargs):
+        reports = real(parameters, **kwargs)
+        pools.append(len(parameters))
+        reports[0]["terminated"][1] = True
+        return reports
+
+    monkeypatch.setattr(gait_search, "robustness", one_new_start_ends_the_fittest)
+    result = search(budget_evaluations=13, screen=0, start=GAIT1, seed=3, keep=8, robust_pool=4, **TINY)
+    assert pools == [8] and result.settings["robust_pool"] == 8
+    gaits = result.gaits
+    assert len(gaits) == 8 and [g["name"] for g in gaits] == [f"searched-plane-own-{i}" for i in range(1, 9)]
+    ranks = [g["search_rank"] for g in gaits]
+    robust = [g for g in gaits if g["robust"]]
+    assert gaits[0]["robust"] and gaits[0]["search_rank"] > 1
+    assert ranks.index(1) == len(robust) and not gaits[ranks.index(1)]["robust"]
+    assert [g["search_rank"] for g in robust] == sorted(g["search_rank"] for g in robust)
+    assert gaits[0]["fitness"] <= gaits[ranks.index(1)]["fitness"]
+
+
+def test_without_a_re_score_the_order_is_the_search_fitness():
+    result = search(budget_evaluations=7, screen=0, start=GAIT1, seed=3, keep=4,
+                    **{**TINY, "robustness_seeds": 0})  # fmt: skip
+    assert [g["search_rank"] for g in result.gaits] == [1, 2, 3, 4]
+    assert all(g["robust"] is None and "robustness" not in g for g in result.gaits)
+    assert result.settings["robust_pool"] is None
+    fitness = [g["fitness"] for g in result.gaits]
+    assert fitness == sorted(fitness, reverse=True)
