@@ -173,6 +173,40 @@ def cache_dir(sources=None):
     return os.path.join(root, "rrrobot_gym", "numba-" + digest.hexdigest()[:16])
 
 
+CACHE_UNUSED_DAYS = 30
+"""A cache directory of other sources (an older install, an edited checkout) that no process has
+used for this many days is removed when a stepper is made."""
+
+
+def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: float | None = None) -> list:
+    """Mark ``directory`` (a :func:`cache_dir`) used now, and remove its sibling ``numba-*``
+    directories not used for ``unused_days`` (each process marks its own when it makes a
+    stepper: a directory's modification time is its last use). Every source edit or upgrade
+    makes a new directory of a few MB, which nothing else would ever remove. Best effort:
+    a directory that cannot be touched or removed is left. Returns the paths removed."""
+    import os
+    import shutil
+    import time
+
+    now = time.time() if now is None else now
+    try:
+        os.utime(directory, (now, now))
+        parent = os.path.dirname(directory)
+        siblings = [os.path.join(parent, name) for name in os.listdir(parent) if name.startswith("numba-")]
+    except OSError:
+        return []
+    removed = []
+    for path in siblings:
+        try:
+            stale = path != directory and os.path.isdir(path) and os.stat(path).st_mtime < now - unused_days * 86400.0
+        except OSError:
+            continue
+        if stale:
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
+
+
 @functools.lru_cache(maxsize=None)
 def _stepper(parallel: bool):
     """The compiled :func:`_batch`, threaded over robots if ``parallel``; cached on disk (:func:`cache_dir`)."""
@@ -186,6 +220,8 @@ def _stepper(parallel: bool):
         cache = os.access(directory, os.W_OK)
     except OSError:
         cache = False
+    if cache:
+        _prune_stale_caches(directory)
     previous = numba.config.CACHE_DIR
     numba.config.CACHE_DIR = directory  # read when a dispatcher is made, not later
     try:

@@ -5,6 +5,7 @@ of operations, so a run must agree to the last bit: robot by robot, with the rec
 every kind of target it takes, with motor limits, and whatever the batch size or thread count.
 """
 
+import os
 from dataclasses import replace
 
 import gymnasium
@@ -193,6 +194,7 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
     import os
     import subprocess
     import sys
+    import time
 
     script = (
         "from rrrobot_gym import compiled, simulation as sim\n"
@@ -204,8 +206,15 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
         "      compiled.cache_dir())\n"
     )
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    # the caches of other sources: one unused for 40 days (removed), one used yesterday (kept)
+    stale, recent = (tmp_path / "rrrobot_gym" / name for name in ("numba-0000000000000000", "numba-1111111111111111"))
+    for folder, days in ((stale, 40), (recent, 1)):
+        (folder / "sub").mkdir(parents=True)
+        (folder / "sub" / "f.nbi").write_text("")
+        os.utime(folder, (time.time() - days * 86400, time.time() - days * 86400))
     runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
             for _ in range(2)]  # fmt: skip
+    assert not stale.exists() and recent.exists()
     (hits1, misses1, where1), (hits2, misses2, where2) = (r.stdout.split() for r in runs)
     assert (hits1, misses1) == ("0", "2") and (hits2, misses2) == ("2", "0")
     assert where1 == where2 and where1.startswith(str(tmp_path))
@@ -226,3 +235,16 @@ def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     compiled._batch(y, 0.1, 0.05 / 15, 15, k, gains, 0.4, 9.0, *targets, rows)
     fast, fast_rows = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 15, True)
     assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows)
+
+
+def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp_path):
+    now = 1.0e9
+    folders = {name: tmp_path / name for name in ("numba-current", "numba-old", "numba-young", "other-old")}
+    for name, folder in folders.items():
+        folder.mkdir()
+        age = {"numba-current": 90, "numba-old": 31, "numba-young": 29, "other-old": 90}[name]
+        os.utime(folder, (now - age * 86400, now - age * 86400))
+    removed = compiled._prune_stale_caches(str(folders["numba-current"]), unused_days=30, now=now)
+    assert removed == [str(folders["numba-old"])]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["numba-current", "numba-young", "other-old"]
+    assert os.stat(folders["numba-current"]).st_mtime == now  # in use: its own age starts again
