@@ -66,6 +66,13 @@ def _positive_seconds(text: str) -> float:
     return value
 
 
+def _nonnegative_seconds(text: str) -> float:
+    value = _number(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}")
+    return value
+
+
 def _timestep(text: str):
     """A positive number of seconds (1/300 is accepted), or "auto": the step SimConfig derives from the scene."""
     return "auto" if text.strip() == "auto" else _positive_seconds(text)
@@ -183,6 +190,9 @@ def build_parser() -> argparse.ArgumentParser:
     search.add_argument("--starts", type=_positive_int, default=2,
                         help="start-noise seeds each gait is scored from (seeds 0..N-1; default: %(default)s)")
     search.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
+    search.add_argument("--ramp-s", type=_nonnegative_seconds,
+                        help="every gait grows its swing in over this many seconds from the start at rest, 0: none "
+                             "(default: gait_search.DEFAULT_RAMP_S, 2 s)")
     search.add_argument("--keep", type=_positive_int, default=3, help="best gaits written (default: %(default)s)")
     search.add_argument("--robustness-seeds", type=_count, default=8,
                         help="fresh start seeds the best gaits are re-scored on, 0: none (default: %(default)s)")
@@ -512,7 +522,9 @@ def run_gait_search(args) -> None:
             model=args.model, objective=args.objective, heading_deg=args.heading_deg,
             budget_evaluations=args.evaluations, budget_seconds=budget_seconds, seed=args.seed,
             popsize=args.popsize, screen=args.screen, duration=args.duration,
-            start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale, keep=args.keep,
+            start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale,
+            ramp_s=gait_search.DEFAULT_RAMP_S if args.ramp_s is None else args.ramp_s,
+            keep=args.keep,
             robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
             robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
         )

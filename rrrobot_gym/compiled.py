@@ -60,9 +60,10 @@ def target_arrays(targets):
     """(kind, per-robot parameters (M, P), shared parameters) of a leg-target source, M = 1 when
     every robot has the same targets; None for a source the compiled stepper does not know."""
     describe = getattr(targets, "compiled_targets", None)
-    if describe is None:
+    described = None if describe is None else describe()
+    if described is None:
         return None
-    kind, per_robot, shared = describe()
+    kind, per_robot, shared = described
     if all(type(v) is float for v in per_robot):  # one set of targets (a gait, one robot's ramp)
         return kind, np.array([per_robot]), np.array(shared, dtype=float)
     columns = [np.asarray(v, dtype=float) for v in per_robot]

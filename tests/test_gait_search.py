@@ -101,6 +101,7 @@ def test_json_round_trips_into_agents_whose_predict_reproduces_the_gaits(tiny_re
     assert data["schema"] == gait_search.SCHEMA and len(data["gaits"]) == 3
     assert data["budget"] == {"evaluations": 25, "seconds": None} and data["seed"] == 3
     assert set(data["gaits"][0]["robustness"]) >= {"speeds_mps", "terminated", "paper_start_speed_mps"}
+    assert data["ramp_s"] == gait_search.DEFAULT_RAMP_S  # the search's default: the agents must ramp alike
     agents = load_gait_agents(path)
     assert list(agents) == [g["name"] for g in data["gaits"]]
     for gait in data["gaits"]:
@@ -109,7 +110,7 @@ def test_json_round_trips_into_agents_whose_predict_reproduces_the_gaits(tiny_re
         state, obs = None, np.zeros((2, 15), dtype=np.float32)
         for k in range(30):
             actions, state = agent.predict(obs, state=state, episode_start=np.array([k == 0] * 2))
-            expected = gait_search.sinusoid_angles(params, (k + 1) * 0.05)
+            expected = gait_search.sinusoid_angles(params, (k + 1) * 0.05, data["ramp_s"])
             np.testing.assert_allclose(action_to_leg_targets(actions.astype(float)), np.tile(expected, (2, 1)), atol=1e-6)
 
 
@@ -345,3 +346,65 @@ def test_without_a_re_score_the_order_is_the_search_fitness():
     assert result.settings["robust_pool"] is None
     fitness = [g["fitness"] for g in result.gaits]
     assert fitness == sorted(fitness, reverse=True)
+
+
+RAMPED = SinusoidGait(1.2, 0.9, 1.6, 1.5, 8.4, -1.7, ramp_s=2.0)
+
+
+def test_a_ramped_gait_starts_at_rest_and_its_rates_are_the_derivatives_of_its_angles():
+    (a0, rate0, _) = RAMPED.leg_targets(0.0)
+    assert a0 == (1.6, 1.5) and rate0 == (0.0, 0.0)  # the swing grows from nothing, at rest
+    h = 1e-6
+    for t in (0.13, 0.9, 1.41, 1.999):
+        angles, rates, accels = (np.array(v) for v in RAMPED.leg_targets(t))
+        np.testing.assert_allclose(angles, RAMPED.angles([t])[0], atol=1e-15)
+        before, after = (np.array(RAMPED.leg_targets(t + d)[0]) for d in (-h, h))
+        np.testing.assert_allclose((after - before) / (2 * h), rates, atol=1e-6)
+        before, after = (np.array(RAMPED.leg_targets(t + d)[1]) for d in (-h, h))
+        np.testing.assert_allclose((after - before) / (2 * h), accels, atol=1e-4)
+    plain = SinusoidGait(1.2, 0.9, 1.6, 1.5, 8.4, -1.7)
+    for t in (2.0, 2.3, 7.0):  # after the ramp: the plain sinusoid, to the bit
+        assert RAMPED.leg_targets(t) == plain.leg_targets(t)
+        assert np.array_equal(RAMPED.angles([t]), plain.angles([t]))
+    # angle and rate are continuous where the ramp ends
+    end, just_before = np.array(RAMPED.leg_targets(2.0)[:2]), np.array(RAMPED.leg_targets(2.0 - 1e-9)[:2])
+    np.testing.assert_allclose(end, just_before, atol=1e-7)
+
+
+def test_a_ramped_gait_is_simulated_on_numpy_and_its_legs_follow_the_growing_swing():
+    from dataclasses import replace as with_fields
+
+    from rrrobot_gym.simulation import SimConfig, simulate
+
+    assert RAMPED.compiled_targets() is None  # the compiled stepper has no ramp
+    with pytest.raises(TypeError, match="numba"):
+        simulate(SimConfig(backend="numba"), RAMPED, 0.1)
+    run = simulate(SimConfig(), RAMPED, 3.0)
+    legs = run.states[:, 6:8]
+    early, late = run.times < 0.5, run.times > 2.2
+    # the servo follows the targets: a small swing in the first half second, the full one after the ramp
+    swing_early = legs[early].max(axis=0) - legs[early].min(axis=0)
+    swing_late = legs[late].max(axis=0) - legs[late].min(axis=0)
+    assert np.all(swing_early < 0.2 * swing_late) and np.all(swing_late > 1.5 * np.array([1.2, 0.9]))
+    assert with_fields(RAMPED, ramp_s=0.0).compiled_targets() is not None
+
+
+def test_gait_files_carry_their_ramp_and_old_files_mean_none(tmp_path):
+    data = {"schema": gait_search.SCHEMA, "gaits": [{"name": "g", "parameters": RAMPED.parameters()}]}
+    path = tmp_path / "g.json"
+    path.write_text(json.dumps(data))
+    assert gait_search.load_gaits(path)[0].ramp_s == 0.0
+    path.write_text(json.dumps({**data, "ramp_s": 2.0}))
+    assert gait_search.load_gaits(path)[0] == RAMPED.__class__(**RAMPED.parameters(), ramp_s=2.0, name="g")
+    for bad in (-1.0, "x", None):
+        path.write_text(json.dumps({**data, "ramp_s": bad}))
+        with pytest.raises(ValueError, match="ramp_s"):
+            gait_search.load_gaits(path)
+
+
+@pytest.mark.parametrize("bad", [-0.5, float("nan"), "2"])
+def test_a_bad_ramp_is_named(bad):
+    with pytest.raises((TypeError, ValueError), match="ramp_s"):
+        SinusoidGait(1.0, 1.0, 1.5, 1.5, 8.0, 1.0, ramp_s=bad)
+    with pytest.raises((TypeError, ValueError), match="ramp_s"):
+        search(budget_evaluations=2, ramp_s=bad, **TINY)
