@@ -41,7 +41,7 @@ Output JSON (:meth:`SearchResult.to_json`, schema ``rrrobot_gym.gait_search/1``)
   ``screen`` (random gaits tried first), ``command`` (how it was made), ``history``
   (per population scored: evaluations so far, seconds, best fitness and speed so far,
   the population's median fitness)
-- ``robust_pool``: how many of the fittest gaits were re-scored on new starts (null: none)
+- ``robust_pool``: how many of the fittest distinct gaits were re-scored on new starts (null: none)
 - ``gaits``: best first, each ``{"name", "parameters": {name: value}, "fitness",
   "speed_mps", "direction_deg", "terminated_starts", "search_rank", "robust",
   "robustness"}``; ``search_rank`` is the gait's place by the search's fitness (1: the
@@ -574,7 +574,7 @@ def search(
     parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
 
     ``keep`` best gaits are returned. With ``robustness_seeds`` (default 8), the
-    ``max(keep, robust_pool)`` fittest gaits are re-scored (robustness) on that many start-noise
+    ``max(keep, robust_pool)`` fittest distinct gaits (:func:`distinct_fittest`) are re-scored (robustness) on that many start-noise
     seeds the search never used, over ``robustness_duration`` s (default 50 s, the paper's run;
     None: the search's ``duration``), and once from the paper's start (no noise), and the gaits
     that stayed in the model on every start come first (:func:`rank_robust_first`): the fastest
@@ -700,8 +700,16 @@ def search(
             bar.close()
     seconds = time.perf_counter() - began
 
-    pool = max(keep, robust_pool) if robustness_seeds else keep
-    order = np.argsort(-np.array(archive["fitness"]), kind="stable")[:pool]
+    by_fitness = np.argsort(-np.array(archive["fitness"]), kind="stable")
+    if robustness_seeds:
+        pool = max(keep, robust_pool)
+        order = distinct_fittest(to_unit(np.array(archive["params"])), by_fitness, pool, POOL_SPACING)
+        ranks = np.empty(len(by_fitness), dtype=int)
+        ranks[by_fitness] = np.arange(1, len(by_fitness) + 1)
+        search_ranks = [int(ranks[i]) for i in order]
+    else:
+        pool, order = keep, by_fitness[:keep]
+        search_ranks = list(range(1, len(order) + 1))
     gaits = [{
         "parameters": dict(zip(PARAMETER_NAMES, map(float, archive["params"][i]))),
         "fitness": float(archive["fitness"][i]),
@@ -710,7 +718,7 @@ def search(
         "terminated_starts": int(archive["terminated"][i]),
         "search_rank": rank,
         "robust": None,
-    } for rank, i in enumerate(order, start=1)]  # fmt: skip
+    } for rank, i in zip(search_ranks, order)]  # fmt: skip
     if robustness_seeds:
         reports = robustness(np.array([archive["params"][i] for i in order]), model=model, objective=objective,
                              heading_deg=heading_deg, directions_deg=[g["direction_deg"] for g in gaits],
@@ -734,6 +742,26 @@ def search(
     }
     used = {"evaluations": evaluations, "seconds": round(seconds, 3), "generations": generations, "restarts": restarts}
     return SearchResult(gaits=gaits, settings=settings, used=used, history=history)
+
+
+POOL_SPACING = 0.02
+"""The least distance (largest coordinate difference, in the search's unit box) between two gaits
+re-scored for robustness: CMA-ES ends in a cloud of near-copies of one gait, which would all
+fail or pass the new starts together."""
+
+
+def distinct_fittest(units, by_fitness, count: int, spacing: float = POOL_SPACING) -> list:
+    """Indices of up to ``count`` gaits, fittest first (``by_fitness``: indices best first), each
+    at least ``spacing`` from every one taken before it in every coordinate's largest difference
+    (``units`` (P, 6), the gaits in the unit box)."""
+    units = np.asarray(units, dtype=float)
+    taken = []
+    for i in by_fitness:
+        if len(taken) == count:
+            break
+        if not taken or np.abs(units[taken] - units[i]).max(axis=1).min() >= spacing:
+            taken.append(int(i))
+    return taken
 
 
 def rank_robust_first(gaits: list) -> list:

@@ -408,3 +408,32 @@ def test_a_bad_ramp_is_named(bad):
         SinusoidGait(1.0, 1.0, 1.5, 1.5, 8.0, 1.0, ramp_s=bad)
     with pytest.raises((TypeError, ValueError), match="ramp_s"):
         search(budget_evaluations=2, ramp_s=bad, **TINY)
+
+
+def test_the_robustness_pool_skips_near_copies_of_fitter_gaits():
+    units = np.array([[0.5] * 6, [0.51] * 6, [0.5] * 5 + [0.53], [0.2] * 6, [0.21] * 6])
+    order = [0, 1, 2, 3, 4]  # fittest first
+    assert gait_search.distinct_fittest(units, order, 5, spacing=0.02) == [0, 2, 3]
+    assert gait_search.distinct_fittest(units, order, 2, spacing=0.02) == [0, 2]
+    assert gait_search.distinct_fittest(units, order, 5, spacing=0.0) == [0, 1, 2, 3, 4]
+    assert gait_search.distinct_fittest(units, [4, 3, 2, 1, 0], 5, spacing=0.02) == [4, 2, 1]
+
+
+def test_a_search_re_scores_distinct_gaits_and_names_their_places(monkeypatch):
+    real = gait_search.robustness
+    pools = []
+
+    def keep_pool(parameters, **kwargs):
+        pools.append(np.array(parameters))
+        return real(parameters, **kwargs)
+
+    monkeypatch.setattr(gait_search, "robustness", keep_pool)
+    # a spacing wide enough that a tiny search's gaits crowd within it: the pool must thin them out
+    monkeypatch.setattr(gait_search, "POOL_SPACING", 0.3)
+    result = search(budget_evaluations=25, screen=0, start=GAIT1, seed=3, keep=6, robust_pool=6, **TINY)
+    lows, highs = gait_search._lows_highs()
+    units = (pools[0] - lows) / (highs - lows)
+    gaps = [np.abs(units[i] - units[j]).max() for i in range(len(units)) for j in range(i)]
+    assert 2 <= len(units) <= 6 and min(gaps) >= 0.3
+    ranks = [g["search_rank"] for g in result.gaits]
+    assert len(ranks) == len(units) and 1 in ranks and len(set(ranks)) == len(ranks) and max(ranks) <= 25
