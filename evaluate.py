@@ -374,7 +374,8 @@ def main(argv=None):
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
-                        help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable)")
+                        help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable; "
+                             "a gait named like one already scored is named FILESTEM/NAME)")
     parser.add_argument("--turn-then-run", type=Path, action="append", default=[], metavar="FILE",
                         help="also score the scripted turn-then-run baseline of this file, as 'turn-then-run', on "
                              "the model its JSON names ('model', default plane): agents/searched/turn_then_run.json "
@@ -406,6 +407,11 @@ def main(argv=None):
             searched = load_gait_agents(path)
         except ValueError as exc:
             parser.error(f"--gaits: {exc}")
+        if set(searched) & set(agents):
+            # Two searches of one model and objective name their gaits alike: tell them apart by file.
+            searched = {f"{path.stem}/{name}": agent for name, agent in searched.items()}
+            for name, agent in searched.items():
+                agent.name = name
         clash = sorted(set(searched) & set(agents))
         if clash:
             parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")

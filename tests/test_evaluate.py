@@ -92,3 +92,22 @@ def test_bad_second_policies_are_named(spec, named, capsys):
     with pytest.raises(SystemExit):
         main(["--no-policy", "--duration", "0.5", "--also-policy", spec])
     assert named in capsys.readouterr().err
+
+
+def test_two_searches_of_one_model_are_scored_side_by_side_named_by_file(tmp_path):
+    # Both files name their gaits searched-plane-own-1..3; the second set is told apart by its file.
+    import shutil
+    from pathlib import Path
+
+    from evaluate import main
+
+    REPO = Path(__file__).resolve().parents[1]
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    shutil.copy(REPO / "agents" / "searched" / "plane_own.json", first)
+    shutil.copy(REPO / "agents" / "searched" / "plane_own_robust.json", second)
+    records = main(["--no-policy", "--models", "plane", "--duration", "0.5", "--gaits", str(first), "--gaits", str(second)])
+    names = {r["agent"] for r in records}
+    assert {"searched-plane-own-1", "second/searched-plane-own-1"} <= names
+    own = {r["agent"]: r for r in records if r["heading_deg"] == 90.0}
+    # the two are different gaits (the second ramps its swing in: it has barely moved in 0.5 s)
+    assert abs(own["searched-plane-own-1"]["speed_mps"]) > 5 * abs(own["second/searched-plane-own-1"]["speed_mps"])
