@@ -168,12 +168,37 @@ def physics_of(agents) -> dict:
     return {key: value for key, (_, value) in chosen.items()}
 
 
+def parse_physics(specs) -> dict:
+    """``--physics`` KEY=VALUE specs as {key: value}: keys of :data:`PHYSICS_KEYWORDS` (not
+    ``robot``), values read as JSON (0.5, null, "rk4") else as strings, checked by the env's
+    own validation. Raises ValueError naming the bad spec."""
+    from rrrobot_gym.envs.task import make_task_config
+
+    chosen = {}
+    for spec in specs:
+        key, sep, raw = spec.partition("=")
+        key = key.strip().replace("-", "_")
+        if not sep or key not in PHYSICS_KEYWORDS or key == "robot":
+            allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
+            raise ValueError(f"--physics {spec!r}: expected KEY=VALUE with KEY one of {allowed}")
+        try:
+            value = json.loads(raw.strip())
+        except json.JSONDecodeError:
+            value = raw.strip()
+        chosen[key] = value
+    try:  # together: some keywords need others (a leg-rate limit needs a torque limit)
+        make_task_config(**chosen)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"--physics {' '.join(specs)}: {exc}") from None
+    return chosen
+
+
 def agents_on(model: str, agents: dict, per_model=None) -> dict:
     """The agents scored on ``model``: ``agents`` with ``per_model[model]``'s in place of same-named ones."""
     return {**agents, **(per_model or {}).get(model, {})}
 
 
-def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None):
+def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None, physics=None):
     """Records for every agent, model and heading, plus the runs for plotting.
 
     Headings: the 8 compass directions and each gait's own direction (the heading of its
@@ -181,25 +206,32 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     ``per_model`` ({model: {name: agent}}) adds agents on one model only (a policy trained
     there; it replaces an agent of the same name). On each model every agent runs under the
     physics keywords its policies were trained with (:func:`physics_of`, e.g. motor limits),
-    so all are held to the same motors; each record names them under ``physics``.
+    so all are held to the same motors; each record names them under ``physics``. ``physics``
+    ({keyword: value}, e.g. motor limits) adds keywords of the caller's on every model; one
+    that differs from a policy's is an error.
     """
     records, runs = [], {}
     for model in models:
         on_model = agents_on(model, agents, per_model)
-        physics = physics_of(on_model)
+        trained = physics_of(on_model)
+        clash = sorted(key for key, value in (physics or {}).items() if key in trained and trained[key] != value)
+        if clash:
+            raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
+                             f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
+        imposed = {**trained, **(physics or {})}
         # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
-        first = run_episodes(gaits, model, [0.0], duration, seed, **physics) if gaits else {}
+        first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}
         own = {}
         for name, run in first.items():
             path = run["xy"][:, 0]  # NaN after an episode that left the model: use its last position
             end = path[np.all(np.isfinite(path), axis=1)][-1] - path[0]
             own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
         headings = list(COMPASS_DEG) + list(own.values())
-        for name, run in run_episodes(on_model, model, headings, duration, seed, **physics).items():
+        for name, run in run_episodes(on_model, model, headings, duration, seed, **imposed).items():
             runs[(name, model)] = (headings, run)
             for record in score(run, headings, duration):
-                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=physics)
+                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=imposed)
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
     return records, runs
@@ -367,6 +399,10 @@ def main(argv=None):
                         help="PPO model zip scored on the pivot model instead of --policy (default: the shipped pivot "
                              "policy when --policy is the shipped plane one)")
     parser.add_argument("--no-policy", action="store_true", help="score only the gaits")
+    parser.add_argument("--physics", action="append", default=[], metavar="KEY=VALUE",
+                        help="hold every agent on every model to this env keyword too, e.g. torque_limit=0.5 (motors, "
+                             "the model checks, the step; repeatable; a policy's own must agree). Without a policy, "
+                             "the way to score gaits under motor limits")
     parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"])
     parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
     parser.add_argument("--seed", type=int, default=0)
@@ -388,6 +424,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
+    try:
+        physics = parse_physics(args.physics)
+    except ValueError as exc:
+        parser.error(str(exc))
     agents, per_model = {}, {}
     if not args.no_policy:
         if not args.policy.is_file():
@@ -440,7 +480,7 @@ def main(argv=None):
         policy = load_ppo_agent(path)
         per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
     try:
-        records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model)
+        records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model, physics)
     except ValueError as exc:
         parser.error(str(exc))
     ratio_list = [ratios(records, model) for model in args.models]

@@ -111,3 +111,29 @@ def test_two_searches_of_one_model_are_scored_side_by_side_named_by_file(tmp_pat
     own = {r["agent"]: r for r in records if r["heading_deg"] == 90.0}
     # the two are different gaits (the second ramps its swing in: it has barely moved in 0.5 s)
     assert abs(own["searched-plane-own-1"]["speed_mps"]) > 5 * abs(own["second/searched-plane-own-1"]["speed_mps"])
+
+
+def test_physics_holds_gaits_to_motor_limits_without_a_policy():
+    # Gait 2's servo peaks above 1 N m unlimited (test above); --physics limits it on every model asked.
+    from evaluate import main
+
+    records = main(["--no-policy", "--models", "plane", "pivot", "--duration", "1", "--physics", "torque_limit=0.3",
+                    "--physics", "leg_rate_limit=8"])  # fmt: skip
+    assert records and all(r["physics"] == {"torque_limit": 0.3, "leg_rate_limit": 8} for r in records)
+    assert max(r["peak_torque_nm"] for r in records if r["agent"] == "gait2") <= 0.3 + 1e-9
+
+
+def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
+    from evaluate import evaluate, parse_physics
+
+    limited = gait_agent("gait1")
+    limited.env_kwargs = {"torque_limit": 0.5}
+    with pytest.raises(ValueError, match="torque_limit=0.3.*pivot.*torque_limit=0.5"):
+        evaluate({}, ["pivot"], duration=0.5, per_model={"pivot": {"ppo": limited}}, physics={"torque_limit": 0.3})
+    records, _ = evaluate({}, ["pivot"], duration=0.5, per_model={"pivot": {"ppo": limited}},
+                          physics={"torque_limit": 0.5, "leg_rate_limit": 9.0})  # fmt: skip
+    assert {tuple(sorted(r["physics"].items())) for r in records} == {(("leg_rate_limit", 9.0), ("torque_limit", 0.5))}
+    for spec, named in (("healthy_reward=2", "KEY one of"), ("torque_limit", "KEY=VALUE"), ("torque_limit=-1", "torque_limit"),
+                        ("integrator=euler", "integrator"), ("robot=1", "KEY one of")):
+        with pytest.raises(ValueError, match=named):
+            parse_physics([spec])
