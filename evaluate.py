@@ -169,22 +169,21 @@ def physics_of(agents) -> dict:
 
 
 def parse_physics(specs) -> dict:
-    """``--physics`` KEY=VALUE specs as {key: value}: keys of :data:`PHYSICS_KEYWORDS` (not
-    ``robot``), values read as JSON (0.5, null, "rk4") else as strings, checked by the env's
-    own validation. Raises ValueError naming the bad spec."""
+    """``--physics`` KEY=VALUE specs as {key: value} (read by :func:`rrrobot_gym.cli.keyword_value`):
+    keys of :data:`PHYSICS_KEYWORDS` (not ``robot``), checked together by the env's own
+    validation. Raises ValueError naming the bad spec."""
+    from rrrobot_gym.cli import keyword_value
     from rrrobot_gym.envs.task import make_task_config
 
     chosen = {}
+    allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
     for spec in specs:
-        key, sep, raw = spec.partition("=")
-        key = key.strip().replace("-", "_")
-        if not sep or key not in PHYSICS_KEYWORDS or key == "robot":
-            allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
-            raise ValueError(f"--physics {spec!r}: expected KEY=VALUE with KEY one of {allowed}")
         try:
-            value = json.loads(raw.strip())
-        except json.JSONDecodeError:
-            value = raw.strip()
+            key, value = keyword_value(spec)
+        except ValueError as exc:
+            raise ValueError(f"--physics {spec!r}: {exc}") from None
+        if key not in PHYSICS_KEYWORDS or key == "robot":
+            raise ValueError(f"--physics {spec!r}: expected KEY=VALUE with KEY one of {allowed}")
         chosen[key] = value
     try:  # together: some keywords need others (a leg-rate limit needs a torque limit)
         make_task_config(**chosen)

@@ -97,14 +97,15 @@ ENV_KEYWORDS_WITH_OPTIONS = {"model": "--model", "reset_noise_scale": "--reset-n
 """Env keywords ``gait-search --env`` refuses: each is set by its own option."""
 
 
-def _env_keyword(text: str):
-    """KEY=VALUE for an env keyword; VALUE is read as JSON (1.5, true, null), else a string."""
+def keyword_value(text: str):
+    """(name, value) of a KEY=VALUE env keyword (dashes in KEY read as underscores); VALUE is read
+    as JSON (1.5, true, null), None/none as None, else as a string. Raises ValueError naming the
+    problem: no KEY=VALUE, or a value that is not finite. Shared by ``gait-search --env`` and
+    ``evaluate.py --physics``."""
     name, sep, raw = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name.isidentifier():
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (an env keyword), got {text!r}")
-    if name in ENV_KEYWORDS_WITH_OPTIONS:
-        raise argparse.ArgumentTypeError(f"set {name} with {ENV_KEYWORDS_WITH_OPTIONS[name]}, not --env")
+        raise ValueError(f"expected KEY=VALUE (an env keyword), got {text!r}")
     raw = raw.strip()
     if raw in ("None", "none"):
         return name, None
@@ -113,7 +114,18 @@ def _env_keyword(text: str):
     except json.JSONDecodeError:
         value = raw
     if isinstance(value, float) and not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"--env {name}: must be finite, got {raw!r}")
+        raise ValueError(f"{name}: must be finite, got {raw!r}")
+    return name, value
+
+
+def _env_keyword(text: str):
+    """``gait-search --env`` KEY=VALUE (:func:`keyword_value`), refusing the keywords with options of their own."""
+    try:
+        name, value = keyword_value(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if name in ENV_KEYWORDS_WITH_OPTIONS:
+        raise argparse.ArgumentTypeError(f"set {name} with {ENV_KEYWORDS_WITH_OPTIONS[name]}, not --env")
     return name, value
 
 
