@@ -31,10 +31,9 @@ import time
 
 import numpy as np
 
-from rrrobot_gym import compiled
 from rrrobot_gym.control import RampTargets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
-from rrrobot_gym.simulation import SimConfig, advance, initial_state
+from rrrobot_gym.simulation import SimConfig, advance, initial_state, takes_compiled
 
 from ._common import gentle_actions, machine, markdown_table, parser, write_json
 
@@ -100,10 +99,8 @@ def measure(num_envs: int, calls: int, rounds: int) -> dict:
 
 
 def _backend(sim: SimConfig) -> str:
-    """The backend ``advance`` takes for this config ("auto" resolved)."""
-    if sim.backend != "auto":
-        return sim.backend
-    return "numba" if compiled.available() and compiled.supports(sim) else "numpy"
+    """The backend ``advance`` takes for this config ("auto" resolved; the env's ramps are targets it knows)."""
+    return "numba" if takes_compiled(sim) else "numpy"
 
 
 def measure_env(num_envs: int, steps: int, rounds: int) -> dict:

@@ -925,12 +925,18 @@ def advance(
     return out
 
 
+def takes_compiled(config: SimConfig) -> bool:
+    """True if :func:`advance` runs this config's scene on the compiled stepper (for leg targets
+    it knows): not ``backend="numpy"``, a scene it covers, and numba asked for or installed."""
+    if config.backend == "numpy" or not compiled.supports(config):
+        return False
+    return config.backend == "numba" or compiled.available()
+
+
 def _compiled_targets(config: SimConfig, targets):
     """The targets as :func:`rrrobot_gym.compiled.target_arrays` describes them if :func:`advance`
     takes the compiled stepper for this scene and these targets, else None."""
-    if config.backend == "numpy" or not compiled.supports(config):
-        return None
-    if config.backend == "auto" and not compiled.available():
+    if not takes_compiled(config):
         return None
     described = compiled.target_arrays(targets)
     if described is not None:
@@ -938,7 +944,8 @@ def _compiled_targets(config: SimConfig, targets):
     if config.backend == "numba":
         raise TypeError(
             f"backend 'numba' knows the leg targets of rrrobot_gym.control (RampTargets, HeldTargets, Gait) and "
-            f"gait_search.SinusoidGait, not {type(targets).__name__}: use backend 'auto' or 'numpy' for it"
+            f"gait_search.SinusoidGait without a ramp, not {type(targets).__name__}: use backend 'auto' or "
+            f"'numpy' for it"
         )
     return None
 
