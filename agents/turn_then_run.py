@@ -37,6 +37,10 @@ suits a gait that a positive d turns clockwise (both searched running gaits:
 [low, high] (low <= 0 <= high) for an asymmetric range. ``"run_at_once_below_deg"`` (default 0):
 a start needing a smaller turn than this runs at once instead (the correction then takes the
 rest); without it only an exact zero turn does.
+
+A running gait searched with a swing ramp from rest (its file's ``ramp_s``,
+:func:`rrrobot_gym.gait_search.ramp_factor`) keeps that ramp when a start runs at once: it is then
+the searched gait's own agent until the correction sets in. After a turn the blend stands for it.
 """
 
 from __future__ import annotations
@@ -48,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from rrrobot_gym.envs.task import OBSERVATION_FIELDS, leg_targets_to_action
-from rrrobot_gym.gait_search import load_gaits
+from rrrobot_gym.gait_search import load_gaits, ramp_factor
 from rrrobot_gym.params import MODELS
 
 _FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
@@ -101,7 +105,8 @@ class TurnThenRunAgent:
 
     ``turn_gait`` and ``run_gait``: six numbers (a1, a2, o1, o2, w, gap) each, the turning
     gait turning clockwise; ``direction_offset`` (rad): the running gait's direction of travel
-    minus the body's yaw; ``dt``: the env's control step. The recurrent ``state`` is a dict of
+    minus the body's yaw; ``dt``: the env's control step; ``run_ramp`` (s): the running gait's
+    swing ramp from rest, used by starts that run at once. The recurrent ``state`` is a dict of
     per-env arrays; ``episode_start`` restarts an env's controller.
     """
 
@@ -110,7 +115,7 @@ class TurnThenRunAgent:
 
     def __init__(self, turn_gait, run_gait, *, dt, lead, ramp, direction_offset=0.5 * math.pi, window=15,
                  name="turn-then-run", steer_gain=0.0, steer_integral=0.0, steer_limit=0.0,
-                 steer_param="offset", steer_after=0.0, run_at_once_below=0.0):  # fmt: skip
+                 steer_param="offset", steer_after=0.0, run_at_once_below=0.0, run_ramp=0.0):  # fmt: skip
         self.turn_gait, self.run_gait = np.asarray(turn_gait, dtype=float), np.asarray(run_gait, dtype=float)
         for label, gait in (("turn_gait", self.turn_gait), ("run_gait", self.run_gait)):
             if gait.shape != (6,) or not np.all(np.isfinite(gait)):
@@ -135,7 +140,8 @@ class TurnThenRunAgent:
         if (len(limit) == 1 and limit[0] < 0) or not (low <= 0.0 <= high) or max(-low, high) > 0.5:
             raise ValueError(f"steer_limit must be a number in [0, 0.5] or [low, high] with -0.5 <= low <= 0 <= high "
                              f"<= 0.5, got {steer_limit!r}")  # fmt: skip
-        for label, value, top in (("steer_after_s", steer_after, math.inf), ("run_at_once_below_deg", run_at_once_below, 180.0)):
+        for label, value, top in (("steer_after_s", steer_after, math.inf), ("run_at_once_below_deg", run_at_once_below, 180.0),
+                                  ("run_ramp", run_ramp, math.inf)):  # fmt: skip
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= top):
                 raise ValueError(f"{label} must be a number in [0, {top}], got {value!r}")
         if steer_param not in ("offset", "amplitude"):
@@ -144,6 +150,7 @@ class TurnThenRunAgent:
         self.steer_limit, self.steer_param = (float(low), float(high)), steer_param
         self.steering = self.steer_gain != 0.0 or self.steer_integral != 0.0
         self.steer_after, self.run_at_once_below = float(steer_after), math.radians(run_at_once_below)
+        self.run_ramp = float(run_ramp)
 
     def _start(self, memory, rows, yaw):
         """Choose each restarted env's turn and gaits from its relative yaw at the start."""
@@ -159,6 +166,7 @@ class TurnThenRunAgent:
         memory["integral"][rows] = 0.0
         memory["steer"][rows] = 0.0
         memory["mode"][rows] = np.where(np.abs(turn) < max(1e-6, self.run_at_once_below), RUN, TURN)
+        memory["at_once"][rows] = memory["mode"][rows] == RUN
         memory["steps"][rows] = 0
         memory["phase"][rows] = 0.0
         memory["switched"][rows] = np.nan
@@ -181,7 +189,7 @@ class TurnThenRunAgent:
                 "target": np.zeros(n), "sense": np.zeros(n), "g_turn": np.zeros((n, 7)), "g_run": np.zeros((n, 7)),
                 "mode": np.zeros(n, dtype=int), "steps": np.zeros(n, dtype=int), "phase": np.zeros(n),
                 "switched": np.zeros(n), "history": np.zeros((2 * self.window, n)), "yaw": np.zeros(n),
-                "run_sense": np.ones(n), "integral": np.zeros(n), "steer": np.zeros(n),
+                "run_sense": np.ones(n), "integral": np.zeros(n), "steer": np.zeros(n), "at_once": np.zeros(n, dtype=bool),
             }  # fmt: skip
             starting = np.ones(n, dtype=bool)
         else:
@@ -219,6 +227,9 @@ class TurnThenRunAgent:
         g = (1.0 - blend)[:, None] * state["g_turn"] + blend[:, None] * state["g_run"]
         if self.steering:
             g = self._steer(state, g, blend * np.clip((t - self.steer_after) / self.ramp, 0.0, 1.0), recent)
+        if self.run_ramp > 0.0:  # the running gait's own ramp, at the time its targets are for (as the gait's agent)
+            g = g.copy()
+            g[:, 0:2] *= np.where(state["at_once"], ramp_factor(steps * self.dt, self.run_ramp), 1.0)[:, None]
         state["phase"] = state["phase"] + g[:, 4] * self.dt
         state["steps"] = steps
         actions = np.clip(leg_targets_to_action(per_leg_angles(g, state["phase"])), -1.0, 1.0).astype(np.float32)
@@ -262,6 +273,7 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
         agent = TurnThenRunAgent(
             spec["turn_gait"], run.as_array(), dt=dt if dt is not None else spec["dt"], lead=spec["lead_s"],
             ramp=spec["ramp_s"], direction_offset=math.radians(spec["direction_offset_deg"]), window=spec["window_steps"],
+            run_ramp=run.ramp_s,
             **{key: spec[key] for key in ("steer_gain", "steer_integral", "steer_limit", "steer_param") if key in spec},
             **{arg: spec[key] for arg, key in (("steer_after", "steer_after_s"), ("run_at_once_below", "run_at_once_below_deg"))
                if key in spec},
