@@ -13,7 +13,8 @@ same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
     python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
 
 A turn-then-run file is scored on the model its JSON names (``"model"``, default plane) as
-"turn-then-run", under that model's physics keywords like every other agent there. An
+"turn-then-run", under that model's physics keywords like every other agent there; a second
+file for the same model is scored beside it as "FILESTEM/turn-then-run". An
 ``--also-policy NAME=FILE`` is scored as NAME on the model it was trained on (its
 ``env_kwargs.json``), beside "ppo".
 
@@ -414,7 +415,8 @@ def main(argv=None):
     parser.add_argument("--turn-then-run", type=Path, action="append", default=[], metavar="FILE",
                         help="also score the scripted turn-then-run baseline of this file, as 'turn-then-run', on "
                              "the model its JSON names ('model', default plane): agents/searched/turn_then_run.json "
-                             "(plane), agents/searched/turn_then_run_pivot.json (pivot); repeatable, one per model")
+                             "(plane), agents/searched/turn_then_run_pivot.json (pivot); repeatable (a second file for a "
+                             "model is scored as 'FILESTEM/turn-then-run')")
     parser.add_argument("--also-policy", action="append", default=[], metavar="NAME=FILE",
                         help="also score the PPO model zip FILE as agent NAME, on the model it was trained on "
                              "(its env_kwargs.json; default plane); repeatable")
@@ -455,17 +457,21 @@ def main(argv=None):
         if clash:
             parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
         agents.update(searched)
-    baseline_files = {}
+    baseline_files = set()
     for path in args.turn_then_run:
         try:
             baseline = load_turn_then_run_agent(path)
         except ValueError as exc:
             parser.error(f"--turn-then-run: {exc}")
-        if baseline.model in baseline_files:
-            parser.error(f"--turn-then-run {path}: a second baseline for the {baseline.model} model "
-                         f"(after {baseline_files[baseline.model]}); give one file per model")
-        baseline_files[baseline.model] = path
-        per_model.setdefault(baseline.model, {})[baseline.name] = baseline
+        if path.resolve() in baseline_files:
+            parser.error(f"--turn-then-run {path}: given twice")
+        baseline_files.add(path.resolve())
+        on_model = per_model.setdefault(baseline.model, {})
+        if baseline.name in on_model:  # a second baseline for this model: tell them apart by file
+            baseline.name = f"{path.stem}/{baseline.name}"
+            if baseline.name in on_model:
+                parser.error(f"--turn-then-run {path}: agent name {baseline.name!r} already taken")
+        on_model[baseline.name] = baseline
     for spec in args.also_policy:
         name, sep, path = spec.partition("=")
         name = name.strip()

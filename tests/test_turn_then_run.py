@@ -130,9 +130,24 @@ def test_evaluate_scores_each_baseline_file_on_the_model_its_json_names(capsys, 
             {"b": load_turn_then_run_agent(f)}, model, evaluate.COMPASS_DEG, 0.5)["b"], evaluate.COMPASS_DEG, 0.5)]
             for f in (mine, other)}  # fmt: skip
         assert np.allclose(scored, again[mine], rtol=0, atol=1e-9) and not np.allclose(scored, again[other], rtol=0, atol=1e-4)
-    with pytest.raises(SystemExit):  # two files for one model: an error naming the second file
+    with pytest.raises(SystemExit):  # one file twice: an error naming it
         evaluate.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE), "--turn-then-run", str(FILE)])
-    assert f"--turn-then-run {FILE}: a second baseline for the plane model" in capsys.readouterr().err
+    assert f"--turn-then-run {FILE}: given twice" in capsys.readouterr().err
+    # A second file for one model is scored beside the first, named by its file.
+    copy = tmp_path / "ttr_copy.json"
+    (tmp_path / "plane_own.json").write_text(FILE.with_name("plane_own.json").read_text())
+    spec = json.loads(FILE.read_text())
+    copy.write_text(json.dumps({**spec, "turn_gait": [0.5 * spec["turn_gait"][0]] + spec["turn_gait"][1:]}))
+    records = evaluate.main(["--no-policy", "--models", "plane", "--duration", "0.5", "--turn-then-run", str(FILE),
+                             "--turn-then-run", str(copy)])  # fmt: skip
+    capsys.readouterr()
+    first, second = ([r["displacement_m"] for r in records if r["agent"] == name and r["compass"]]
+                     for name in ("turn-then-run", "ttr_copy/turn-then-run"))  # fmt: skip
+    by_hand = {f: [r["displacement_m"] for r in evaluate.score(evaluate.run_episodes(
+        {"b": load_turn_then_run_agent(f)}, "plane", evaluate.COMPASS_DEG, 0.5)["b"], evaluate.COMPASS_DEG, 0.5)]
+        for f in (FILE, copy)}  # fmt: skip
+    assert not np.allclose(by_hand[FILE], by_hand[copy], rtol=0, atol=1e-5)
+    assert np.allclose(first, by_hand[FILE], rtol=0, atol=1e-9) and np.allclose(second, by_hand[copy], rtol=0, atol=1e-9)
     bad = tmp_path / "ttr.json"  # beside a copy of its running gait's file
     (tmp_path / "pivot_own_limited.json").write_text(PIVOT_FILE.with_name("pivot_own_limited.json").read_text())
     bad.write_text(PIVOT_FILE.read_text().replace('"model": "pivot"', '"model": "moon"'))
