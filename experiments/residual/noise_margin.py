@@ -3,6 +3,7 @@ given standard deviation (action units) to its actions and report when each of t
 headings' episode ends (50 s, the paper's start, the env's own checks) and which check ended it.
 
     python experiments/residual/noise_margin.py 0 0.001 0.003 0.01
+    python experiments/residual/noise_margin.py --base agents/searched/turn_then_run_robust.json 0 0.001 0.003 0.01
 """
 
 import sys
@@ -20,8 +21,8 @@ from rrrobot_gym.envs.vector import RRRobotVectorEnv  # noqa: E402
 HEADINGS = np.radians(np.arange(0, 360, 45.0))
 
 
-def ends(sigma, seed=1, steps=1000):
-    base = load_turn_then_run_agent(ROOT / "agents" / "searched" / "turn_then_run.json")
+def ends(sigma, seed=1, steps=1000, base_file=ROOT / "agents" / "searched" / "turn_then_run.json"):
+    base = load_turn_then_run_agent(base_file)
     env = RRRobotVectorEnv(num_envs=len(HEADINGS), max_episode_steps=None, reset_noise_scale=0.0)
     obs, _ = env.reset(seed=0, options={"target_direction": HEADINGS})
     rng = np.random.default_rng(seed)
@@ -39,8 +40,12 @@ def ends(sigma, seed=1, steps=1000):
 
 
 if __name__ == "__main__":
-    for sigma in [float(s) for s in sys.argv[1:]]:
-        end, why = ends(sigma)
+    args = sys.argv[1:]
+    base_file = ROOT / "agents" / "searched" / "turn_then_run.json"
+    if args[:1] == ["--base"]:
+        base_file, args = Path(args[1]), args[2:]
+    for sigma in [float(s) for s in args]:
+        end, why = ends(sigma, base_file=base_file)
         cells = ", ".join(f"{d:.0f} deg: " + (f"{t:.2f} s ({w})" if np.isfinite(t) else "ran 50 s")
                           for d, t, w in zip(np.degrees(HEADINGS), end, why))
         print(f"sigma {sigma}: {cells}", flush=True)

@@ -4,7 +4,7 @@ from pathlib import Path
 import numpy as np
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.envs import task
-from rrrobot_gym.gait_search import sinusoid_angles, repair, PARAMETER_NAMES, BOUNDS, load_gaits
+from rrrobot_gym.gait_search import sinusoid_angles, repair, PARAMETER_NAMES, BOUNDS, load_gaits, ramp_factor
 from rrrobot_gym import dynamics
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,21 +38,54 @@ def _pivot_physics():
     return physics_of({"ppo": SimpleNamespace(env_kwargs={k: v for k, v in trained.items() if k not in SCENE_KEYWORDS})})
 
 
+def _run_gait_from_argv(argv):
+    """`--run-gait FILE` anywhere on the command line (a file of agents/searched/, its best gait is
+    the running gait), removed from argv like --model; None: the model's default file."""
+    if "--run-gait" not in argv:
+        return None
+    i = argv.index("--run-gait")
+    name = argv[i + 1] if i + 1 < len(argv) else ""
+    del argv[i:i + 2]
+    if not (ROOT / "agents" / "searched" / name).is_file():
+        raise SystemExit(f"--run-gait must name a file of agents/searched/, got {name!r}")
+    return name
+
+
 MODEL = _model_from_argv(sys.argv)
+RUN_GAIT = _run_gait_from_argv(sys.argv)
 PHYSICS = _pivot_physics() if MODEL == "pivot" else {}   # env keywords every run on MODEL gets
-OWN_FILE = {"plane": "plane_own.json", "pivot": "pivot_own_limited.json"}[MODEL]
+OWN_FILE = RUN_GAIT or {"plane": "plane_own.json", "pivot": "pivot_own_limited.json"}[MODEL]
 OWN_JSON = ROOT / "agents" / "searched" / OWN_FILE
 SUFFIX = "" if MODEL == "plane" else "_" + MODEL   # plane keeps its file names; pivot: yaw_search_pivot.json, ...
+# With --run-gait, every output that depends on the running gait also carries the file's stem
+# (direction_plane_own_robust.json, ...); the turning-gait search (yaw_search) does not.
+GAIT_SUFFIX = SUFFIX + ("" if RUN_GAIT is None else "_" + Path(RUN_GAIT).stem)
 
 
-def out_name(stem):
-    """This model's file name for an output (or input) JSON of these scripts: yaw_search.json on
-    the plane, yaw_search_pivot.json on the pivot."""
-    return f"{stem}{SUFFIX}.json"
+# The agent's file (agents/searched/): turn_then_run.json (plane), turn_then_run_pivot.json, and with
+# --run-gait plane_own_robust.json turn_then_run_robust.json (write_agent.py writes it).
+AGENT_FILE = ROOT / "agents" / "searched" / ("turn_then_run" + SUFFIX + (
+    "" if RUN_GAIT is None else "_" + Path(RUN_GAIT).stem.replace(f"{MODEL}_own_", "")) + ".json")
+
+
+def out_name(stem, gait=True):
+    """This model's (and running gait's) file name for an output (or input) JSON of these scripts:
+    yaw_search.json on the plane, yaw_search_pivot.json on the pivot, final_eval_plane_own_robust.json
+    with --run-gait plane_own_robust.json; gait=False leaves the running gait out of the name."""
+    return f"{stem}{GAIT_SUFFIX if gait else SUFFIX}.json"
 
 
 def own_gait():
     return load_gaits(OWN_JSON)[0]
+
+
+def ramped(g, t):
+    """Per-leg gaits g (n, 7) with their swings scaled by the running gait's own ramp-in at time t
+    (s; rrrobot_gym.gait_search.ramp_factor): the running gait as its file runs it from rest. No
+    change for a gait without a ramp (plane_own.json, pivot_own_limited.json)."""
+    g = np.array(g, float)
+    g[:, :2] *= ramp_factor(t, own_gait().ramp_s)
+    return g
 
 
 def yaw_of(states):

@@ -21,7 +21,7 @@ if __name__ == "__main__":
     cases = [(m, s) for m in (False, True) for s in SEEDS]
     g = np.array([seven(G.as_array(), m) for m, _ in cases])
     steps = int(round(DUR / DT))
-    r = run(lambda k, states, alive: angles7(g, g[:, 4] * (k + 1) * DT), start_states(1, [s for _, s in cases]), steps)
+    r = run(lambda k, states, alive: angles7(ramped(g, (k + 1) * DT), g[:, 4] * (k + 1) * DT), start_states(1, [s for _, s in cases]), steps)
     k0 = int(round(SETTLE / DT))
     d = r["up"][-1] - r["up"][k0]
     travel = np.degrees(np.arctan2(d[:, 1], d[:, 0]))

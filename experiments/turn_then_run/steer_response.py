@@ -41,7 +41,7 @@ for i, (kind, d) in enumerate(cases):
 
 
 def controller(k, states, alive):
-    return per_leg_angles(g if (k + 1) * DT >= FROM else g0, g[:, 4] * (k + 1) * DT)
+    return per_leg_angles(ramped(g if (k + 1) * DT >= FROM else g0, (k + 1) * DT), g[:, 4] * (k + 1) * DT)
 
 
 t0 = time.time()

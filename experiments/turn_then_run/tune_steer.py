@@ -23,7 +23,7 @@ from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.envs import task
 
 DUR, DT = 50.0, 0.05
-FILE = ROOT / "agents" / "searched" / ("turn_then_run.json" if MODEL == "plane" else "turn_then_run_pivot.json")
+FILE = AGENT_FILE   # turn_then_run.json, turn_then_run_pivot.json, or with --run-gait plane_own_robust.json turn_then_run_robust.json
 SEEDS = [None, 1, 2]
 HEADS = np.arange(0, 360, 45.0)
 STEER_KEYS = ("steer_gain", "steer_integral", "steer_limit", "steer_param", "steer_after_s", "run_at_once_below_deg")

@@ -7,7 +7,8 @@ A leg-exchanged (mirror) gait is (a2, a1, o2, o1, w, b2, b1).
 Modes per robot: TURN (turning gait T, or its mirror, until the one-period moving-average
 yaw, extrapolated by `lead` s with its rate, reaches the target yaw), then RAMP (gait
 parameters blended T -> G with a smoothstep over `ramp` s, G re-phased so its targets
-match T's at the switch if `rephase`), then RUN (G = searched-plane-own-1 or its mirror).
+match T's at the switch if `rephase`), then RUN (G = searched-plane-own-1 or its mirror; a robot that needs no turn runs G at once, with
+the gait's own swing ramp from rest if its file has one, as the agent does).
 Target yaw = heading - DELTA (own gait, travel = yaw + DELTA) or heading + DELTA (mirror).
 """
 import json, math, sys, time
@@ -17,7 +18,7 @@ from common import *
 DT = 0.05
 WIN = 15                      # yaw moving-average window, steps (~ one gait period)
 DELTA_DEG = 90.0              # own gait: travel direction = cycle-mean body yaw + DELTA (measured 90.2-90.4 over 20 s)
-if MODEL != "plane":          # measured by direction.py (run it first; None until then), to the whole degree as on the plane
+if MODEL != "plane" or RUN_GAIT:  # measured by direction.py (run it first; None until then), to the whole degree as on the plane
     try:                      # (pivot: -89.88, the same to 0.01 deg on 5 starts, own gait and mirror)
         DELTA_DEG = float(round(json.load(open(out_name("direction")))["direction_offset_deg"]))
     except FileNotFoundError:
@@ -48,6 +49,7 @@ class TurnThenRun:
         self.rephase = np.broadcast_to(np.asarray(rephase, bool), (n,)).copy()
         self.mode = np.zeros(n, int)          # 0 TURN, 1 RAMP, 2 RUN
         self.mode[np.abs(target) < 1e-9] = 2
+        self.at_once = self.mode == 2          # these run the gait from rest: with its own ramp (common.ramped)
         self.theta = np.zeros(n)
         self.shift = np.zeros(n)
         self.t_switch = np.full(n, np.nan)
@@ -84,6 +86,7 @@ class TurnThenRun:
             self.mode[ramping & (s >= 1)] = 2
         gG = self.gG.copy(); gG[:, 5] += self.shift; gG[:, 6] += self.shift
         g = (1 - s)[:, None] * self.gT + s[:, None] * gG
+        g[self.at_once] = ramped(g[self.at_once], (k + 1) * DT)
         self.theta = self.theta + g[:, 4] * DT
         return angles7(g, self.theta)
 
@@ -109,7 +112,7 @@ def score(r, heading_deg, dur):
 
 
 if __name__ == "__main__":
-    top = json.load(open(out_name("yaw_search")))["top"][0]
+    top = json.load(open(out_name("yaw_search", gait=False)))["top"][0]
     T = np.array(top["params"])
     if top["yaw_rate"] > 0:   # TurnThenRun's turning gait turns clockwise
         T = mirror_gait(T)

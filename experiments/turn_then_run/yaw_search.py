@@ -73,6 +73,6 @@ if __name__ == "__main__":
     json.dump(dict(**({} if MODEL == "plane" else dict(model=MODEL, physics=PHYSICS)), seeds=[s for s in SEEDS], duration=DUR, generations=gen, seconds=time.time() - t_start,
                    evaluations=len(archive), history=hist, top=archive[:20],
                    screen_top=sorted(archive[:0] + [a for a in archive], key=lambda a: -a['fitness'])[:5]),
-              open(out_name("yaw_search"), "w"), indent=1)
+              open(out_name("yaw_search", gait=False), "w"), indent=1)
     for a in archive[:5]:
         print(a)
