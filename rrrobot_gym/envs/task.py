@@ -482,16 +482,16 @@ def parse_reset_options(options, num_envs: int | None):
 def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=None) -> np.ndarray:
     """Observations (N, config.observation_size) float32 of states (N, 13), targets (N,) rad
     and the time since each episode began, ``times`` (N,) s (used by the clock only).
-    ``rows`` and ``heading``: the states' :func:`_rotation_rows` and the targets'
-    :func:`_heading_vectors`, if the caller already has them.
+    ``rows`` and ``heading``: the states' :func:`rotation_rows` and the targets'
+    :func:`heading_vectors`, if the caller already has them.
 
     Layout in :data:`OBSERVATION_FIELDS`. The attitude enters as two unit vectors seen from
     the body, world up and the commanded heading: together they fix the body's attitude
     relative to the task with no singularity anywhere, and they are unchanged when the
     whole scene is turned about the vertical (the dynamics are invariant to world yaw).
     """
-    rows = _rotation_rows(states) if rows is None else rows
-    cos_t, sin_t = _heading_vectors(targets) if heading is None else heading
+    rows = rotation_rows(states) if rows is None else rows
+    cos_t, sin_t = heading_vectors(targets) if heading is None else heading
     obs = np.empty((len(states), config.observation_size), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -517,7 +517,7 @@ def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=
     return obs
 
 
-def _rotation_rows(states):
+def rotation_rows(states):
     """Rows of R(quat) of states (N, 13) (:func:`rrrobot_gym.dynamics.rotation_rows`): Python
     floats for one robot, (N,) arrays for a batch. At N = 1 (the single env) numpy's per-call
     overhead on one-element arrays is most of the task code's cost; floats broadcast the same."""
@@ -526,9 +526,9 @@ def _rotation_rows(states):
     return dynamics.rotation_rows(states[:, 2], states[:, 3], states[:, 4], states[:, 5])
 
 
-def _heading_vectors(targets):
+def heading_vectors(targets):
     """cos and sin of the headings ``targets`` (N,) rad: Python floats for one robot (as
-    :func:`_rotation_rows`), (N,) arrays for a batch."""
+    :func:`rotation_rows`), (N,) arrays for a batch."""
     if len(targets) == 1:
         target = float(targets[0])
         return math.cos(target), math.sin(target)
@@ -551,12 +551,12 @@ def upright_contact_points(states, radius, rows=None):
     p - r (tilt / sin(tilt)) b_h: it equals the contact point whenever the shell is upright,
     stays put while the shell merely rocks or tips over about a fixed axis, and moves only
     with net travel (the holonomy of the rocking that makes the robot locomote).
-    ``rows``: the states' :func:`_rotation_rows`, if already computed.
+    ``rows``: the states' :func:`rotation_rows`, if already computed.
     """
-    rows = _rotation_rows(states) if rows is None else rows
+    rows = rotation_rows(states) if rows is None else rows
     lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
     # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
-    if isinstance(lean_x, float):  # one robot (see _rotation_rows)
+    if isinstance(lean_x, float):  # one robot (see rotation_rows)
         sin_tilt = math.hypot(lean_x, lean_y)
         scale = radius * (math.atan2(sin_tilt, cos_tilt) / sin_tilt if sin_tilt > 1e-9 else 1.0)
     else:
@@ -571,8 +571,8 @@ def upright_contact_points(states, radius, rows=None):
 
 def reset_info(states, targets, config: TaskConfig, rows=None):
     """The info of a start: (N,) arrays keyed as in :data:`RESET_INFO_KEYS` (``rows``: the
-    states' :func:`_rotation_rows`, if already computed)."""
-    rows = _rotation_rows(states) if rows is None else rows
+    states' :func:`rotation_rows`, if already computed)."""
+    rows = rotation_rows(states) if rows is None else rows
     upright = upright_contact_points(states, config.sim.robot.radius, rows)
     return {
         "x_position": states[:, 0].copy(),
@@ -600,14 +600,14 @@ def step_outcome(
     and terminates; so does one whose tilt reached the rim limit.
     ``upright_before`` (N, 2): the upright contact points of ``states_before`` if the caller
     kept them (the last step's x_upright, y_upright); else they are computed. ``rows_after``
-    and ``heading``: the :func:`_rotation_rows` of ``states_after`` and the targets'
-    :func:`_heading_vectors`, if the caller already has them.
+    and ``heading``: the :func:`rotation_rows` of ``states_after`` and the targets'
+    :func:`heading_vectors`, if the caller already has them.
     """
     dt = config.dt
     elapsed = np.asarray(elapsed, dtype=float)
     info = reset_info(states_after, targets, config, rows_after)
     before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
-    cos_t, sin_t = _heading_vectors(targets) if heading is None else heading
+    cos_t, sin_t = heading_vectors(targets) if heading is None else heading
     forward_velocity = ((info["x_upright"] - before[:, 0]) * cos_t + (info["y_upright"] - before[:, 1]) * sin_t) / dt
     info["x_velocity"] = (states_after[:, 0] - states_before[:, 0]) / dt
     info["y_velocity"] = (states_after[:, 1] - states_before[:, 1]) / dt

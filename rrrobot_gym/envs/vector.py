@@ -109,7 +109,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._generators = [None] * self.num_envs
         self._paths = None
         self._upright = None  # (N, 2) m, the upright contact points of self.states (task.upright_contact_points)
-        self._headings = None  # (headings (N,), their (cos, sin)): see _heading_vectors
+        self._headings = None  # (headings (N,), their (cos, sin)): see heading_vectors
 
     @property
     def dt(self) -> float:
@@ -175,8 +175,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
         # The rotations of the new states and the headings' cos and sin, computed once for the
         # observation and the step's outcome (at N = 64 the task code is most of a step).
-        rows = task._rotation_rows(after)
-        heading = self._heading_vectors(targets)
+        rows = task.rotation_rows(after)
+        heading = self.heading_vectors(targets)
         observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt, rows, heading)
         failed |= ~task.finite_rows(after, observations)
         if failed.any():
@@ -211,12 +211,12 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._upright = _upright_points(info)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
-    def _heading_vectors(self, targets):
+    def heading_vectors(self, targets):
         """cos and sin of the headings ``targets`` (N,), kept while the headings stay the same
         (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
-            kept = self._headings = (targets.copy(), task._heading_vectors(targets))
+            kept = self._headings = (targets.copy(), task.heading_vectors(targets))
         return kept[1]
 
     def _advance(self, states, actions, previous_targets, contact_lost):
