@@ -14,7 +14,8 @@ rl-zoo3 saves them; ``agents.load_ppo_agent`` rebuilds the env from it), ``args.
 ``command.txt``. Loading a model unpickles it: load only files you trust.
 
 ``best_model.zip`` is the model of the best evaluation (``EvalCallback``, every
-``--eval-freq`` steps, on the training env's reward). A run too short for any evaluation
+``--eval-freq`` steps, on the training env's reward; best by the headings' mean return, or
+with ``--select-by worst`` by the worst heading's). A run too short for any evaluation
 has none: then ``best_model.zip`` (and ``vecnormalize.pkl``) is a copy of the final model,
 chosen by nothing, and the log says so.
 
@@ -94,6 +95,16 @@ class Args:
     residual_scale: float = field(
         default=0.05, metadata={"help": "with --residual-on: the largest change of the base's action (action units)"}
     )
+    mirror: bool = field(
+        default=False,
+        metadata={"help": "run headings towards -Y as mirror images of those towards +Y (agents/mirror.py): "
+                          "the policy learns half the compass"},
+    )
+    select_by: str = field(
+        default="mean",
+        metadata={"help": "which evaluation picks best_model.zip: mean (the headings' mean return) or worst "
+                          "(the worst heading's return)"},
+    )
     torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
 
 
@@ -110,6 +121,12 @@ def parse_args(argv=None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in ("plane", "pivot"):
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
+    if args.select_by not in ("mean", "worst"):
+        parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
+    if args.mirror and args.residual_on is not None:
+        parser.error("--mirror and --residual-on cannot be combined (the base agent is not mirrored)")
+    if args.mirror and args.direction_deg is not None:
+        parser.error("--mirror is for the goal-conditioned policy (any heading), not a --direction-deg specialist")
     from rrrobot_gym.simulation import BACKENDS
 
     if args.backend not in BACKENDS:
@@ -147,6 +164,12 @@ def parse_args(argv=None) -> Args:
         if not Path(args.resume).is_file():
             parser.error(f"--resume: no model file at {args.resume}")
         _check_resumed_residual(parser, args)
+        from agents.mirror import MIRROR_FILE, is_mirrored
+        from agents.residual import run_directory
+
+        if is_mirrored(run_directory(args.resume)) and not args.mirror:
+            parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
+                         "give --mirror")
     return args
 
 
@@ -202,7 +225,7 @@ def make_env(args: Args, num_envs: int, seed: int):
 
     venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
     venv.seed(seed)
-    return on_base(args, VecMonitor(venv))
+    return mirrored(args, on_base(args, VecMonitor(venv)))
 
 
 def on_base(args: Args, venv):
@@ -215,6 +238,16 @@ def on_base(args: Args, venv):
     return make_residual_vec_env(venv, load_turn_then_run_agent(args.residual_on), args.residual_scale)
 
 
+def mirrored(args: Args, venv):
+    """With --mirror, the env as a mirrored policy sees it (agents/mirror.py)."""
+    if not args.mirror:
+        return venv
+    from agents.mirror import make_mirrored_vec_env
+    from rrrobot_gym.envs.task import make_task_config
+
+    return make_mirrored_vec_env(venv, make_task_config(**env_kwargs(args)))
+
+
 class CompassEval:
     """Fixed evaluation headings: the 8 compass directions (or the specialist's one), one env each."""
 
@@ -222,6 +255,8 @@ class CompassEval:
     def headings(args: Args):
         if args.direction_deg is not None:
             return np.array([math.radians(args.direction_deg)])
+        if args.mirror:  # the others are these headings' mirror images: the same episodes
+            return np.radians(np.arange(0, 181, 45, dtype=float))
         return np.radians(np.arange(0, 360, 45, dtype=float))
 
 
@@ -246,7 +281,7 @@ def make_eval_env(args: Args, seed: int):
         num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
     )
     venv.seed(seed)
-    return on_base(args, VecMonitor(venv))
+    return mirrored(args, on_base(args, VecMonitor(venv)))
 
 
 def stop_on_ctrl_c():
@@ -316,6 +351,10 @@ def main(argv=None) -> Path:
         from agents.residual import save_residual
 
         save_residual(run_dir, args.residual_on, args.residual_scale)
+    if args.mirror:
+        from agents.mirror import save_mirror
+
+        save_mirror(run_dir)
 
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)
@@ -352,21 +391,30 @@ def main(argv=None) -> Path:
         )
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
-    class SaveNormalization(EvalCallback):
-        """EvalCallback that keeps the normalisation statistics beside best_model.zip."""
+    class SaveBest(EvalCallback):
+        """EvalCallback that saves best_model.zip, with the normalisation statistics beside it, at
+        the evaluation best by --select-by: the mean or the minimum of the headings' returns."""
+
+        best_score = -math.inf
 
         def _on_step(self) -> bool:
-            best = self.best_mean_reward
+            done = len(self.evaluations_results)
             result = super()._on_step()
-            if self.best_mean_reward != best:
-                train_env.save(str(run_dir / "vecnormalize.pkl"))
+            if len(self.evaluations_results) > done:
+                returns = np.asarray(self.evaluations_results[-1], dtype=float)
+                score = float(returns.min() if args.select_by == "worst" else returns.mean())
+                if score > self.best_score:
+                    self.best_score = score
+                    self.model.save(run_dir / "best_model.zip")
+                    train_env.save(str(run_dir / "vecnormalize.pkl"))
+                    print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
+                          f"return {score:,.0f}", flush=True)
             return result
 
-    evaluation = SaveNormalization(
+    evaluation = SaveBest(
         eval_env,
         n_eval_episodes=len(CompassEval.headings(args)),
         eval_freq=max(1, args.eval_freq // args.num_envs),
-        best_model_save_path=str(run_dir),
         log_path=str(run_dir),
         deterministic=True,
     )

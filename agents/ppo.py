@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .mirror import MirroredAgent, is_mirrored
 from .residual import ResidualAgent, load_base, run_directory
 
 
@@ -82,7 +83,8 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     (the training env's keywords; older runs saved only the observation's, the rest then
     default). The run's directory holds the zip, or is one up for a checkpoint
     (:func:`agents.residual.run_directory`). A run with ``residual.json`` (``train.py
-    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent.
+    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent;
+    one with ``mirror.json`` (``train.py --mirror``) a :class:`agents.mirror.MirroredAgent`.
     Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
@@ -105,5 +107,7 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         with open(vecnormalize_path, "rb") as handle:
             stats = pickle.load(handle)
         agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
+    if is_mirrored(run_dir):  # train.py --mirror: -Y headings run as mirror images
+        return MirroredAgent(agent)
     base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
     return agent if base is None else ResidualAgent(agent, *base)

@@ -605,4 +605,26 @@ def tilt(state):
 
 
 TILT_LIMIT = 0.5 * math.pi
+
+
+MIRROR_STATE_SIGNS = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0])
+"""Signs of the state's entries under :func:`mirror_states` (after the legs are exchanged)."""
+
+
+def mirror_states(states):
+    """The mirror images of states (..., 13) in the world's x-z plane (y -> -y).
+
+    The robot is symmetric in its own x-z plane once its legs are exchanged (leg 1's pin is
+    at y = -r, leg 2's at +r, both turning about the body y axis), and so are gravity, the
+    ground and the damping; so the mirror image of a motion is a motion, with each leg
+    driven as its twin was. The contact point's y changes sign; the attitude R becomes
+    M R M (M = diag(1, -1, 1)): the quaternion's x and z change sign; the body rate, a
+    pseudovector, becomes -M w (x and z change sign); the leg angles and rates are
+    exchanged, unchanged in value.
+    """
+    states = np.asarray(states, dtype=float)
+    out = states * MIRROR_STATE_SIGNS
+    out[..., LEG_ANGLES] = states[..., LEG_ANGLES][..., ::-1]
+    out[..., LEG_RATES] = states[..., LEG_RATES][..., ::-1]
+    return out
 """rad: at this tilt the hemisphere's rim touches the ground and the rolling model ends."""

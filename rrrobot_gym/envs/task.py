@@ -517,6 +517,38 @@ def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=
     return obs
 
 
+_MIRROR_OBSERVATION_SIGNS = np.array([1, -1, 1, 1, -1, 1, -1, 1, -1, 1, 1, 1, 1, 1, -1, 1, -1], dtype=np.float32)
+"""Signs of the first 17 observation entries under :func:`mirror_observations` (legs exchanged
+after); a gait clock's two entries keep theirs."""
+
+
+def mirror_observations(observations, config: TaskConfig) -> np.ndarray:
+    """What the env observes of the mirror image of a scene (:func:`rrrobot_gym.dynamics.mirror_states`,
+    with the commanded heading's y changed in sign too), from observations (..., observation_size).
+
+    Exact, entry by entry, for float32 observations: ``observe(mirror_states(s), -t)`` equals
+    ``mirror_observations(observe(s, t))``. The mirror of an action is :func:`mirror_actions`.
+    """
+    obs = np.asarray(observations, dtype=np.float32)
+    if obs.shape[-1:] != (config.observation_size,):
+        raise ValueError(f"observations must end in {config.observation_size} entries, got shape {obs.shape}")
+    end = 17 if not config.exclude_current_positions_from_observation else 15
+    out = obs.copy()
+    out[..., :end] *= _MIRROR_OBSERVATION_SIGNS[:end]
+    out[..., 9:11] = obs[..., 10:8:-1]
+    out[..., 11:13] = obs[..., 12:10:-1]
+    return out
+
+
+def mirror_actions(actions) -> np.ndarray:
+    """The mirror image of actions (..., 2): the legs' targets exchanged (the action's map to a
+    target angle is the same for both legs)."""
+    actions = np.asarray(actions)
+    if actions.shape[-1:] != (2,):
+        raise ValueError(f"actions must end in 2 entries (one per leg), got shape {actions.shape}")
+    return actions[..., ::-1].copy()
+
+
 def rotation_rows(states):
     """Rows of R(quat) of states (N, 13) (:func:`rrrobot_gym.dynamics.rotation_rows`): Python
     floats for one robot, (N,) arrays for a batch. At N = 1 (the single env) numpy's per-call
