@@ -108,16 +108,43 @@ class Args:
     torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
 
 
-def parse_args(argv=None) -> Args:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+RESUME_SETTINGS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
+"""PPO settings a resumed run takes from the command line when given there (else the model's own)."""
+FIXED_ON_RESUME = ("net_arch", "log_std_init", "gamma")
+"""PPO settings a resumed model keeps: the networks' shape, the initial noise, and the discount its
+value function and return normalisation were trained with."""
+
+
+def _parser(given_only=False):
+    """The command line of :class:`Args`; with ``given_only`` every default is left out, so the
+    parsed namespace holds only the flags given."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     argument_default=argparse.SUPPRESS if given_only else None)
     for f in dataclasses.fields(Args):
         flag = "--" + f.name.replace("_", "-")
         help_text = f"{f.metadata['help']} (default: {f.default})"
+        default = {} if given_only else {"default": f.default}
         if f.type in ("bool",):
-            parser.add_argument(flag, action=argparse.BooleanOptionalAction, default=f.default, help=help_text)
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
         else:  # "float", "float | None", ...: the field's annotation names the type
             kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
-            parser.add_argument(flag, type=kind, default=f.default, help=help_text)
+            parser.add_argument(flag, type=kind, help=help_text, **default)
+    return parser
+
+
+def given_flags(argv=None) -> set:
+    """The :class:`Args` fields set on the command line ``argv`` (default: sys.argv)."""
+    return set(vars(_parser(given_only=True).parse_args(argv)))
+
+
+def resume_overrides(args: Args, argv=None) -> dict:
+    """The :data:`RESUME_SETTINGS` given on the command line: what a resumed model changes."""
+    given = given_flags(argv)
+    return {name: getattr(args, name) for name in RESUME_SETTINGS if name in given}
+
+
+def parse_args(argv=None) -> Args:
+    parser = _parser()
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in ("plane", "pivot"):
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
@@ -163,6 +190,10 @@ def parse_args(argv=None) -> Args:
     if args.resume is not None:
         if not Path(args.resume).is_file():
             parser.error(f"--resume: no model file at {args.resume}")
+        fixed = sorted(given_flags(argv) & set(FIXED_ON_RESUME))
+        if fixed:
+            parser.error(f"--resume keeps the model's {', '.join('--' + n.replace('_', '-') for n in fixed)}: "
+                         "leave it out")
         _check_resumed_residual(parser, args)
         from agents.mirror import MIRROR_FILE, is_mirrored
         from agents.residual import run_directory
@@ -366,7 +397,10 @@ def main(argv=None) -> Path:
             raise SystemExit(f"train.py: error: --resume needs the normalisation statistics {stats}")
         train_env = VecNormalize.load(str(stats), train_env)
         train_env.training = True
-        model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir))
+        overrides = resume_overrides(args, argv)
+        model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir), **overrides)
+        if overrides:
+            print("resumed with " + ", ".join(f"{name} {value}" for name, value in overrides.items()), flush=True)
     else:
         train_env = VecNormalize(train_env, norm_obs=True, norm_reward=True, gamma=args.gamma)
         model = PPO(

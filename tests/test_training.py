@@ -100,6 +100,32 @@ def test_resume_continues_from_a_checkpoint(interrupted_run, tmp_path):
     assert model.num_timesteps == steps + 512  # continued counting from the checkpoint's steps
 
 
+def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interrupted_run, tmp_path):
+    *_, run_dir = interrupted_run
+    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
+    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint),
+                   *TINY, "--learning-rate", "0.0001", "--n-epochs", "3"])
+    assert resumed.returncode == 0, resumed.stderr
+    assert "learning_rate 0.0001" in resumed.stdout and "n_epochs 3" in resumed.stdout
+    from stable_baselines3 import PPO
+
+    model = PPO.load(only_run(tmp_path) / "final_model.zip", device="cpu")
+    assert (model.learning_rate, model.lr_schedule(1.0), model.n_epochs) == (1e-4, 1e-4, 3)
+    assert model.clip_range(1.0) == 0.2 and model.gae_lambda == 0.95  # not given: as trained
+
+
+def test_a_resumed_run_refuses_settings_its_model_fixed(capsys):
+    import train
+
+    shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
+    with pytest.raises(SystemExit):
+        train.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98"])
+    assert "--gamma, --net-arch" in capsys.readouterr().err
+    args = train.parse_args(["--resume", shipped, "--learning-rate", "3e-4", "--mirror"])
+    assert train.resume_overrides(args, ["--resume", shipped, "--learning-rate", "3e-4", "--mirror"]) == {
+        "learning_rate": 3e-4}  # given, though equal to the default
+
+
 @pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
 def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
     """best_model.zip is chosen on the evaluation's reward: it must be the reward that is logged."""
