@@ -100,6 +100,11 @@ class MirroredAgent:
         self.env_config, self.env_kwargs = policy.env_config, policy.env_kwargs
         self.config = make_task_config(**self.env_config)
 
+    @property
+    def model(self):
+        """The SB3 model inside (its ``num_timesteps``, its ``policy``)."""
+        return self.policy.model
+
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         observation = np.asarray(observation)
         single = observation.ndim == 1

@@ -21,8 +21,11 @@ def test_the_shipped_policy_acts_on_observations_normalised_with_its_saved_stati
     import gymnasium
 
     from agents import load_ppo_agent
+    from agents.mirror import MirroredAgent
 
     agent = load_ppo_agent(SHIPPED)
+    if isinstance(agent, MirroredAgent):  # (trained mirrored: the network and its statistics inside)
+        agent = agent.policy
     with open(SHIPPED.with_name("vecnormalize.pkl"), "rb") as handle:
         stats = pickle.load(handle)
     env = gymnasium.make("RRRobot-v0", **agent.env_kwargs)
