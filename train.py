@@ -46,7 +46,7 @@ class Args:
     exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
     seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
     total_timesteps: int = field(
-        default=10_000_000,
+        default=20_000_000,
         metadata={"help": "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps"},
     )
     model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
@@ -58,7 +58,11 @@ class Args:
     n_steps: int = field(default=256, metadata={"help": "PPO rollout length per env"})
     batch_size: int = field(default=4096, metadata={"help": "PPO minibatch size"})
     n_epochs: int = field(default=10, metadata={"help": "PPO epochs per rollout"})
-    learning_rate: float = field(default=3e-4, metadata={"help": "Adam learning rate"})
+    learning_rate: float = field(default=3e-4, metadata={"help": "Adam learning rate (at the start, with --learning-rate-final)"})
+    learning_rate_final: float | None = field(
+        default=0.0,
+        metadata={"help": "Adam learning rate at the run's end, reached linearly from --learning-rate; none: constant"},
+    )
     gamma: float = field(default=0.99, metadata={"help": "discount factor (per 0.05 s control step)"})
     gae_lambda: float = field(default=0.95, metadata={"help": "GAE lambda"})
     clip_range: float = field(default=0.2, metadata={"help": "PPO clip range"})
@@ -95,20 +99,21 @@ class Args:
     residual_scale: float = field(
         default=0.05, metadata={"help": "with --residual-on: the largest change of the base's action (action units)"}
     )
-    mirror: bool = field(
-        default=False,
+    mirror: bool | None = field(
+        default=None,
         metadata={"help": "run headings towards -Y as mirror images of those towards +Y (agents/mirror.py): "
-                          "the policy learns half the compass"},
+                          "the policy learns half the compass; default: on for a goal-conditioned policy, off "
+                          "for a --direction-deg specialist or a --residual-on policy, and as the --resume run was"},
     )
     select_by: str = field(
-        default="mean",
+        default="worst",
         metadata={"help": "which evaluation picks best_model.zip: mean (the headings' mean return) or worst "
                           "(the worst heading's return)"},
     )
     torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
 
 
-RESUME_SETTINGS = ("learning_rate", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
+RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
 """PPO settings a resumed run takes from the command line when given there (else the model's own)."""
 FIXED_ON_RESUME = ("net_arch", "log_std_init", "gamma")
 """PPO settings a resumed model keeps: the networks' shape, the initial noise, and the discount its
@@ -124,12 +129,24 @@ def _parser(given_only=False):
         flag = "--" + f.name.replace("_", "-")
         help_text = f"{f.metadata['help']} (default: {f.default})"
         default = {} if given_only else {"default": f.default}
-        if f.type in ("bool",):
+        if f.type in ("bool", "bool | None"):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
         else:  # "float", "float | None", ...: the field's annotation names the type
             kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
+            if f.type.endswith(" | None"):
+                kind = _or_none(kind)
             parser.add_argument(flag, type=kind, help=help_text, **default)
     return parser
+
+
+def _or_none(kind):
+    """An argparse type that also takes "none" (an optional setting left unset)."""
+
+    def parse(text):
+        return None if text.strip().lower() == "none" else kind(text)
+
+    parse.__name__ = kind.__name__  # (argparse names the type in its error messages)
+    return parse
 
 
 def given_flags(argv=None) -> set:
@@ -138,9 +155,35 @@ def given_flags(argv=None) -> set:
 
 
 def resume_overrides(args: Args, argv=None) -> dict:
-    """The :data:`RESUME_SETTINGS` given on the command line: what a resumed model changes."""
+    """The :data:`RESUME_SETTINGS` given on the command line: what a resumed model changes (the
+    learning rate as SB3's setting: a number, or with --learning-rate-final its schedule)."""
     given = given_flags(argv)
-    return {name: getattr(args, name) for name in RESUME_SETTINGS if name in given}
+    overrides = {name: getattr(args, name) for name in RESUME_SETTINGS if name in given}
+    if "learning_rate_final" in overrides or "learning_rate" in overrides:
+        overrides.pop("learning_rate_final", None)
+        overrides["learning_rate"] = learning_rate(args)
+    return overrides
+
+
+class LinearRate:
+    """A learning rate falling linearly from ``start`` to ``final`` over a run (SB3 calls it with
+    the fraction of the run still to go: 1 at the start, 0 at the end)."""
+
+    def __init__(self, start: float, final: float):
+        self.start, self.final = float(start), float(final)
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.final + (self.start - self.final) * progress_remaining
+
+    def __repr__(self):
+        return f"{self.start:g} to {self.final:g}"
+
+
+def learning_rate(args: Args):
+    """SB3's learning_rate: --learning-rate, or a :class:`LinearRate` to --learning-rate-final."""
+    if args.learning_rate_final is None:
+        return args.learning_rate
+    return LinearRate(args.learning_rate, args.learning_rate_final)
 
 
 def parse_args(argv=None) -> Args:
@@ -150,6 +193,16 @@ def parse_args(argv=None) -> Args:
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
+    if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
+        if args.direction_deg is not None or args.residual_on is not None:
+            args.mirror = False
+        elif args.resume is not None and Path(args.resume).is_file():
+            from agents.mirror import is_mirrored
+            from agents.residual import run_directory
+
+            args.mirror = is_mirrored(run_directory(args.resume))
+        else:
+            args.mirror = True
     if args.mirror and args.residual_on is not None:
         parser.error("--mirror and --residual-on cannot be combined (the base agent is not mirrored)")
     if args.mirror and args.direction_deg is not None:
@@ -162,6 +215,10 @@ def parse_args(argv=None) -> Args:
         parser.error("--direction-deg must be a finite number of degrees")
     if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
         parser.error("--clock-frequency must be a positive number of rad/s")
+    for name in ("learning_rate", "learning_rate_final"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            parser.error(f"--{name.replace('_', '-')} must be a number >= 0, got {value}")
     for name in ("torque_limit", "leg_rate_limit"):
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and value > 0):
@@ -406,7 +463,7 @@ def main(argv=None) -> Path:
         model = PPO(
             "MlpPolicy",
             train_env,
-            learning_rate=args.learning_rate,
+            learning_rate=learning_rate(args),
             n_steps=args.n_steps,
             batch_size=args.batch_size,
             n_epochs=args.n_epochs,

@@ -6,7 +6,8 @@ Runs train.py with its defaults (the same PPO settings, batch of 64 robots, eval
 250,000 steps) for ``--steps`` env steps, once per backend per round, alternating numpy and
 numba in fresh processes so both see the same machine; the whole process is timed (imports,
 numba's compilation or cache load, the evaluations, saving). Reports the median seconds per
-backend, their ratio, and the default run's 10 M steps projected at that rate.
+backend, their ratio, and the default run's steps (train.py's default --total-timesteps)
+projected at that rate.
 """
 
 from __future__ import annotations
@@ -23,7 +24,14 @@ from rrrobot_gym import compiled
 from ._common import machine, markdown_table, parser, write_json
 
 HERE = Path(__file__).resolve().parents[1]
-DEFAULT_RUN_STEPS = 10_000_000  # train.py's default --total-timesteps
+
+
+def default_run_steps() -> int:
+    """train.py's default --total-timesteps."""
+    sys.path.insert(0, str(HERE))
+    from train import Args
+
+    return Args().total_timesteps
 
 
 def run(backend: str, steps: int, runs_dir: str) -> float:
@@ -50,9 +58,11 @@ def main(argv=None):
                 seconds[backend].append(run(backend, steps, runs_dir))
                 print(f"round {i + 1}: {backend} {seconds[backend][-1]:.1f} s", flush=True)
     median = {b: statistics.median(v) for b, v in seconds.items()}
-    rows = [[b, f"{median[b]:.1f}", f"{steps / median[b]:,.0f}", f"{median[b] * DEFAULT_RUN_STEPS / steps / 60:.0f}"]
+    default_steps = default_run_steps()
+    rows = [[b, f"{median[b]:.1f}", f"{steps / median[b]:,.0f}", f"{median[b] * default_steps / steps / 60:.0f}"]
             for b in ("numpy", "numba")]  # fmt: skip
-    table = markdown_table(["backend", f"seconds for {steps:,} steps", "env steps/s", "10 M steps (min, projected)"], rows)
+    table = markdown_table(["backend", f"seconds for {steps:,} steps", "env steps/s",
+                            f"{default_steps / 1e6:g} M steps (min, projected)"], rows)
     ratio = median["numpy"] / median["numba"]
     print(table)
     print(f"numba takes {1 / ratio:.2f}x the time of numpy ({ratio:.2f}x faster)")

@@ -132,6 +132,19 @@ def test_training_shows_the_policy_what_the_agent_shows_it():
     np.testing.assert_array_equal(final[flip], task.mirror_observations(np.stack(plain_infos["final_obs"][flip]), config))
 
 
+@pytest.mark.parametrize("argv, mirrored", [
+    ([], True),  # the default run: goal-conditioned
+    (["--direction-deg", "30"], False),
+    (["--residual-on", str(ROOT / "agents" / "searched" / "turn_then_run.json")], False),
+    (["--resume", str(ROOT / "agents" / "pretrained_pivot" / "best_model.zip")], False),  # as that run was
+    (["--model", "pivot", "--torque-limit", "0.5"], True),
+])
+def test_by_default_a_goal_conditioned_policy_is_mirrored_and_a_resumed_run_as_it_was(argv, mirrored):
+    import train
+
+    assert train.parse_args(argv).mirror is mirrored
+
+
 @pytest.mark.parametrize("argv, named", [
     (["--mirror", "--residual-on", str(ROOT / "agents" / "searched" / "turn_then_run.json")], "--residual-on"),
     (["--mirror", "--direction-deg", "30"], "--direction-deg"),
@@ -150,7 +163,7 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     loads as a MirroredAgent and evaluate.py scores it; --select-by worst keeps the evaluation
     whose worst heading did best."""
     trained = run(["train.py", "--total-timesteps", "4096", "--runs-dir", str(tmp_path / "runs"), "--mirror",
-                   "--select-by", "worst", "--seed", "3", *TINY])
+                   "--select-by", "worst", "--seed", "3", "--learning-rate-final", "none", *TINY])
     assert trained.returncode == 0, trained.stderr
     run_dir = only_run(tmp_path / "runs")
     assert json.loads((run_dir / MIRROR_FILE).read_text())["mirror"]
@@ -168,9 +181,9 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     import train
 
     with pytest.raises(SystemExit):
-        train.parse_args(["--resume", str(run_dir / "best_model.zip")])
+        train.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
     assert "--mirror" in capsys.readouterr().err
-    assert train.parse_args(["--resume", str(run_dir / "best_model.zip"), "--mirror"]).mirror
+    assert train.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
     assert evaluated.returncode == 0, evaluated.stderr
     assert "| ppo |" in evaluated.stdout

@@ -104,14 +104,32 @@ def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interru
     *_, run_dir = interrupted_run
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
     resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint),
-                   *TINY, "--learning-rate", "0.0001", "--n-epochs", "3"])
+                   *TINY, "--learning-rate", "0.0001", "--learning-rate-final", "none", "--n-epochs", "3"])
     assert resumed.returncode == 0, resumed.stderr
     assert "learning_rate 0.0001" in resumed.stdout and "n_epochs 3" in resumed.stdout
     from stable_baselines3 import PPO
 
     model = PPO.load(only_run(tmp_path) / "final_model.zip", device="cpu")
-    assert (model.learning_rate, model.lr_schedule(1.0), model.n_epochs) == (1e-4, 1e-4, 3)
+    assert (model.learning_rate, model.lr_schedule(1.0), model.lr_schedule(0.0), model.n_epochs) == (1e-4, 1e-4, 1e-4, 3)
     assert model.clip_range(1.0) == 0.2 and model.gae_lambda == 0.95  # not given: as trained
+
+
+def test_the_learning_rate_falls_linearly_to_the_final_one_and_a_resume_takes_it(capsys):
+    import train
+
+    args = train.parse_args(["--learning-rate", "2e-4", "--learning-rate-final", "5e-5"])
+    rate = train.learning_rate(args)
+    assert (rate(1.0), rate(0.5), rate(0.0)) == pytest.approx((2e-4, 1.25e-4, 5e-5))
+    default = train.learning_rate(train.parse_args([]))  # by default, 3e-4 falling to 0
+    assert (default(1.0), default(0.0)) == (3e-4, 0.0)
+    assert train.learning_rate(train.parse_args(["--learning-rate-final", "none"])) == 3e-4  # constant
+    shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
+    argv = ["--resume", shipped, "--learning-rate-final", "0", "--mirror"]
+    resumed = train.resume_overrides(train.parse_args(argv), argv)["learning_rate"]
+    assert (resumed(1.0), resumed(0.0)) == (3e-4, 0.0)
+    with pytest.raises(SystemExit):
+        train.parse_args(["--learning-rate-final", "-1e-4"])
+    assert "--learning-rate-final" in capsys.readouterr().err
 
 
 def test_a_resumed_run_refuses_settings_its_model_fixed(capsys):
@@ -121,9 +139,8 @@ def test_a_resumed_run_refuses_settings_its_model_fixed(capsys):
     with pytest.raises(SystemExit):
         train.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98"])
     assert "--gamma, --net-arch" in capsys.readouterr().err
-    args = train.parse_args(["--resume", shipped, "--learning-rate", "3e-4", "--mirror"])
-    assert train.resume_overrides(args, ["--resume", shipped, "--learning-rate", "3e-4", "--mirror"]) == {
-        "learning_rate": 3e-4}  # given, though equal to the default
+    argv = ["--resume", shipped, "--learning-rate", "3e-4", "--learning-rate-final", "none"]
+    assert train.resume_overrides(train.parse_args(argv), argv) == {"learning_rate": 3e-4}  # given, though the default
 
 
 @pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
