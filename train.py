@@ -165,24 +165,13 @@ def resume_overrides(args: Args, argv=None) -> dict:
     return overrides
 
 
-class LinearRate:
-    """A learning rate falling linearly from ``start`` to ``final`` over a run (SB3 calls it with
-    the fraction of the run still to go: 1 at the start, 0 at the end)."""
-
-    def __init__(self, start: float, final: float):
-        self.start, self.final = float(start), float(final)
-
-    def __call__(self, progress_remaining: float) -> float:
-        return self.final + (self.start - self.final) * progress_remaining
-
-    def __repr__(self):
-        return f"{self.start:g} to {self.final:g}"
-
-
 def learning_rate(args: Args):
-    """SB3's learning_rate: --learning-rate, or a :class:`LinearRate` to --learning-rate-final."""
+    """SB3's learning_rate: --learning-rate, or a :class:`rrrobot_gym.hyperparams.LinearRate` to
+    --learning-rate-final."""
     if args.learning_rate_final is None:
         return args.learning_rate
+    from rrrobot_gym.hyperparams import LinearRate
+
     return LinearRate(args.learning_rate, args.learning_rate_final)
 
 

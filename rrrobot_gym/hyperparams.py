@@ -16,7 +16,10 @@ rollouts from many robots and large minibatches:
 
 Save the VecNormalize statistics beside the model and evaluate with
 ``training=False, norm_reward=False``. The same values are ``train.py``'s defaults (a
-test keeps the two equal).
+test keeps the two equal); ``train.py`` also runs a goal-conditioned policy mirrored
+(``agents/mirror.py`` in the repository: headings towards -Y as mirror images of those towards
++Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and keeps the evaluation with the best
+worst heading.
 """
 
 from __future__ import annotations
@@ -27,20 +30,41 @@ MAX_BATCH_SIZE = 4096
 """minibatch size, capped at one rollout (n_steps x num_envs) for small batches of envs."""
 GAMMA = 0.99
 """per 0.05 s control step: a horizon of about 100 steps, 5 s, several gait periods."""
+LEARNING_RATE = 3e-4
+"""Adam's learning rate at the start of a run ..."""
+LEARNING_RATE_FINAL = 0.0
+"""... falling linearly to this at its end (:class:`LinearRate`)."""
+
+
+class LinearRate:
+    """A learning rate falling linearly from ``start`` to ``final`` over a run: SB3 calls it with
+    the fraction of the run still to go (1 at the start, 0 at the end)."""
+
+    def __init__(self, start: float, final: float):
+        self.start, self.final = float(start), float(final)
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.final + (self.start - self.final) * progress_remaining
+
+    def __eq__(self, other):
+        return isinstance(other, LinearRate) and (self.start, self.final) == (other.start, other.final)
+
+    def __repr__(self):
+        return f"{self.start:g} to {self.final:g}"
 
 
 def ppo_hyperparams(num_envs: int = 64) -> dict:
     """Keyword arguments for ``stable_baselines3.PPO("MlpPolicy", venv, **...)`` on ``num_envs`` robots.
 
-    n_steps 256, batch_size min(4096, 256 num_envs), n_epochs 10, learning rate 3e-4,
-    gamma 0.99, GAE lambda 0.95, clip 0.2, no entropy bonus, two hidden layers of 128 and
+    n_steps 256, batch_size min(4096, 256 num_envs), n_epochs 10, learning rate 3e-4 falling
+    linearly to 0 over the run (``learn``'s total_timesteps), gamma 0.99, GAE lambda 0.95, clip 0.2, no entropy bonus, two hidden layers of 128 and
     an initial log std of -2 (std 0.14 in action units: the servo targets barely jitter at
     first, so early episodes do not end by leaving the model), on the CPU.
     """
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
     return {
-        "learning_rate": 3e-4,
+        "learning_rate": LinearRate(LEARNING_RATE, LEARNING_RATE_FINAL),
         "n_steps": N_STEPS,
         "batch_size": min(MAX_BATCH_SIZE, N_STEPS * num_envs),
         "n_epochs": 10,

@@ -278,8 +278,10 @@ def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
 
     defaults = train.Args()
     params = ppo_hyperparams(num_envs=defaults.num_envs)
-    for key in ("n_steps", "batch_size", "n_epochs", "learning_rate", "gamma", "gae_lambda", "clip_range", "ent_coef"):
+    for key in ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef"):
         assert params[key] == getattr(defaults, key), key
+    assert params["learning_rate"] == train.learning_rate(defaults)  # 3e-4 falling to 0
+    assert (params["learning_rate"](1.0), params["learning_rate"](0.0)) == (defaults.learning_rate, defaults.learning_rate_final)
     assert params["policy_kwargs"] == {"net_arch": [int(n) for n in defaults.net_arch.split(",")],
                                        "log_std_init": defaults.log_std_init}
     with pytest.raises(ValueError, match="num_envs"):
@@ -289,8 +291,8 @@ def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
     model = PPO("MlpPolicy", venv, seed=0, **ppo_hyperparams(num_envs=2))
     assert model.batch_size == 512 and model.n_steps == 256  # one minibatch a rollout at 2 envs
     before = [p.detach().clone() for p in model.policy.parameters()]
-    model.learn(512)  # one rollout: 256 steps x 2 envs, then 10 epochs
-    assert model.num_timesteps == 512
+    model.learn(1024)  # two rollouts of 256 steps x 2 envs, each then 10 epochs (the last one's at rate 0)
+    assert model.num_timesteps == 1024
     assert any(not np.allclose(b.numpy(), a.detach().numpy()) for b, a in zip(before, model.policy.parameters()))
     venv.close()
 
