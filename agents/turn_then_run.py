@@ -221,8 +221,7 @@ class TurnThenRunAgent:
         blend = np.where(state["mode"] == TURN, 0.0, 1.0)
         blending = state["mode"] == BLEND
         if blending.any():
-            x = np.clip((t[blending] - state["switched"][blending]) / self.ramp, 0.0, 1.0)
-            blend[blending] = x * x * (3.0 - 2.0 * x)
+            blend[blending] = ramp_factor(t[blending] - state["switched"][blending], self.ramp)  # (the gaits' smoothstep)
             state["mode"][blending & (blend >= 1.0)] = RUN
         g = (1.0 - blend)[:, None] * state["g_turn"] + blend[:, None] * state["g_run"]
         if self.steering:
