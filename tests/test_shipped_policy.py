@@ -55,7 +55,8 @@ def test_the_shipped_policy_travels_along_the_commanded_heading():
 def test_the_shipped_pivot_policy_moves_along_its_headings_inside_its_motor_limits():
     """Trained on the pivot model with a 0.5 N m stall torque and a 10 rad/s no-load speed: it
     runs under them (the applied torque never exceeds 0.5 N m) and, 15 s from the paper's start,
-    already beats Gait 1's 10.8 mm/s along its own axis on two opposite diagonals."""
+    already makes more than twice Gait 1's 10.8 mm/s along its own axis (the issue's pivot target)
+    on two opposite diagonals (it makes ~98 mm/s there)."""
     from agents import load_ppo_agent
     from evaluate import run_episodes, score
 
@@ -67,7 +68,7 @@ def test_the_shipped_pivot_policy_moves_along_its_headings_inside_its_motor_limi
     for record in score(run, headings, 15.0):
         assert not record["terminated"]
         assert record["peak_torque_nm"] <= 0.5 + 1e-9, record
-        assert record["speed_mps"] > 0.0108, record
+        assert record["speed_mps"] > 2 * 0.0108, record
 
 
 def test_evaluate_uses_the_shipped_policies_by_default(tmp_path):

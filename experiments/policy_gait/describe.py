@@ -7,7 +7,8 @@ centre: the mean angle; half-range: half the 5-95 percentile spread; phase gap: 
 minus leg 1 at that frequency (a least-squares sinusoid fit of each leg), wrapped to (-pi, pi].
 
     python experiments/policy_gait/describe.py [POLICY_ZIP] [GAIT_FILE]
-    (defaults: agents/pretrained/best_model.zip, agents/searched/plane_own_robust.json)
+    (defaults: agents/pretrained/best_model.zip, agents/searched/plane_own_robust.json; on the
+    model the policy was trained on, under its motor limits)
 """
 import sys
 from pathlib import Path
@@ -41,7 +42,8 @@ def main():
     policy = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "agents" / "pretrained" / "best_model.zip"
     gaits = Path(sys.argv[2]) if len(sys.argv) > 2 else ROOT / "agents" / "searched" / "plane_own_robust.json"
     gait_name, gait = next(iter(load_gait_agents(gaits).items()))
-    runs = run_episodes({"ppo": load_ppo_agent(policy), gait_name: gait}, "plane", COMPASS_DEG)
+    agent = load_ppo_agent(policy)
+    runs = run_episodes({"ppo": agent, gait_name: gait}, agent.env_config.get("model", "plane"), COMPASS_DEG)
     for name, run in runs.items():
         dt = run["times"][1] - run["times"][0]
         k0 = int(round(5.0 / dt))

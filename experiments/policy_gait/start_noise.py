@@ -3,6 +3,8 @@ seeds (the env's own reset noise, as in training), deterministic actions; how ma
 and the speed along the heading (contact point displacement / 50 s) of those that do not.
 
     python experiments/policy_gait/start_noise.py [POLICY_ZIP] [SEEDS]   # default: the shipped policy, 4 seeds
+
+On the model the policy was trained on, under its motor limits.
 """
 import sys
 from pathlib import Path
@@ -21,7 +23,8 @@ n_seeds = int(sys.argv[2]) if len(sys.argv) > 2 else 4
 agent = load_ppo_agent(policy)
 ended_any, speeds = 0, []
 for seed in range(n_seeds):
-    env = RRRobotVectorEnv(num_envs=len(COMPASS_DEG), max_episode_steps=None, **agent.env_kwargs)
+    env = RRRobotVectorEnv(num_envs=len(COMPASS_DEG), max_episode_steps=None, model=agent.env_config.get("model", "plane"),
+                           **agent.env_kwargs)
     headings = np.radians(COMPASS_DEG)
     obs, _ = env.reset(seed=1000 + seed, options={"target_direction": headings})
     start = env.states[:, 0:2].copy()
