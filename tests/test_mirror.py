@@ -136,13 +136,23 @@ def test_training_shows_the_policy_what_the_agent_shows_it():
     ([], True),  # the default run: goal-conditioned
     (["--direction-deg", "30"], False),
     (["--residual-on", str(ROOT / "agents" / "searched" / "turn_then_run.json")], False),
-    (["--resume", str(ROOT / "agents" / "pretrained_pivot" / "best_model.zip")], False),  # as that run was
+    (["--resume", str(ROOT / "agents" / "pretrained_pivot" / "best_model.zip")], True),  # as that run was
     (["--model", "pivot", "--torque-limit", "0.5"], True),
 ])
 def test_by_default_a_goal_conditioned_policy_is_mirrored_and_a_resumed_run_as_it_was(argv, mirrored):
     import train
 
     assert train.parse_args(argv).mirror is mirrored
+
+
+def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path):
+    import shutil
+
+    import train
+
+    shutil.copy(ROOT / "agents" / "pretrained" / "best_model.zip", tmp_path / "best_model.zip")  # no mirror.json
+    assert not train.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
+    assert train.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--mirror"]).mirror  # turned on
 
 
 @pytest.mark.parametrize("argv, named", [
