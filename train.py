@@ -182,16 +182,15 @@ def parse_args(argv=None) -> Args:
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
+    from agents.mirror import MIRROR_FILE, is_mirrored
+    from agents.residual import run_directory
+
+    resumed_mirrored = args.resume is not None and is_mirrored(run_directory(args.resume))
     if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
         if args.direction_deg is not None or args.residual_on is not None:
             args.mirror = False
-        elif args.resume is not None and Path(args.resume).is_file():
-            from agents.mirror import is_mirrored
-            from agents.residual import run_directory
-
-            args.mirror = is_mirrored(run_directory(args.resume))
         else:
-            args.mirror = True
+            args.mirror = resumed_mirrored if args.resume is not None else True
     if args.mirror and args.residual_on is not None:
         parser.error("--mirror and --residual-on cannot be combined (the base agent is not mirrored)")
     if args.mirror and args.direction_deg is not None:
@@ -241,10 +240,7 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--resume keeps the model's {', '.join('--' + n.replace('_', '-') for n in fixed)}: "
                          "leave it out")
         _check_resumed_residual(parser, args)
-        from agents.mirror import MIRROR_FILE, is_mirrored
-        from agents.residual import run_directory
-
-        if is_mirrored(run_directory(args.resume)) and not args.mirror:
+        if resumed_mirrored and not args.mirror:
             parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
                          "give --mirror")
     return args

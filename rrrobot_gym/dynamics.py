@@ -605,6 +605,7 @@ def tilt(state):
 
 
 TILT_LIMIT = 0.5 * math.pi
+"""rad: at this tilt the hemisphere's rim touches the ground and the rolling model ends."""
 
 
 MIRROR_STATE_SIGNS = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0])
@@ -627,4 +628,3 @@ def mirror_states(states):
     out[..., LEG_ANGLES] = states[..., LEG_ANGLES][..., ::-1]
     out[..., LEG_RATES] = states[..., LEG_RATES][..., ::-1]
     return out
-"""rad: at this tilt the hemisphere's rim touches the ground and the rolling model ends."""
