@@ -32,7 +32,7 @@ import numpy as np
 
 from . import control, dynamics
 
-_DYNAMICS = ("_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
+_DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
              "_contact_force", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 10  # rows of a step record, both backends: torque (2), force (3), normal, clearance (2), leg rates (2)
