@@ -10,6 +10,12 @@ same order of operations, so its results are those of the float stepper to the l
 (``tests/test_compiled.py``), for every batch size; robots are independent, so a batch may be
 split across threads (``workers``) without changing a bit either.
 
+Batches are integrated LANES robots at a time (:func:`_lanes`): the state of a block is laid out
+one row per quantity, and each derivative evaluation is a loop over the block's robots into which
+the compiler inlines ``derivative_kernel`` and turns it into SIMD instructions (several robots per
+instruction). The robots left over (fewer than LANES) take the one-robot stepper
+(:func:`_one_robot`). Both give the float stepper's numbers to the bit.
+
 Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the
 scene is one it covers: servo legs, ``integrator="rk4"``, and targets from
 :class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
@@ -103,7 +109,11 @@ def _leg_targets(kind, p, shared, t):
 
 def _torque(c, t, gains, torque_limit, rate_limit, kind, p, shared):
     """simulation._stage_fns' servo: the PD law on the targets at t, then the motor limit if any."""
-    tau = pd_torque(gains, (c[6], c[7]), (c[11], c[12]), _leg_targets(kind, p, shared, t))
+    return _servo(c, _leg_targets(kind, p, shared, t), gains, torque_limit, rate_limit)
+
+
+def _servo(c, targets, gains, torque_limit, rate_limit):
+    tau = pd_torque(gains, (c[6], c[7]), (c[11], c[12]), targets)
     if torque_limit is None:
         return tau
     return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
@@ -144,15 +154,160 @@ def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, sh
         t += h
 
 
-def _batch(y, t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, rows):
-    """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot."""
+# The lane stepper: LANES robots at once, each derivative evaluation a loop over the robots whose
+# body the compiler turns into SIMD instructions. Its work array w holds one row of LANES values
+# per quantity (structure of arrays), at fixed offsets, so the compiler can see that the rows it
+# writes never overlap the rows it reads. Everything is the float stepper's arithmetic, lane by
+# lane, in the same order (no fast-math, no fused multiply-adds; the leg angles' cos and sin are
+# dynamics._sincos, arithmetic, not libm), so each robot's result is the float stepper's to the bit.
+LANES = 32
+_Y, _S, _K1, _K2, _K3, _D = 0, 13, 26, 39, 52, 65  # state, stage state, k1..k3, the last derivative
+_P = 78  # per-robot target parameters (8)
+_TAU, _C, _RATES = 86, 88, 94  # the record's rows: torques, contact values (6), leg rates
+_ROWS = 96
+
+
+def _lane_state(w, row, i):
+    """Lane i's 13 state components, from rows row .. row + 12."""
+    L = LANES
+    return (
+        w[row * L + i], w[(row + 1) * L + i], w[(row + 2) * L + i], w[(row + 3) * L + i], w[(row + 4) * L + i],
+        w[(row + 5) * L + i], w[(row + 6) * L + i], w[(row + 7) * L + i], w[(row + 8) * L + i],
+        w[(row + 9) * L + i], w[(row + 10) * L + i], w[(row + 11) * L + i], w[(row + 12) * L + i],
+    )  # fmt: skip
+
+
+def _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared):
+    """The servo's torques on the stage state, every lane, into _TAU (inlined where ``kind`` is a
+    constant, so each kind of target has a loop of its own)."""
+    L = LANES
+    if params.shape[0] == 1:  # the same targets for every robot: once a stage
+        targets = _leg_targets(kind, params[0], shared, t)
+        for i in range(L):
+            tau = _servo(_lane_state(w, _S, i), targets, gains, torque_limit, rate_limit)
+            w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
+    else:
+        for i in range(L):
+            p = (w[_P * L + i], w[(_P + 1) * L + i], w[(_P + 2) * L + i], w[(_P + 3) * L + i],
+                 w[(_P + 4) * L + i], w[(_P + 5) * L + i], w[(_P + 6) * L + i], w[(_P + 7) * L + i])  # fmt: skip
+            tau = _torque(_lane_state(w, _S, i), t, gains, torque_limit, rate_limit, kind, p, shared)
+            w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
+
+
+def _lane_derivatives(w, k, kc, record):
+    """The stage state's derivative into _D, every lane, and with ``record`` its contact values
+    (contact_kernel of the state and that derivative) into _C: one loop, so the compiler shares
+    their common terms (inlined where ``record`` is a constant)."""
+    L = LANES
+    for i in range(L):
+        c = _lane_state(w, _S, i)
+        d = lane_derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), k)
+        for j in range(13):
+            w[(_D + j) * L + i] = d[j]
+        if record:
+            f = lane_contact_kernel(c, d, kc)
+            for j in range(6):
+                w[(_C + j) * L + i] = f[j]
+
+
+def _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record):
+    """The stage state's servo torques and derivative (into _D), every lane; with ``record``,
+    the contact values too (into _C)."""
+    if kind == _HELD:
+        _lane_torques(w, t, gains, torque_limit, rate_limit, _HELD, params, shared)
+    elif kind == _RAMP:
+        _lane_torques(w, t, gains, torque_limit, rate_limit, _RAMP, params, shared)
+    else:
+        _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared)
+    if record:
+        _lane_derivatives(w, k, kc, True)
+    else:
+        _lane_derivatives(w, k, kc, False)
+
+
+def _lane_combine(w, keep, scale):
+    """Copy the last derivative to rows ``keep`` and set the stage state to y + scale * it."""
+    L = LANES
+    for m in range(13 * L):  # one loop over every row's lanes: long enough to be vectorised, not unrolled
+        d = w[_D * L + m]
+        w[keep * L + m] = d
+        w[_S * L + m] = w[_Y * L + m] + scale * d
+
+
+def _lane_update(w, sixth):
+    """RK4's step from the four stages, then the quaternion back to unit length."""
+    L = LANES
+    for m in range(13 * L):
+        w[_Y * L + m] = w[_Y * L + m] + sixth * (w[_K1 * L + m] + 2.0 * (w[_K2 * L + m] + w[_K3 * L + m]) + w[_D * L + m])
+    for i in range(L):
+        qw, qx, qy, qz = w[2 * L + i], w[3 * L + i], w[4 * L + i], w[5 * L + i]
+        inv = 1.0 / np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        w[2 * L + i], w[3 * L + i], w[4 * L + i], w[5 * L + i] = qw * inv, qx * inv, qy * inv, qz * inv
+    for m in range(13 * L):
+        w[_S * L + m] = w[_Y * L + m]
+
+
+def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows):
+    """_one_robot for robots first .. first + LANES - 1 of y together (in place), with the record."""
+    L = LANES
+    w = np.zeros(_ROWS * L)
+    for i in range(L):
+        for j in range(13):
+            w[(_Y + j) * L + i] = y[first + i, j]
+            w[(_S + j) * L + i] = y[first + i, j]
+        if params.shape[0] > 1:
+            for j in range(params.shape[1]):
+                w[(_P + j) * L + i] = params[first + i, j]
+    half, sixth = 0.5 * h, h / 6.0
+    flat = rows.reshape(-1)
+    record = rows.shape[0] > 0
+    for step in range(n_steps):
+        _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record)
+        if record:
+            for i in range(L):
+                w[_RATES * L + i], w[(_RATES + 1) * L + i] = w[(_Y + 11) * L + i], w[(_Y + 12) * L + i]
+            n = rows.shape[2]
+            for m in range(RECORD_ROWS * L):  # rows _TAU .. _RATES + 1 are the record's, in its order
+                j = m // L
+                flat[(step * RECORD_ROWS + j) * n + first + m - j * L] = w[_TAU * L + m]
+        _lane_combine(w, _K1, half)
+        _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+        _lane_combine(w, _K2, half)
+        _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+        _lane_combine(w, _K3, h)
+        _lane_stage(w, t + h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+        _lane_update(w, sixth)
+        t += h
+    for i in range(L):
+        for j in range(13):
+            y[first + i, j] = w[(_Y + j) * L + i]
+
+
+def _batch(y, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows):
+    """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
+    Whole blocks of LANES robots take the lane stepper, the rest (fewer than LANES) one by one."""
     shared_targets = params.shape[0] == 1
-    for i in prange(y.shape[0]):
-        p = params[0] if shared_targets else params[i]
-        _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i)
+    blocks = y.shape[0] // LANES
+    for b in prange(blocks + y.shape[0] - blocks * LANES):
+        if b < blocks:
+            _lanes(y, b * LANES, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows)
+        else:
+            i = blocks * LANES + (b - blocks)
+            p = params[0] if shared_targets else params[i]
+            _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i)
 
 
-_STEPPER = ("_leg_targets", "_torque", "_one_robot")
+_STEPPER = ("_leg_targets", "_servo", "_torque", "_one_robot", "_lanes")
+_LANE_STEPPER = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine", "_lane_stage", "_lane_update")
+
+
+def _lane_kernels(njit):
+    """derivative_kernel and contact_kernel compiled by ``njit`` (copies sharing their code)."""
+    namespace = _compiled_copies(dynamics, _DYNAMICS + ("contact_kernel",), njit)
+    return namespace["derivative_kernel"], namespace["contact_kernel"]
+
+
+lane_derivative_kernel, lane_contact_kernel = dynamics.derivative_kernel, dynamics.contact_kernel
 
 
 def cache_dir(sources=None):
@@ -229,7 +384,13 @@ def _stepper(parallel: bool):
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
         namespace = dict(globals())
-        namespace["derivative_kernel"] = _compiled_copies(dynamics, _DYNAMICS, njit)["derivative_kernel"]
+        compiled_dynamics = _compiled_copies(dynamics, _DYNAMICS, njit)
+        namespace["derivative_kernel"] = compiled_dynamics["derivative_kernel"]
+        # the lane stepper's kernels are inlined into its loops, which is what lets them vectorise
+        inline = functools.partial(njit, forceinline=True)
+        namespace["lane_derivative_kernel"], namespace["lane_contact_kernel"] = _lane_kernels(inline)
+        _compiled_copies(sys.modules[__name__], _LANE_STEPPER[:4], inline, namespace)
+        _compiled_copies(sys.modules[__name__], _LANE_STEPPER[4:], njit, namespace)
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
@@ -246,8 +407,9 @@ def _stepper(parallel: bool):
 
 @functools.lru_cache(maxsize=32)
 def _scene(robot, depth, gains):
-    """The constants of the equations of motion and the servo gains, as the stepper takes them."""
-    return dynamics.constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
+    """The constants of the equations of motion and of the contact force, and the servo gains,
+    as the stepper takes them."""
+    return dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
 
 
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
@@ -263,8 +425,8 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
     step = _stepper(parallel)
-    k, gains = _scene(config.robot, config.depth, config.gains)
-    args = (y, float(t0), float(h), int(n_steps), k, gains, config.torque_limit, config.leg_rate_limit,
+    k, kc, gains = _scene(config.robot, config.depth, config.gains)
+    args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit,
             kind, params, shared, rows)  # fmt: skip
     if parallel:
         import numba

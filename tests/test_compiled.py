@@ -58,7 +58,9 @@ def _float_path(config, states, targets, t0, duration):
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
-    # each is compared with its own run on Python floats.
+    # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
+    # stepper and one robot on the one-robot stepper.
+    assert compiled.LANES < 33 < 2 * compiled.LANES
     rng = np.random.default_rng(7)
     states = _states(33)
     targets = _targets(kind, 33, rng)
@@ -99,8 +101,9 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
 
 @pytest.mark.parametrize("workers", [2, 3])
 def test_threads_give_the_one_thread_result(workers):
-    states = _states(50, seed=4)
-    targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (50, 2)), 0.0, 0.05)
+    n = 3 * compiled.LANES + 5  # lane blocks and single robots, shared among the threads
+    states = _states(n, seed=4)
+    targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (n, 2)), 0.0, 0.05)
     config = SimConfig(backend="numba")
     one, one_record = advance(config, states, 0.0, 0.05, targets, record=True)
     many, many_record = advance(config, states, 0.0, 0.05, targets, record=True, workers=workers)
@@ -225,15 +228,17 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
 
 
 def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
-    # compiled._batch is ordinary Python (prange is range until compiled): run it uncompiled
+    # compiled._batch is ordinary Python (prange is range until compiled): run it uncompiled,
+    # on a block of the lane stepper and two robots of the one-robot stepper
     config = SimConfig(torque_limit=0.4, leg_rate_limit=9.0)
-    states = _states(3, seed=8)
-    targets = compiled.target_arrays(_targets("ramp", 3, np.random.default_rng(9)))
-    k, gains = compiled._scene(config.robot, config.depth, config.gains)
+    n = compiled.LANES + 2
+    states = _states(n, seed=8)
+    targets = compiled.target_arrays(_targets("ramp", n, np.random.default_rng(9)))
+    k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
     y = states.copy()
-    rows = np.empty((15, compiled.RECORD_ROWS, 3))
-    compiled._batch(y, 0.1, 0.05 / 15, 15, k, gains, 0.4, 9.0, *targets, rows)
-    fast, fast_rows = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 15, True)
+    rows = np.empty((3, compiled.RECORD_ROWS, n))
+    compiled._batch(y, 0.1, 0.05 / 15, 3, k, kc, gains, 0.4, 9.0, *targets, rows)
+    fast, fast_rows = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 3, True)
     assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows)
 
 
