@@ -159,6 +159,23 @@ def test_a_compiled_blow_up_is_a_numerical_failure():
         advance(SimConfig(backend="numba"), state, 0.0, 0.05, table2_gait(1))
 
 
+def test_a_blow_up_in_a_lane_block_stays_in_its_lane():
+    # one robot of a SIMD block blows up: the batch fails by name, and its block-mates, run
+    # without it, are what they were beside it (no lane reads another's numbers)
+    n = compiled.LANES
+    states = _states(n, seed=11)
+    states[5, dynamics.BODY_RATE] = (0.0, 0.0, 5000.0)
+    config = SimConfig(backend="numba")
+    with pytest.raises(NumericalFailure, match="turns too fast"):
+        advance(config, states, 0.0, 0.05, table2_gait(1))
+    blown = compiled.integrate(config, compiled.target_arrays(table2_gait(1)), states, 0.0, 0.05 / 15, 15, False)[0]
+    assert not np.isfinite(blown[5]).all() and np.isfinite(np.delete(blown, 5, axis=0)).all()
+    calm = states.copy()
+    calm[5] = states[4]
+    alone = compiled.integrate(config, compiled.target_arrays(table2_gait(1)), calm, 0.0, 0.05 / 15, 15, False)[0]
+    assert np.array_equal(np.delete(blown, 5, axis=0), np.delete(alone, 5, axis=0))
+
+
 def test_envs_step_alike_on_both_backends():
     # one robot and a batch of up to ROW_BY_ROW_MAX take the float stepper on numpy: bit-identical
     for make in (lambda **kw: gymnasium.make("RRRobot-v0", **kw),
