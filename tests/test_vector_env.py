@@ -11,7 +11,7 @@ from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
 import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
 from rrrobot_gym import dynamics
-from rrrobot_gym.envs import RRRobotVectorEnv
+from rrrobot_gym.envs import RRRobotVectorEnv, task
 from rrrobot_gym.simulation import initial_state
 
 # The single env integrates one robot on Python floats, the vector env an (N, 13) array:
@@ -265,3 +265,20 @@ def test_env_signatures_and_the_arguments_table_list_exactly_the_task_config_fie
     table = [line.split("|")[1].strip() for line in RRRobotEnv.__doc__.splitlines() if line.strip().startswith("| `")]
     assert table == [f"`{name}`" for name in [*fields, *render]]
     assert all(f.metadata["doc"] for f in dataclasses.fields(TaskConfig))
+
+
+@pytest.mark.parametrize("n", [7, task.FINITE_BY_DOT_MIN + 9])
+def test_finite_rows_flags_exactly_the_rows_with_inf_or_nan(n):
+    # small batches reduce each row, large ones take a dot product with zeros: the same verdicts
+    rng = np.random.default_rng(n)
+    states = rng.normal(size=(n, 13)) * 1e3
+    observations = rng.normal(size=(n, 17)).astype(np.float32)
+    bad = rng.choice(n, size=5, replace=False)
+    states[bad[0], 3] = np.nan
+    states[bad[1], 12] = -np.inf
+    observations[bad[2], 0] = np.inf
+    observations[bad[3], 16] = np.nan
+    states[bad[4], 0:2] = 1e308  # huge but finite (a sum of the row would overflow): fine
+    expected = np.ones(n, dtype=bool)
+    expected[bad[:4]] = False
+    assert np.array_equal(task.finite_rows(states, observations), expected)
