@@ -41,7 +41,7 @@ from . import control, dynamics
 _DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
              "_contact_force", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
-RECORD_ROWS = 10  # rows of a step record, both backends: torque (2), force (3), normal, clearance (2), leg rates (2)
+RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 
 _Gains = namedtuple("_Gains", "kp kd")  # what pd_torque reads of a PDGains, in a form numba takes
 
@@ -124,15 +124,15 @@ def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, sh
     into rows[:, :, i] (when rows has any)."""
     half, sixth = 0.5 * h, h / 6.0
     stage = np.empty(13)
-    contact = np.empty(6)
+    contact = np.empty(7)
     for step in range(n_steps):
         tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
         if rows.shape[0]:
             k1 = derivative_kernel(y, tau, k, None, None, None, contact)
             rows[step, 0, i], rows[step, 1, i] = tau[0], tau[1]
-            for j in range(6):
+            for j in range(7):
                 rows[step, 2 + j, i] = contact[j]
-            rows[step, 8, i], rows[step, 9, i] = y[11], y[12]
+            rows[step, 9, i], rows[step, 10, i] = y[11], y[12]
         else:
             k1 = derivative_kernel(y, tau, k)
         for j in range(13):
@@ -163,8 +163,8 @@ def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, sh
 LANES = 32
 _Y, _S, _K1, _K2, _K3, _D = 0, 13, 26, 39, 52, 65  # state, stage state, k1..k3, the last derivative
 _P = 78  # per-robot target parameters (8)
-_TAU, _C, _RATES = 86, 88, 94  # the record's rows: torques, contact values (6), leg rates
-_ROWS = 96
+_TAU, _C, _RATES = 86, 88, 95  # the record's rows: torques, contact values (7), leg rates
+_ROWS = 97
 
 
 def _lane_state(w, row, i):
@@ -206,7 +206,7 @@ def _lane_derivatives(w, k, kc, record):
             w[(_D + j) * L + i] = d[j]
         if record:
             f = lane_contact_kernel(c, d, kc)
-            for j in range(6):
+            for j in range(7):
                 w[(_C + j) * L + i] = f[j]
 
 

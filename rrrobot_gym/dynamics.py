@@ -296,7 +296,7 @@ def derivative_kernel(
     (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j, 1/kg m^2, the body's recoil
     included), then P_1 and P_2 (3 each), the body rows (d Omega' / d tau_k). The
     linearly implicit integrator builds its servo Jacobian from them. A list
-    ``contact_out`` receives :func:`contact_kernel`'s six values for this state and the
+    ``contact_out`` receives :func:`contact_kernel`'s seven values for this state and the
     derivative returned, from the terms already computed here (the integrators' record).
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
@@ -457,9 +457,15 @@ def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r
     fy = fy + weight * ny
     fz = fz + weight * nz
     normal = fx * nx + fy * ny + fz * nz
+    # the part along the ground, sqrt(|F|^2 - normal^2) (0 where rounding makes it negative)
+    along_sq = fx * fx + fy * fy + fz * fz - normal * normal
+    if isinstance(along_sq, float):
+        tangential = math.sqrt(along_sq) if not along_sq < 0.0 else 0.0
+    else:
+        tangential = np.sqrt(np.maximum(along_sq, 0.0))
     clearance1 = r + lc1 * nx - r * ny + ls1 * nz
     clearance2 = r + lc2 * nx + r * ny + ls2 * nz
-    return fx, fy, fz, normal, clearance1, clearance2
+    return fx, fy, fz, normal, tangential, clearance1, clearance2
 
 
 class ContactConstants(NamedTuple):
@@ -495,8 +501,9 @@ def contact_kernel(c, d, k: ContactConstants):
     (S = sum m p, the first moment about the centre; S_y = 0). Kinematics only: the
     accelerations are the derivative's, so this is no second copy of the dynamics.
 
-    Returns (F_x, F_y, F_z, normal, clearance_1, clearance_2): body-frame force (N), its
-    component along world up (N), and each leg tip's height above the ground (m).
+    Returns (F_x, F_y, F_z, normal, tangential, clearance_1, clearance_2): body-frame force
+    (N), its component along world up (N), its magnitude along the ground (N, the grip rolling
+    needs), and each leg tip's height above the ground (m).
     """
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     l, ml = k.leg_length, k.mass_tip

@@ -740,14 +740,20 @@ class StepRecord:
     normal: np.ndarray  # (S, [N]) N, its component along world up
     leg_clearance: np.ndarray  # (S, [N,] 2) m, each leg tip's height above the ground
     leg_rates: np.ndarray  # (S, [N,] 2) rad/s
+    # the integrator's own tangential values (dynamics.contact_kernel's), where it made the record
+    _tangential: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def tangential(self) -> np.ndarray:
-        """(S, [N]) N, the force's magnitude along the ground (the grip rolling needs)."""
+        """(S, [N]) N, the force's magnitude along the ground (the grip rolling needs),
+        sqrt(|force|^2 - normal^2): as the integrator recorded it, or from ``force`` and ``normal``
+        for a record made by hand (or changed with ``dataclasses.replace``)."""
+        if self._tangential is not None:
+            return self._tangential
         return np.sqrt(np.maximum(np.einsum("...j,...j->...", self.force, self.force) - self.normal**2, 0.0))
 
 
-_RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, clearance (2), leg rates (2): one layout for both backends
+_RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, tangential, clearance (2), leg rates (2): one layout for both backends
 
 
 class _Recorder:
@@ -755,14 +761,14 @@ class _Recorder:
 
     def __init__(self, first, config: SimConfig, n_steps: int, num_robots: int | None):
         self._first = first
-        self._contact = [None] * 6
+        self._contact = [None] * 7
         self._rows = [] if num_robots is None else np.empty((n_steps, _RECORD_ROWS, num_robots))
         self._i = 0
 
     def __call__(self, t, c, mobility_out=None):
         derivative, torque = self._first(t, c, mobility_out, self._contact)
-        fx, fy, fz, normal, clear1, clear2 = self._contact
-        row = (torque[0], torque[1], fx, fy, fz, normal, clear1, clear2, c[11], c[12])
+        fx, fy, fz, normal, tangential, clear1, clear2 = self._contact
+        row = (torque[0], torque[1], fx, fy, fz, normal, tangential, clear1, clear2, c[11], c[12])
         if isinstance(self._rows, list):
             self._rows.append(row)
         else:
@@ -785,17 +791,19 @@ class _Recorder:
 
     @staticmethod
     def _record_of(rows, t0: float, h: float) -> StepRecord:
-        if rows.ndim == 3:  # (S, 10, N) -> fields with the robot axis before the vector axis
+        if rows.ndim == 3:  # (S, 11, N) -> fields with the robot axis before the vector axis
             rows = rows.transpose(0, 2, 1)
-        return StepRecord(
+        record = StepRecord(
             times=t0 + h * np.arange(len(rows)),
             step=h,
             torque=rows[..., 0:2],
             force=rows[..., 2:5],
             normal=rows[..., 5],
-            leg_clearance=rows[..., 6:8],
-            leg_rates=rows[..., 8:10],
+            leg_clearance=rows[..., 7:9],
+            leg_rates=rows[..., 9:11],
         )
+        object.__setattr__(record, "_tangential", rows[..., 6])
+        return record
 
 
 AUTO_RATE_FACTOR = 0.3

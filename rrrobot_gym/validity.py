@@ -45,7 +45,7 @@ def ground_force(states, derivatives, params: RobotParams, model: str):
     the same quantity from the same function (:func:`rrrobot_gym.dynamics.contact_kernel`)
     at every substep: see :class:`rrrobot_gym.simulation.StepRecord`.
     """
-    fx, fy, fz, normal, _, _ = _contact(states, derivatives, params, model)
+    fx, fy, fz, normal, *_ = _contact(states, derivatives, params, model)
     return np.stack([fx, fy, fz], axis=-1), normal
 
 

@@ -22,7 +22,7 @@ from rrrobot_gym.simulation import NumericalFailure, SimConfig, advance, initial
 
 pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
 
-RECORD_FIELDS = ("times", "torque", "force", "normal", "leg_clearance", "leg_rates")
+RECORD_FIELDS = ("times", "torque", "force", "normal", "tangential", "leg_clearance", "leg_rates")
 
 
 def _states(n, seed=0):
