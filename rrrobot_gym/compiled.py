@@ -415,7 +415,7 @@ def _scene(robot, depth, gains):
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
     (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, and the record's rows
-    ((S, 10) for one robot, (S, 10, N) for a batch) or None. ``targets`` is what
+    ((S, 11) for one robot, (S, 11, N) for a batch) or None. ``targets`` is what
     :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
     shared among that many threads."""
     kind, params, shared = targets

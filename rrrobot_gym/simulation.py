@@ -778,7 +778,7 @@ class _Recorder:
 
     @property
     def rows(self):
-        """What was recorded: (S, 10) floats for one robot, (S, 10, N) for a batch."""
+        """What was recorded: (S, 11) floats for one robot, (S, 11, N) for a batch."""
         return np.asarray(self._rows, dtype=float)
 
     @staticmethod
@@ -980,7 +980,7 @@ choice depends on the batch size only, so ``workers`` never changes a result."""
 
 def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
     """:func:`_integrate` of a small batch (n, 13) robot by robot on floats: (the states (n, 13),
-    [the record's rows (S, 10, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
+    [the record's rows (S, 11, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
     out = np.empty_like(state)
     rows = []
     # A target source may give one robot's targets on floats itself (``robot(i)``: the ramps and
@@ -1015,7 +1015,7 @@ def _blend_rows(blend, rows, cast=None):
 
 def _integrate_block(job):
     """:func:`_integrate` on a batch (n, 13), in this process or a worker of :func:`advance`:
-    (the states (n, 13), the record's rows (S, 10, n) or None)."""
+    (the states (n, 13), the record's rows (S, 11, n) or None)."""
     config, targets, blend, state, t0, h, n_steps, record = job
     if len(state) >= 1024:
         _keep_freed_heap(len(state))
