@@ -39,7 +39,7 @@ import numpy as np
 from . import control, dynamics
 
 _DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
-             "_contact_force", "derivative_kernel")  # fmt: skip
+             "tangential_force", "_contact_force", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 
@@ -298,7 +298,8 @@ def _batch(y, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, para
 
 
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_one_robot", "_lanes")
-_LANE_STEPPER = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine", "_lane_stage", "_lane_update")
+_LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
+_LANE_CALLED = ("_lane_stage", "_lane_update")
 
 
 def _lane_kernels(njit):
@@ -389,8 +390,8 @@ def _stepper(parallel: bool):
         # the lane stepper's kernels are inlined into its loops, which is what lets them vectorise
         inline = functools.partial(njit, forceinline=True)
         namespace["lane_derivative_kernel"], namespace["lane_contact_kernel"] = _lane_kernels(inline)
-        _compiled_copies(sys.modules[__name__], _LANE_STEPPER[:4], inline, namespace)
-        _compiled_copies(sys.modules[__name__], _LANE_STEPPER[4:], njit, namespace)
+        _compiled_copies(sys.modules[__name__], _LANE_INLINED, inline, namespace)
+        _compiled_copies(sys.modules[__name__], _LANE_CALLED, njit, namespace)
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange

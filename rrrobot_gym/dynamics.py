@@ -457,15 +457,19 @@ def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r
     fy = fy + weight * ny
     fz = fz + weight * nz
     normal = fx * nx + fy * ny + fz * nz
-    # the part along the ground, sqrt(|F|^2 - normal^2) (0 where rounding makes it negative)
-    along_sq = fx * fx + fy * fy + fz * fz - normal * normal
-    if isinstance(along_sq, float):
-        tangential = math.sqrt(along_sq) if not along_sq < 0.0 else 0.0
-    else:
-        tangential = np.sqrt(np.maximum(along_sq, 0.0))
     clearance1 = r + lc1 * nx - r * ny + ls1 * nz
     clearance2 = r + lc2 * nx + r * ny + ls2 * nz
-    return fx, fy, fz, normal, tangential, clearance1, clearance2
+    return fx, fy, fz, normal, tangential_force(fx, fy, fz, normal), clearance1, clearance2
+
+
+def tangential_force(fx, fy, fz, normal):
+    """The part of a force (fx, fy, fz) along the ground, sqrt(|F|^2 - normal^2), given its part
+    ``normal`` along world up (0 where rounding makes the square negative); floats or arrays.
+    What the step record holds (:func:`contact_kernel`), and what a record made by hand is given."""
+    along_sq = fx * fx + fy * fy + fz * fz - normal * normal
+    if isinstance(along_sq, float):
+        return math.sqrt(along_sq) if not along_sq < 0.0 else 0.0
+    return np.sqrt(np.maximum(along_sq, 0.0))
 
 
 class ContactConstants(NamedTuple):

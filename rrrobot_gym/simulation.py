@@ -750,7 +750,7 @@ class StepRecord:
         for a record made by hand (or changed with ``dataclasses.replace``)."""
         if self._tangential is not None:
             return self._tangential
-        return np.sqrt(np.maximum(np.einsum("...j,...j->...", self.force, self.force) - self.normal**2, 0.0))
+        return dynamics.tangential_force(self.force[..., 0], self.force[..., 1], self.force[..., 2], self.normal)
 
 
 _RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, tangential, clearance (2), leg rates (2): one layout for both backends

@@ -55,7 +55,8 @@ def friction_ratio(force, normal, tangential=None):
     ``tangential`` (the force's part along the ground), if given, is used instead of ``force``.
     """
     if tangential is None:
-        tangential = np.sqrt(np.maximum(np.linalg.norm(force, axis=-1) ** 2 - normal**2, 0.0))
+        force = np.asarray(force, dtype=float)
+        tangential = dynamics.tangential_force(force[..., 0], force[..., 1], force[..., 2], normal)
     pushed = normal > 0.0
     return np.where(pushed, tangential / np.where(pushed, normal, 1.0), np.inf)
 
