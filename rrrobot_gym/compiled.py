@@ -70,6 +70,8 @@ def target_arrays(targets):
     if described is None:
         return None
     kind, per_robot, shared = described
+    if isinstance(per_robot, np.ndarray):  # (N, P) already
+        return kind, per_robot, np.asarray(shared, dtype=float)
     if all(type(v) is float for v in per_robot):  # one set of targets (a gait, one robot's ramp)
         return kind, np.array([per_robot]), np.array(shared, dtype=float)
     columns = [np.asarray(v, dtype=float) for v in per_robot]

@@ -112,6 +112,24 @@ def test_threads_give_the_one_thread_result(workers):
         assert np.array_equal(getattr(one_record, field), getattr(many_record, field)), field
 
 
+def test_a_ramps_parameters_are_its_ends_whatever_their_memory_layout():
+    # RampTargets builds the compiled stepper's (N, 8) parameters in one piece from its (N, 2)
+    # ends (as complex pairs): C-ordered, Fortran-ordered and strided ends give the same
+    rng = np.random.default_rng(13)
+    start, end = rng.uniform(0.0, 3.0, (7, 2)), rng.uniform(0.0, 3.0, (7, 2))
+    expected = np.column_stack([start, end, end - start, (end - start) / 0.05])
+    states = np.zeros((7, dynamics.STATE_SIZE))
+    states[:, dynamics.LEG_ANGLES] = start
+    for first in (start, np.asfortranarray(start), states[:, dynamics.LEG_ANGLES]):
+        for last in (end, np.asfortranarray(end), np.repeat(end, 2, axis=0)[::2]):
+            ramp = RampTargets(first, last, 0.1, 0.05)
+            kind, params, shared = compiled.target_arrays(ramp)
+            assert np.array_equal(params, expected) and params.flags.c_contiguous
+            angles, rates, _ = ramp.leg_targets(0.125)  # halfway: the numpy steppers' view of the same ramp
+            assert np.array_equal(angles[0], start[:, 0] + (end - start)[:, 0] * ((0.125 - 0.1) / 0.05))
+            assert np.array_equal(rates[1], expected[:, 7])
+
+
 def test_auto_takes_numba_where_it_applies_and_numpy_elsewhere(monkeypatch):
     states = _states(30, seed=6)
     gait = table2_gait(1)
