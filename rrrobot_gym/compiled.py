@@ -42,6 +42,7 @@ _DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_i
              "tangential_force", "_contact_force", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
+SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper
 
 _Gains = namedtuple("_Gains", "kp kd")  # what pd_torque reads of a PDGains, in a form numba takes
 
@@ -121,9 +122,9 @@ def _servo(c, targets, gains, torque_limit, rate_limit):
     return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
 
 
-def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i):
+def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i):
     """simulation._rk4_floats on robot i's state y (13,), in place, with the record of simulation._Recorder
-    into rows[:, :, i] (when rows has any)."""
+    into rows[:, :, i] and its summary into summary[:, i] (when rows has any)."""
     half, sixth = 0.5 * h, h / 6.0
     stage = np.empty(13)
     contact = np.empty(7)
@@ -154,6 +155,40 @@ def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, sh
         y[4] *= inv
         y[5] *= inv
         t += h
+    if rows.shape[0]:
+        _summarise(rows, summary, i, 1)
+
+
+def _lesser(a, b):
+    """min(a, b), a NaN winning (as in numpy's min of an array)."""
+    return b if b < a or b != b else a
+
+
+def _greater(a, b):
+    """max(a, b), a NaN winning (as in numpy's max of an array)."""
+    return b if b > a or b != b else a
+
+
+def _summarise(rows, summary, first, count):
+    """The summary of robots first .. first + count - 1 of the record ``rows`` (S, 11, N) into
+    ``summary`` (6, N), made here while the block's record is still in cache: what
+    StepRecord.summary computes from a record's arrays, the same numbers, sample by sample in
+    the same order (simulation.SUMMARY_KEYS)."""
+    for i in range(first, first + count):
+        least_normal, most_ratio = rows[0, 5, i], rows[0, 6, i] / rows[0, 5, i]
+        least_clearance = _lesser(rows[0, 7, i], rows[0, 8, i])
+        squares = rows[0, 0, i] * rows[0, 0, i] + rows[0, 1, i] * rows[0, 1, i]
+        peak_torque = _greater(abs(rows[0, 0, i]), abs(rows[0, 1, i]))
+        peak_rate = _greater(abs(rows[0, 9, i]), abs(rows[0, 10, i]))
+        for s in range(1, rows.shape[0]):
+            least_normal = _lesser(least_normal, rows[s, 5, i])
+            most_ratio = _greater(most_ratio, rows[s, 6, i] / rows[s, 5, i])
+            least_clearance = _lesser(least_clearance, _lesser(rows[s, 7, i], rows[s, 8, i]))
+            squares = squares + (rows[s, 0, i] * rows[s, 0, i] + rows[s, 1, i] * rows[s, 1, i])
+            peak_torque = _greater(peak_torque, _greater(abs(rows[s, 0, i]), abs(rows[s, 1, i])))
+            peak_rate = _greater(peak_rate, _greater(abs(rows[s, 9, i]), abs(rows[s, 10, i])))
+        summary[0, i], summary[1, i], summary[2, i] = least_normal, most_ratio, least_clearance
+        summary[3, i], summary[4, i], summary[5, i] = squares, peak_torque, peak_rate
 
 
 # The lane stepper: LANES robots at once, each derivative evaluation a loop over the robots whose
@@ -249,8 +284,8 @@ def _lane_update(w, sixth):
         w[_S * L + m] = w[_Y * L + m]
 
 
-def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows):
-    """_one_robot for robots first .. first + LANES - 1 of y together (in place), with the record."""
+def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
+    """_one_robot for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
     L = LANES
     w = np.zeros(_ROWS * L)
     for i in range(L):
@@ -283,23 +318,25 @@ def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind
     for i in range(L):
         for j in range(13):
             y[first + i, j] = w[(_Y + j) * L + i]
+    if record:
+        _summarise(rows, summary, first, L)
 
 
-def _batch(y, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows):
+def _batch(y, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
     """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
     Whole blocks of LANES robots take the lane stepper, the rest (fewer than LANES) one by one."""
     shared_targets = params.shape[0] == 1
     blocks = y.shape[0] // LANES
     for b in prange(blocks + y.shape[0] - blocks * LANES):
         if b < blocks:
-            _lanes(y, b * LANES, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows)
+            _lanes(y, b * LANES, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary)
         else:
             i = blocks * LANES + (b - blocks)
             p = params[0] if shared_targets else params[i]
-            _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i)
+            _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
-_STEPPER = ("_leg_targets", "_servo", "_torque", "_one_robot", "_lanes")
+_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes")
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update")
 
@@ -417,8 +454,9 @@ def _scene(robot, depth, gains):
 
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
-    (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, and the record's rows
-    ((S, 11) for one robot, (S, 11, N) for a batch) or None. ``targets`` is what
+    (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, the record's rows
+    ((S, 11) for one robot, (S, 11, N) for a batch) or None, and the record's summary ((6,) or
+    (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is what
     :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
     shared among that many threads."""
     kind, params, shared = targets
@@ -426,11 +464,12 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     if params.shape[0] not in (1, y.shape[0]):
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
+    summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
     step = _stepper(parallel)
     k, kc, gains = _scene(config.robot, config.depth, config.gains)
     args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit,
-            kind, params, shared, rows)  # fmt: skip
+            kind, params, shared, rows, summary)  # fmt: skip
     if parallel:
         import numba
 
@@ -444,5 +483,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         step(*args)
     out = y.reshape(np.shape(state))
     if not record:
-        return out, None
-    return out, (rows[:, :, 0] if np.ndim(state) == 1 else rows)
+        return out, None, None
+    if np.ndim(state) == 1:
+        return out, rows[:, :, 0], summary[:, 0]
+    return out, rows, summary

@@ -731,6 +731,7 @@ class StepRecord:
     (:func:`rrrobot_gym.dynamics.contact_kernel`). Nothing downstream rebuilds them.
 
     Shapes: S samples; one robot: (S,), (S, 2), (S, 3); a batch of N: (S, N), (S, N, 2), (S, N, 3).
+    :meth:`summary` gives each robot's extremes over the samples (what the env's measures read).
     """
 
     times: np.ndarray  # (S,) s, the substep starts
@@ -742,6 +743,8 @@ class StepRecord:
     leg_rates: np.ndarray  # (S, [N,] 2) rad/s
     # the integrator's own tangential values (dynamics.contact_kernel's), where it made the record
     _tangential: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    # the summary the compiled stepper made of its record ((6, [N]), SUMMARY_KEYS), where it did
+    _summary: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def tangential(self) -> np.ndarray:
@@ -751,6 +754,47 @@ class StepRecord:
         if self._tangential is not None:
             return self._tangential
         return dynamics.tangential_force(self.force[..., 0], self.force[..., 1], self.force[..., 2], self.normal)
+
+    def summary(self) -> dict:
+        """Per robot, over the samples: a dict keyed :data:`SUMMARY_KEYS` of ([N],) arrays.
+
+        The compiled stepper makes it as it finishes each block of robots, in both threads; a
+        record from the numpy steppers, or made or changed by hand, is summarised here, to the
+        same numbers (a NaN wins a min or max; the squares are summed sample by sample).
+        """
+        if self._summary is not None:
+            return dict(zip(SUMMARY_KEYS, self._summary))
+        samples = self.normal.shape[0]
+        normal = self.normal.reshape(samples, -1)
+        num_robots = normal.shape[1]
+        torque = self.torque.reshape(samples, num_robots, 2)
+        with np.errstate(divide="ignore", invalid="ignore"):  # (a normal force of 0: see SUMMARY_KEYS)
+            ratio = self.tangential.reshape(samples, num_robots) / normal
+        squares = torque[..., 0] * torque[..., 0] + torque[..., 1] * torque[..., 1]
+        values = (
+            normal.min(axis=0),
+            ratio.max(axis=0),
+            self.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
+            np.add.accumulate(squares, axis=0)[-1],  # (sample by sample: numpy's sum may pair them)
+            _largest_magnitude(torque),
+            _largest_magnitude(self.leg_rates.reshape(samples, num_robots, 2)),
+        )
+        shape = self.normal.shape[1:]
+        return {key: value.reshape(shape) for key, value in zip(SUMMARY_KEYS, values)}
+
+
+SUMMARY_KEYS = ("least_normal", "most_ratio", "least_clearance", "torque_squares", "peak_torque", "peak_leg_rate")
+"""What :meth:`StepRecord.summary` reports of each robot, over the record's samples: the least
+normal force (N); the greatest tangential / normal (the grip rolling needs, where every sample
+pushes: a sample with normal <= 0 makes it inf or NaN); the least leg clearance (m, both legs);
+the sum of both legs' squared torques (N^2 m^2); the peak |torque| (N m, both legs) and the peak
+|leg rate| (rad/s, both legs)."""
+
+
+def _largest_magnitude(values):
+    """max |v| per robot over samples and legs of (S, N, 2) values, from a max and a min (no
+    array of magnitudes: at N = 4096 the record's arrays are large)."""
+    return np.maximum(values.max(axis=(0, 2)), -values.min(axis=(0, 2)))
 
 
 _RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, tangential, clearance (2), leg rates (2): one layout for both backends
@@ -782,15 +826,16 @@ class _Recorder:
         return np.asarray(self._rows, dtype=float)
 
     @staticmethod
-    def merge(blocks, t0: float, h: float) -> StepRecord:
-        """One :class:`StepRecord` of the recorded rows of a batch's blocks, in robot order."""
-        return _Recorder._record_of(blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=2), t0, h)
+    def merge(blocks, t0: float, h: float, summary=None) -> StepRecord:
+        """One :class:`StepRecord` of the recorded rows of a batch's blocks, in robot order (and
+        the compiled stepper's summary of them, if it made one)."""
+        return _Recorder._record_of(blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=2), t0, h, summary)
 
     def record(self, t0: float, h: float) -> StepRecord:
         return self._record_of(self.rows, t0, h)
 
     @staticmethod
-    def _record_of(rows, t0: float, h: float) -> StepRecord:
+    def _record_of(rows, t0: float, h: float, summary=None) -> StepRecord:
         if rows.ndim == 3:  # (S, 11, N) -> fields with the robot axis before the vector axis
             rows = rows.transpose(0, 2, 1)
         record = StepRecord(
@@ -803,6 +848,7 @@ class _Recorder:
             leg_rates=rows[..., 9:11],
         )
         object.__setattr__(record, "_tangential", rows[..., 6])
+        object.__setattr__(record, "_summary", summary)
         return record
 
 
@@ -896,9 +942,10 @@ def advance(
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps = max(1, math.ceil(duration / step - 1e-9))
     h = duration / n_steps
+    summary = None
     described = _compiled_targets(config, targets)
     if described is not None:
-        out, rows = compiled.integrate(config, described, state, t0, h, n_steps, record, workers)
+        out, rows, summary = compiled.integrate(config, described, state, t0, h, n_steps, record, workers)
         records = [rows]
     elif state.ndim == 1:
         try:
@@ -929,7 +976,7 @@ def advance(
     if not np.isfinite(out).all():
         raise NumericalFailure(_diagnose(config, state, t0, duration, h))
     if record:
-        return out, _Recorder.merge(records, t0, h)
+        return out, _Recorder.merge(records, t0, h, summary)
     return out
 
 

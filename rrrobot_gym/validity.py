@@ -83,20 +83,19 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     normal = record.normal.reshape(samples, -1)
     num_robots = normal.shape[1]
     tangential = record.tangential.reshape(samples, num_robots)
-    torque = record.torque.reshape(samples, num_robots, 2)
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
-    off = normal <= 0.0
-    in_contact = not off.any()  # the usual case: the sums below are then skipped (ms at N = 4096)
-    # (with every sample pushing, friction_ratio is the plain quotient: three numpy calls fewer)
-    ratio = tangential / normal if in_contact else friction_ratio(None, normal, tangential)
+    summary = {key: np.reshape(value, num_robots) for key, value in record.summary().items()}
+    # The usual case, every sample pushing: the sums below are then skipped (ms at N = 4096), and
+    # the grip needed is the summary's plain quotient.
+    in_contact = not (summary["least_normal"] <= 0.0).any()
+    off = None if in_contact else normal <= 0.0
     measures = {
-        "normal_force": normal.min(axis=0),
-        "friction_ratio": ratio.max(axis=0),
-        "leg_clearance": record.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
-        # (one einsum, not np.mean of squares: at N = 1, the single env, numpy's per-call overhead is the cost)
-        "torque_rms": np.sqrt(np.einsum("snk,snk->n", torque, torque) / (2 * samples)),
-        "torque_peak": _largest_magnitude(torque),
-        "leg_rate_peak": _largest_magnitude(record.leg_rates.reshape(samples, num_robots, 2)),
+        "normal_force": summary["least_normal"],
+        "friction_ratio": summary["most_ratio"] if in_contact else friction_ratio(None, normal, tangential).max(axis=0),
+        "leg_clearance": summary["least_clearance"],
+        "torque_rms": np.sqrt(summary["torque_squares"] / (2 * samples)),
+        "torque_peak": summary["peak_torque"],
+        "leg_rate_peak": summary["peak_leg_rate"],
     }
     if config.model != "plane":
         zero = np.zeros(num_robots)
@@ -118,12 +117,6 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     fraction = np.zeros(num_robots) if in_contact else off.sum(axis=0) / samples
     measures.update(liftoff_fraction=fraction, liftoff_time=longest, slip_velocity=slip)
     return measures, lost
-
-
-def _largest_magnitude(values):
-    """max |v| per robot over samples and legs of (S, N, 2) values, from a max and a min (no
-    array of magnitudes: at N = 4096 the record's arrays are large)."""
-    return np.maximum(values.max(axis=(0, 2)), -values.min(axis=(0, 2)))
 
 
 def _spells_without_contact(off, carried, step):

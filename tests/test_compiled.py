@@ -110,6 +110,9 @@ def test_threads_give_the_one_thread_result(workers):
     assert np.array_equal(one, many)
     for field in RECORD_FIELDS:
         assert np.array_equal(getattr(one_record, field), getattr(many_record, field)), field
+    one_summary, many_summary = one_record.summary(), many_record.summary()
+    for key in one_summary:
+        assert np.array_equal(one_summary[key], many_summary[key]), key
 
 
 def test_a_ramps_parameters_are_its_ends_whatever_their_memory_layout():
@@ -272,9 +275,10 @@ def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
     y = states.copy()
     rows = np.empty((3, compiled.RECORD_ROWS, n))
-    compiled._batch(y, 0.1, 0.05 / 15, 3, k, kc, gains, 0.4, 9.0, *targets, rows)
-    fast, fast_rows = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 3, True)
-    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows)
+    summary = np.empty((compiled.SUMMARY_ROWS, n))
+    compiled._batch(y, 0.1, 0.05 / 15, 3, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
+    fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 3, True)
+    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
 
 
 def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp_path):

@@ -220,3 +220,67 @@ def test_recorded_tangential_force_is_the_force_minus_its_normal_part(backend, n
     # a record changed by hand answers from its own force and normal, not the integrator's numbers
     pushed = dataclasses.replace(record, normal=normal + 1.0)
     assert np.array_equal(pushed.tangential, np.sqrt(np.maximum(fx * fx + fy * fy + fz * fz - (normal + 1.0) ** 2, 0.0)))
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+@pytest.mark.parametrize("num_robots", [None, 40])
+def test_the_compiled_steppers_summary_is_the_records_own_to_the_bit(model, num_robots):
+    # the compiled stepper summarises each block of robots as it finishes it; those numbers must
+    # be StepRecord.summary's from the record's arrays, to the bit, lift-off samples included
+    # (40 robots: a lane block of 32 and 8 robots stepped one by one)
+    import dataclasses
+
+    from rrrobot_gym.simulation import SUMMARY_KEYS
+
+    pytest.importorskip("numba")
+    rng = np.random.default_rng(11)
+    state = initial_state() if num_robots is None else initial_state(num_robots)
+    state[..., 6:8] += rng.uniform(-0.5, 0.5, state[..., 6:8].shape)
+    state[..., 11:13] += rng.uniform(-20.0, 20.0, state[..., 11:13].shape)
+    config = SimConfig(model=model, backend="numba", torque_limit=2.0, leg_rate_limit=60.0)
+    _, record = advance(config, state, 0.0, 0.3, FAST_LEGS, record=True)
+    assert record._summary is not None
+    made, summarised = record.summary(), dataclasses.replace(record).summary()  # (replace drops the summary)
+    assert list(made) == list(SUMMARY_KEYS) == list(summarised)
+    for key in SUMMARY_KEYS:
+        assert np.shape(made[key]) == np.shape(summarised[key]) == np.shape(record.normal[0])
+        assert np.array_equal(made[key], summarised[key]), key
+    if model == "plane":  # the fast legs pull the shell off the ground: the quotient meets normal <= 0
+        assert np.any(record.normal <= 0.0)
+
+
+@pytest.mark.parametrize("compiled_copy", [False, True])
+def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records_arrays_do(compiled_copy):
+    # what the compiled stepper's summary does with NaN and inf (advance raises on a non-finite
+    # state, so no integration makes them: the stepper's function is called on made-up rows)
+    from rrrobot_gym import compiled
+    from rrrobot_gym.simulation import SUMMARY_KEYS, _Recorder
+
+    summarise = compiled._summarise
+    if compiled_copy:
+        pytest.importorskip("numba")
+        summarise = compiled._stepper(False).py_func.__globals__["_summarise"]
+    rng = np.random.default_rng(12)
+    samples, robots = 17, 5
+    rows = rng.normal(0.0, 1.0, (samples, compiled.RECORD_ROWS, robots))
+    rows[:, 5] = rng.uniform(0.5, 2.0, (samples, robots))  # pushing: normal > 0
+    rows[:, 6] = np.abs(rows[:, 6])
+    rows[4, 5, 0] = np.nan  # a normal force (and so its quotient) at a middle sample
+    rows[0, 1, 1] = np.nan  # a torque at the first sample
+    rows[samples - 1, 8, 2] = np.nan  # the second leg's clearance at the last sample
+    rows[3, 9, 3], rows[5, 7, 3] = -np.inf, -np.inf  # a leg rate and a clearance
+    rows[2, 5, 4] = 0.0  # a sample without push: the quotient is inf
+    rows[:, 0:2, 4] *= 1e3  # large squares, summed in order
+    summary = np.full((compiled.SUMMARY_ROWS, robots), -7.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        summarise(rows, summary, 0, robots)
+    expected = _Recorder._record_of(rows, 0.0, 0.01).summary()
+    for j, key in enumerate(SUMMARY_KEYS):
+        assert np.array_equal(summary[j], expected[key], equal_nan=True), key
+    assert np.isnan(summary[0, 0]) and np.isnan(summary[1, 0]) and np.isnan(summary[3, 1]) and np.isnan(summary[4, 1])
+    assert np.isnan(summary[2, 2]) and summary[5, 3] == np.inf and summary[2, 3] == -np.inf and summary[1, 4] == np.inf
+    squares = rows[:, 0, 4] ** 2 + rows[:, 1, 4] ** 2
+    total = 0.0
+    for value in squares:
+        total += value
+    assert summary[3, 4] == total
