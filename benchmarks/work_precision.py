@@ -1,6 +1,6 @@
 """Work against precision: CPU time against error for each shipped integrator and step.
 
-    python -m benchmarks.work_precision [--quick] [--json FILE] [--plot FILE] [--markdown FILE]
+    python -m benchmarks.work_precision [--quick] [--json FILE] [--plot FILE] [--markdown FILE] [--gains KP KD]
 
 For both models and the three Table II gaits (50 s from the paper's start; --quick:
 10 s and fewer settings), each setting is run at N = 1 in env steps of 0.05 s (the
@@ -18,6 +18,11 @@ see ``SimConfig.legs``): their error is taken against the kinematic reference, a
 the table also gives their distance from the servo reference (the model difference).
 The recommended setting per model and leg mode is the cheapest (fewest derivative
 evaluations per env step) whose worst contact error over the path stays under 1 mm.
+
+``--gains KP KD`` runs a servo of those gains instead of the paper's (servo legs only: kinematic
+legs have no servo). Where it is stiff, RK4's fixed steps beyond its stability limit are refused
+(printed), RK4 runs at ``timestep="auto"``, and the implicit ``rosw`` at 1/300, 1/1000 and
+1/3000 s: where the implicit method wins, and what it costs.
 """
 
 from __future__ import annotations
@@ -50,8 +55,16 @@ EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4}
 BUDGET_M = 1e-3
 
 
-def settings(quick: bool):
-    """(legs, integrator, n or "auto") to sweep."""
+STIFF_ROSW_N = (15, 50, 150)
+"""With ``--gains``: rosw's steps, ENV_STEP / n (1/300, 1/1000, 1/3000 s)."""
+
+
+def settings(quick: bool, gains=None):
+    """(legs, integrator, n or "auto") to sweep (``gains``: a servo of its own, see the module docstring)."""
+    if gains is not None:
+        return [("servo", "rk4", n) for n in (15, 30)] + [("servo", "rk4", "auto")] + [
+            ("servo", "rosw", n) for n in STIFF_ROSW_N
+        ]
     if quick:
         servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8)}
         kinematic = {"rk4": (1, 3)}
@@ -133,23 +146,26 @@ def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--plot", metavar="FILE", help="write the log-log plot (PNG)")
     p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
+    p.add_argument("--gains", nargs=2, type=float, metavar=("KP", "KD"), help="a servo of these PD gains (servo legs only)")
     args = p.parse_args(argv)
+    gains = None if args.gains is None else PDGains(kp=args.gains[0], kd=args.gains[1])
     duration = 10.0 if args.quick else 50.0
     n_env = round(duration / ENV_STEP)
     models, gaits = ("plane", "pivot"), (1, 2, 3)
 
     refs = {}
     for model in models:
-        for legs in ("servo", "kinematic"):
-            cfg = SimConfig(model=model, legs=legs)
+        for legs in ("servo",) if gains is not None else ("servo", "kinematic"):
+            # (the reference is DOP853's own; "auto" only keeps SimConfig from refusing a stiff servo's default step)
+            cfg = SimConfig(model=model, legs=legs, gains=gains or PDGains(), timestep="auto")
             for g in gaits:
                 refs[model, legs, g] = reference(cfg, table2_gait(g), duration, ENV_STEP)
 
     rows = []
     for model in models:
-        for legs, integ, n in settings(args.quick):
+        for legs, integ, n in settings(args.quick, gains):
             try:
-                cfg = config_for(model, legs, integ, n)
+                cfg = config_for(model, legs, integ, n, gains=gains)
             except ValueError as exc:  # SimConfig refuses steps beyond the servo's stability limit
                 print(f"{model:5s} {legs:9s} {integ} n={n}: refused: {exc}".split(": the run")[0], flush=True)
                 continue
@@ -224,7 +240,8 @@ def main(argv=None):
         f"max contact error {r['contact_max_m'] * 1e3:.3g} mm)"
         for (m, legs), r in sorted(best.items())
     ]
-    text = f"Work-precision, {duration:g} s, N = 1 (`**` = cheapest under 1 mm)\n\n{table}\n\n" + "\n".join(
+    servo = "" if gains is None else f", servo kp = {gains.kp:g}, kd = {gains.kd:g}"
+    text = f"Work-precision, {duration:g} s, N = 1{servo} (`**` = cheapest under 1 mm)\n\n{table}\n\n" + "\n".join(
         "- " + s for s in summary
     )
     print()
@@ -234,7 +251,8 @@ def main(argv=None):
             fh.write(text + "\n")
     if args.plot:
         plot(rows, args.plot, duration)
-    write_json(args.json, {"machine": machine(), "duration_s": duration, "rows": rows, "recommended": summary})
+    write_json(args.json, {"machine": machine(), "duration_s": duration, "gains": None if gains is None else list(args.gains),
+                           "rows": rows, "recommended": summary})  # fmt: skip
 
 
 def plot(rows, path: str, duration: float):
