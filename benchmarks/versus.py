@@ -9,10 +9,12 @@ and their ratio:
     python -m benchmarks.versus f2eac04                 # the commit the throughput targets were set on
     python -m benchmarks.versus f2eac04 --num-envs 8 64 --rounds 7 --json out.json
     python -m benchmarks.versus f2eac04 --instructions 201   # also instructions per env step (valgrind)
+    python -m benchmarks.versus c5b9106 --backend numpy      # both trees' envs on the numpy backend
 
 ``--instructions S`` also counts the instructions an env step takes in each tree under
 valgrind's callgrind (runs of S steps and of 1 step, differenced): the same numbers whatever
-else the machine is doing, so a ratio that does not drift with the machine's load.
+else the machine is doing, so a ratio that does not drift with the machine's load. ``--backend``
+passes the env keyword ``backend`` to both trees, which must both know it (a7e2d72 on).
 """
 
 from __future__ import annotations
@@ -36,12 +38,13 @@ import numpy as np
 import gymnasium
 import rrrobot_gym  # noqa: F401
 num_envs, steps = int(sys.argv[1]), int(sys.argv[2])
+kwargs = {"backend": sys.argv[3]} if len(sys.argv) > 3 else {}
 rng = np.random.default_rng(0)
 if num_envs == 0:
-    env = gymnasium.make("RRRobot-v0")
+    env = gymnasium.make("RRRobot-v0", **kwargs)
     shape = (2,)
 else:
-    env = gymnasium.make_vec("RRRobot-v0", num_envs=num_envs, vectorization_mode="vector_entry_point")
+    env = gymnasium.make_vec("RRRobot-v0", num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
     shape = (num_envs, 2)
 phase = rng.uniform(0, 2 * np.pi, shape)
 actions = [(0.05 * np.sin(0.4 * k + phase)).astype(np.float32) for k in range(steps)]
@@ -56,18 +59,23 @@ print(max(num_envs, 1) * steps / (time.perf_counter() - start))
 """
 
 
-def rate(tree: Path, num_envs: int, steps: int) -> float:
-    """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env)."""
-    return float(run_fresh(tree, _MEASURE, num_envs, steps).stdout.split()[-1])
+def rate(tree: Path, num_envs: int, steps: int, backend=None) -> float:
+    """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env;
+    ``backend``: the env's, else its default)."""
+    return float(run_fresh(tree, _MEASURE, num_envs, steps, *_backend(backend)).stdout.split()[-1])
 
 
-def instructions(tree: Path, num_envs: int, steps: int) -> float:
+def _backend(backend):
+    return () if backend is None else (backend,)
+
+
+def instructions(tree: Path, num_envs: int, steps: int, backend=None) -> float:
     """Instructions per env step of ``tree``'s env (num_envs 0: the single env) under callgrind:
     runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
 
     def collected(n: int) -> int:
-        out = run_fresh(tree, _MEASURE, num_envs, n, prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"),
-                        PYTHONHASHSEED="0")  # fmt: skip
+        out = run_fresh(tree, _MEASURE, num_envs, n, *_backend(backend),
+                        prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"), PYTHONHASHSEED="0")  # fmt: skip
         match = re.search(r"Collected : (\d+)", out.stderr)
         if match is None:
             raise RuntimeError(f"no instruction count in valgrind's output:\n{out.stderr[-2000:]}")
@@ -85,6 +93,8 @@ def main(argv=None) -> None:
     parser.add_argument("--json", type=Path, help="write the results here")
     parser.add_argument("--instructions", type=int, metavar="S",
                         help="also count instructions per env step under valgrind, from runs of S and 1 steps")
+    parser.add_argument("--backend", choices=("auto", "numpy", "numba"),
+                        help="the simulator backend of both trees' envs (default: each tree's own default)")
     args = parser.parse_args(argv)
     if args.instructions is not None:
         if args.instructions < 2:
@@ -105,8 +115,8 @@ def main(argv=None) -> None:
             for num_envs in [0, *args.num_envs]:
                 rates = {"old": [], "new": []}
                 for _ in range(args.rounds):
-                    rates["old"].append(rate(old, num_envs, args.steps))
-                    rates["new"].append(rate(HERE, num_envs, args.steps))
+                    rates["old"].append(rate(old, num_envs, args.steps, args.backend))
+                    rates["new"].append(rate(HERE, num_envs, args.steps, args.backend))
                 old_median, new_median = statistics.median(rates["old"]), statistics.median(rates["new"])
                 results.append({"env": "single" if num_envs == 0 else "vector", "num_envs": max(num_envs, 1),
                                 "old_steps_per_s": old_median, "new_steps_per_s": new_median,
@@ -114,7 +124,7 @@ def main(argv=None) -> None:
                 print(f"{results[-1]['env']:>6} N={max(num_envs, 1):<5} {args.revision}: {old_median:9,.0f}  "
                       f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}", flush=True)
                 if args.instructions is not None:
-                    counts = {name: instructions(tree, num_envs, args.instructions)
+                    counts = {name: instructions(tree, num_envs, args.instructions, args.backend)
                               for name, tree in (("old", old), ("new", HERE))}  # fmt: skip
                     results[-1]["instructions_per_env_step"] = counts
                     print(f"{'':>6} {'':<7} {args.revision}: {counts['old'] / 1e6:8.2f} M  this tree: "
@@ -123,7 +133,8 @@ def main(argv=None) -> None:
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
     if args.json:
-        args.json.write_text(json.dumps({"revision": args.revision, "steps": args.steps, "results": results}, indent=1))
+        args.json.write_text(json.dumps({"revision": args.revision, "steps": args.steps, "backend": args.backend,
+                                         "results": results}, indent=1))  # fmt: skip
 
 
 if __name__ == "__main__":
