@@ -765,6 +765,8 @@ class StepRecord:
         if self._summary is not None:
             return dict(zip(SUMMARY_KEYS, self._summary))
         samples = self.normal.shape[0]
+        if samples == 0:
+            raise ValueError("a StepRecord of no samples has no summary (advance records at least one substep)")
         normal = self.normal.reshape(samples, -1)
         num_robots = normal.shape[1]
         torque = self.torque.reshape(samples, num_robots, 2)

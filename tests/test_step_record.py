@@ -284,3 +284,12 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
     for value in squares:
         total += value
     assert summary[3, 4] == total
+
+
+def test_a_record_of_no_samples_has_no_summary():
+    from rrrobot_gym.simulation import StepRecord
+
+    empty = StepRecord(times=np.zeros(0), step=0.01, torque=np.zeros((0, 2)), force=np.zeros((0, 3)), normal=np.zeros(0),
+                       leg_clearance=np.zeros((0, 2)), leg_rates=np.zeros((0, 2)))  # fmt: skip
+    with pytest.raises(ValueError, match="no samples"):
+        empty.summary()
