@@ -175,12 +175,11 @@ def _summarise(rows, summary, first, count):
     StepRecord.summary computes from a record's arrays, the same numbers, sample by sample in
     the same order (simulation.SUMMARY_KEYS)."""
     for i in range(first, first + count):
-        least_normal, most_ratio = rows[0, 5, i], rows[0, 6, i] / rows[0, 5, i]
-        least_clearance = _lesser(rows[0, 7, i], rows[0, 8, i])
-        squares = rows[0, 0, i] * rows[0, 0, i] + rows[0, 1, i] * rows[0, 1, i]
-        peak_torque = _greater(abs(rows[0, 0, i]), abs(rows[0, 1, i]))
-        peak_rate = _greater(abs(rows[0, 9, i]), abs(rows[0, 10, i]))
-        for s in range(1, rows.shape[0]):
+        # (each starts at its operation's identity, which the first sample replaces exactly, NaN and inf too)
+        least_normal = least_clearance = np.inf
+        most_ratio = peak_torque = peak_rate = -np.inf
+        squares = 0.0
+        for s in range(rows.shape[0]):
             least_normal = _lesser(least_normal, rows[s, 5, i])
             most_ratio = _greater(most_ratio, rows[s, 6, i] / rows[s, 5, i])
             least_clearance = _lesser(least_clearance, _lesser(rows[s, 7, i], rows[s, 8, i]))

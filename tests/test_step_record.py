@@ -261,7 +261,7 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
         pytest.importorskip("numba")
         summarise = compiled._stepper(False).py_func.__globals__["_summarise"]
     rng = np.random.default_rng(12)
-    samples, robots = 17, 5
+    samples, robots = 17, 6
     rows = rng.normal(0.0, 1.0, (samples, compiled.RECORD_ROWS, robots))
     rows[:, 5] = rng.uniform(0.5, 2.0, (samples, robots))  # pushing: normal > 0
     rows[:, 6] = np.abs(rows[:, 6])
@@ -271,6 +271,9 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
     rows[3, 9, 3], rows[5, 7, 3] = -np.inf, -np.inf  # a leg rate and a clearance
     rows[2, 5, 4] = 0.0  # a sample without push: the quotient is inf
     rows[:, 0:2, 4] *= 1e3  # large squares, summed in order
+    rows[:, 5, 5] = -rows[:, 5, 5]  # pulling at every sample: the greatest quotient is negative
+    rows[:, 0:2, 5] = 0.0  # no torque: the squares sum to 0
+    rows[:, 7:9, 5] = np.inf  # legs infinitely far from the ground: the least clearance is inf
     summary = np.full((compiled.SUMMARY_ROWS, robots), -7.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         summarise(rows, summary, 0, robots)
@@ -279,6 +282,7 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
         assert np.array_equal(summary[j], expected[key], equal_nan=True), key
     assert np.isnan(summary[0, 0]) and np.isnan(summary[1, 0]) and np.isnan(summary[3, 1]) and np.isnan(summary[4, 1])
     assert np.isnan(summary[2, 2]) and summary[5, 3] == np.inf and summary[2, 3] == -np.inf and summary[1, 4] == np.inf
+    assert summary[1, 5] < 0.0 and summary[3, 5] == 0.0 and summary[4, 5] == 0.0 and summary[2, 5] == np.inf
     squares = rows[:, 0, 4] ** 2 + rows[:, 1, 4] ** 2
     total = 0.0
     for value in squares:
