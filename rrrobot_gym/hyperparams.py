@@ -58,8 +58,9 @@ def ppo_hyperparams(num_envs: int = 64) -> dict:
 
     n_steps 256, batch_size min(4096, 256 num_envs), n_epochs 10, learning rate 3e-4 falling
     linearly to 0 over the run (``learn``'s total_timesteps), gamma 0.99, GAE lambda 0.95, clip
-    0.2, no entropy bonus, two hidden layers of 128 and an initial log std of -2 (std 0.14 in action units: the servo targets barely jitter at
-    first, so early episodes do not end by leaving the model), on the CPU.
+    0.2, no entropy bonus, two hidden layers of 128 and an initial log std of -2 (std 0.14 in
+    action units: the servo targets barely jitter at first, so early episodes do not end by
+    leaving the model), on the CPU.
     """
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
