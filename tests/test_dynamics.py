@@ -192,6 +192,6 @@ def test_contact_kernel_is_what_the_derivative_evaluation_records(model, rng):
     for state in random_states(rng, 50, max_tilt=1.2, max_rate=4.0):
         c = state.tolist()
         c[2:6] = (np.array(c[2:6]) * rng.uniform(0.999, 1.001)).tolist()  # RK stages are off unit length
-        recorded = [0.0] * 6
+        recorded = [0.0] * 7  # contact_kernel's seven values
         derivative = dynamics.derivative_kernel(c, (0.3, -0.2), k, contact_out=recorded)
         assert list(dynamics.contact_kernel(c, derivative, kc)) == recorded
