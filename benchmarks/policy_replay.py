@@ -1,0 +1,139 @@
+"""Accuracy on an RL policy's path: the shipped policy's actions replayed at other steps.
+
+    python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...] [--model ZIP]
+
+The Table II gaits are smooth; an RL policy's leg targets change every control step (a ramp
+from the last target to the new one over 0.05 s), and the servo answers each change. So the
+step that holds the gaits within 1 mm may not hold a policy's path. This rolls the shipped
+PPO policy (``agents/pretrained``; needs the ``train`` extra) out in ``RRRobot-v0`` for 50 s
+(--quick: 10 s) along each heading, keeps its leg-target ramps, and replays them from the same
+start with RK4 at several steps and with ``simulate_reference`` (DOP853, rtol = atol = 1e-10,
+solved control step by control step, since the ramps' rates jump there). Reported: the
+contact error against the reference, maximum over the path, and the distance travelled. The replay
+at the env's own step must reproduce the env's states to the bit (checked, printed).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
+from rrrobot_gym.control import RampTargets
+from rrrobot_gym.simulation import SimConfig, advance, simulate_reference
+
+from ._common import contact_error, fmt, machine, markdown_table, parser, write_json
+
+MODEL = Path(__file__).resolve().parent.parent / "agents" / "pretrained" / "best_model.zip"
+STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
+"""RK4 steps replayed; 1/300 s is the default."""
+
+
+def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
+    """(states (n + 1, 13), ramp starts (n, 2), ramp ends (n, 2), step start times (n,), control step,
+    simulator config) of one episode."""
+    kwargs = {**agent.env_config, "terminate_outside_model": False}  # the whole path, even where it leaves the model
+    env = gym.make("RRRobot-v0", max_episode_steps=n_steps, **kwargs)
+    obs, _ = env.reset(seed=seed, options={"target_direction": math.radians(heading_deg)})
+    env_core = env.unwrapped
+    states, starts, ends, times = [env_core.state.copy()], [], [], []
+    for _ in range(n_steps):
+        action, _ = agent.predict(obs, deterministic=True)
+        starts.append(env_core.leg_targets.copy())
+        times.append(env_core.time)  # the single env steps from its episode time (the vector env from 0)
+        obs, _, terminated, truncated, _ = env.step(action)
+        ends.append(env_core.leg_targets.copy())
+        states.append(env_core.state.copy())
+        if terminated:
+            raise RuntimeError(f"the episode along {heading_deg} deg ended early")
+    dt = env_core.dt
+    env.close()
+    return np.array(states), np.array(starts), np.array(ends), np.array(times), dt, env_core.config.sim
+
+
+def replay(config: SimConfig, start, starts, ends, times, dt: float, reference: bool = False):
+    """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step
+    (``times``: each step's start, the same for every episode)."""
+    state = start.copy()
+    out = [state[:, :2].copy()]
+    for i in range(starts.shape[1]):
+        if reference:  # (simulate_reference starts at t = 0)
+            targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
+            state = simulate_reference(config, targets, dt, state=state, sample_dt=dt).states[-1]
+        else:
+            targets = RampTargets(starts[:, i], ends[:, i], times[i], dt)
+            state = advance(config, state, times[i], dt, targets, check=False)  # as the env calls it
+        out.append(state[:, :2].copy())
+    return np.array(out), state
+
+
+def main(argv=None):
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--headings", nargs="+", type=float, default=[0.0, 90.0, 180.0, 270.0], metavar="DEG")
+    p.add_argument("--model", default=str(MODEL), metavar="ZIP", help="the PPO policy (default: the shipped one)")
+    args = p.parse_args(argv)
+    from agents.ppo import load_ppo_agent
+
+    agent = load_ppo_agent(args.model)
+    duration = 10.0 if args.quick else 50.0
+    episodes = []
+    for heading in args.headings:
+        states, starts, ends, times, dt, sim = rollout(agent, heading, round(duration / 0.05))
+        episodes.append((states, starts, ends))
+    start = np.array([e[0][0] for e in episodes])
+    starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
+    env_states = np.array([e[0] for e in episodes])  # (N, n + 1, 13)
+    print(f"{len(args.headings)} episodes of {duration:g} s, control step {dt:g} s, {sim!r}", flush=True)
+
+    ref, _ = replay(sim, start, starts, ends, times, dt, reference=True)
+    lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
+    rows = []
+    for step in STEPS_S:
+        config = SimConfig(model=sim.model, robot=sim.robot, gains=sim.gains, timestep=step)
+        path, _ = replay(config, start, starts, ends, times, dt)
+        err = contact_error(path, ref)  # (n + 1, N)
+        row = {
+            "integrator": "rk4",
+            "step_s": step,
+            "evals_per_env_step": 4 * round(dt / step),
+            "contact_max_m": float(err.max()),
+            "contact_end_m": float(err[-1].max()),
+            "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
+        }
+        if math.isclose(step, sim.step):
+            row["reproduces_env"] = bool(np.array_equal(path, env_states[:, :, :2].transpose(1, 0, 2)))
+        rows.append(row)
+        extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
+        print(
+            f"rk4 h=1/{1 / step:.0f} s ({row['evals_per_env_step']} evaluations an env step): max contact error "
+            f"{row['contact_max_m'] * 1e3:.3g} mm (" + ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items())
+            + f"){extra}",
+            flush=True,
+        )
+    print("distance travelled (reference, start to end): " + ", ".join(f"{h:g} deg {length:.2f} m" for h, length in zip(args.headings, lengths)))
+    print(
+        markdown_table(
+            ["step", "evaluations / env step", "max contact error (mm)"] + [f"{h:g} deg" for h in args.headings],
+            [[f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
+             + [fmt(v * 1e3) for v in r["per_heading_max_m"].values()] for r in rows],
+        )  # fmt: skip
+    )
+    write_json(
+        args.json,
+        {
+            "machine": machine(),
+            "duration_s": duration,
+            "model": args.model,
+            "config": repr(sim),
+            "headings_deg": args.headings,
+            "distance_m": {f"{h:g}": float(length) for h, length in zip(args.headings, lengths)},
+            "rows": rows,
+        },
+    )
+
+
+if __name__ == "__main__":
+    main()
