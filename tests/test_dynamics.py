@@ -195,3 +195,29 @@ def test_contact_kernel_is_what_the_derivative_evaluation_records(model, rng):
         recorded = [0.0] * 7  # contact_kernel's seven values
         derivative = dynamics.derivative_kernel(c, (0.3, -0.2), k, contact_out=recorded)
         assert list(dynamics.contact_kernel(c, derivative, kc)) == recorded
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_mobility_is_the_legs_columns_of_the_inverse_mass_matrix(model, rng):
+    """derivative_kernel's mobility_out (what rosw's Jacobian and the partitioned-step probe use)
+    is d(accelerations)/d(leg torques): the legs' columns of M^-1, M from mass_matrix (checked
+    against the point masses' kinetic energy above). And the kinematic-legs mode inverts the
+    servo mode: the torque it reports for a leg acceleration, applied, gives that acceleration
+    and the same body acceleration."""
+    params = RobotParams()
+    k = dynamics.constants(params, rotation_point_depth(model, params))
+    for state in random_states(rng, 20):
+        c = state.tolist()
+        mobility = [0.0] * 9
+        dynamics.derivative_kernel(c, (0.01, -0.02), k, mobility_out=mobility)
+        inverse = np.linalg.inv(dynamics.mass_matrix(state, params, model))
+        g11, g12, g22, *body = mobility
+        assert np.allclose([[g11, g12], [g12, g22]], inverse[3:5, 3:5], rtol=1e-10, atol=0.0)
+        assert np.allclose(np.reshape(body, (2, 3)).T, inverse[0:3, 3:5], rtol=1e-9, atol=1e-12 * abs(inverse).max())
+
+        leg_accel = rng.uniform(-50.0, 50.0, size=2)
+        torque = [0.0, 0.0]
+        kinematic = dynamics.derivative_kernel(c, None, k, leg_accel=tuple(leg_accel), torque_out=torque)
+        servo = dynamics.derivative_kernel(c, tuple(torque), k)
+        assert np.allclose(servo[11:13], leg_accel, rtol=1e-10, atol=1e-10)
+        assert np.allclose(servo[8:11], kinematic[8:11], rtol=1e-10, atol=1e-10)
