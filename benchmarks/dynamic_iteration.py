@@ -37,7 +37,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.control import RampTargets, table2_gait
+from rrrobot_gym.control import RampTargets, pd_torque, table2_gait
 from rrrobot_gym.simulation import SimConfig, _stage_fns, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
@@ -55,7 +55,6 @@ class Servo:
 
     def __init__(self, config: SimConfig, targets):
         self.config = config
-        self.kp, self.kd = config.gains.kp, config.gains.kd
         self.set_targets(targets)
         self.evaluations = 0
 
@@ -89,9 +88,7 @@ class Servo:
         every = LEG_SUBSTEPS // (2 * n_half)
 
         def accel(t, phi, rate):
-            target, target_rate, _ = self.targets.leg_targets(t)
-            torque = self.kp * (np.array(target) - phi) + self.kd * (np.array(target_rate) - rate)
-            return a0_of(t) + g_of(t) @ torque
+            return a0_of(t) + g_of(t) @ np.array(pd_torque(self.config.gains, phi, rate, self.targets.leg_targets(t)))
 
         phi, rate = np.array(angles, dtype=float), np.array(rates, dtype=float)
         out = []
