@@ -10,12 +10,14 @@ import pytest
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
 import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
-from rrrobot_gym import dynamics
+from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.envs import RRRobotVectorEnv, task
 from rrrobot_gym.simulation import initial_state
 
-# The single env integrates one robot on Python floats, the vector env an (N, 13) array:
-# the same arithmetic in a different order, so they agree to rounding, not bitwise.
+# Both envs step from t = 0 and integrate one robot (numba: robot by robot or in lane blocks,
+# the same arithmetic) to the bit (test below); numpy batches of more than a few robots take
+# array arithmetic and the task code's batch reductions round differently, so the rest of this
+# file compares to rounding.
 STATE_TOLERANCE = 1e-9
 OBS_TOLERANCE = 1e-6  # float32 observations
 
@@ -96,6 +98,34 @@ def test_each_sub_env_matches_a_single_env_with_seed_plus_i_across_autoresets(en
         ended["truncated"] += trunc_a.sum()
     # The scenario really exercised the autoreset it is named after.
     assert ended["terminated" if ending == "tilt limit" else "truncated"] >= num_envs
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_the_single_env_and_a_one_robot_vector_env_step_alike_to_the_bit(backend):
+    """The same actions give the same states, observations and rewards, bit for bit: both envs
+    advance from t = 0 (a ramp's time is relative to its step). With numba, sub-envs of a batch
+    of 40 (a lane block of 32 and leftovers robot by robot) keep the single env's states too."""
+    if backend == "numba" and not compiled.available():
+        pytest.skip("numba is not installed")
+    kwargs = {"reset_noise_scale": 0.01, "target_direction": 0.3, "terminate_outside_model": False, "backend": backend}
+    sizes = (1, 40) if backend == "numba" else (1,)
+    for num_envs in sizes:
+        vector = RRRobotVectorEnv(num_envs=num_envs, **kwargs)
+        vector.reset(seed=5)
+        checked = sorted({0, num_envs - 1})
+        singles = {i: gymnasium.make("RRRobot-v0", **kwargs).unwrapped for i in checked}
+        for i, single in singles.items():
+            single.reset(seed=5 + i)
+        for k in range(40):
+            phases = np.array([0.0, 1.5]) + 0.1 * np.arange(num_envs)[:, None]
+            actions = (0.3 * np.sin(0.4 * k + phases)).astype(np.float32)
+            obs, reward, *_ = vector.step(actions)
+            for i, single in singles.items():
+                single_obs, single_reward, *_ = single.step(actions[i])
+                np.testing.assert_array_equal(single.state, vector.states[i])
+                if num_envs == 1:
+                    np.testing.assert_array_equal(single_obs, obs[i])
+                    assert single_reward == reward[i]
 
 
 def test_seeding_is_deterministic_and_a_seed_list_can_keep_sub_env_generators():

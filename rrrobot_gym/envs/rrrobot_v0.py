@@ -278,9 +278,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     def _advance(self, state, action):
         """(new state, observation, step measures, contact_lost) after one control step, or Nones on a numerical failure."""
         try:
-            # A (13,) state takes the simulator's fast Python-float path.
+            # A (13,) state takes the simulator's fast Python-float path. From t = 0, as the vector
+            # env steps: the ramp's time is relative to its step, and the rounding of (t - t0) is
+            # then the same in both, so they give the same states to the bit.
             after, measures, contact_lost = task.advance_and_check(
-                state, action, self.time, self.config, self.leg_targets, self.contact_lost
+                state, action, 0.0, self.config, self.leg_targets, self.contact_lost
             )
         except task.NUMERICAL_FAILURES:
             return None, None, None, None
