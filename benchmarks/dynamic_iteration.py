@@ -190,10 +190,11 @@ def policy_case(passes: int, duration: float = 10.0):
 
     from .policy_replay import MODEL, replay, rollout
 
-    states, starts, ends, times, dt, sim = rollout(load_ppo_agent(MODEL), 0.0, round(duration / ENV_STEP))
-    ref, _ = replay(sim, states[:1], starts[None], ends[None], times, dt, reference=True)
-    servo = Servo(sim, RampTargets(starts[0], ends[0], times[0], dt))
-    path, _, diverged_at = run(servo, states[0], len(starts), passes, lambda i: RampTargets(starts[i], ends[i], times[i], dt))
+    states, starts, ends, dt, sim = rollout(load_ppo_agent(MODEL), 0.0, round(duration / ENV_STEP))
+    ref, _ = replay(sim, states[:1], starts[None], ends[None], dt, reference=True)
+    ramps = [RampTargets(start, end, i * dt, dt) for i, (start, end) in enumerate(zip(starts, ends))]  # at run()'s times
+    servo = Servo(sim, ramps[0])
+    path, _, diverged_at = run(servo, states[0], len(starts), passes, ramps.__getitem__)
     return float(contact_error(path, ref[:, 0]).max()), diverged_at
 
 

@@ -33,17 +33,15 @@ STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
 
 
 def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
-    """(states (n + 1, 13), ramp starts (n, 2), ramp ends (n, 2), step start times (n,), control step,
-    simulator config) of one episode."""
+    """(states (n + 1, 13), ramp starts (n, 2), ramp ends (n, 2), control step, simulator config) of one episode."""
     kwargs = {**agent.env_config, "terminate_outside_model": False}  # the whole path, even where it leaves the model
     env = gym.make("RRRobot-v0", max_episode_steps=n_steps, **kwargs)
     obs, _ = env.reset(seed=seed, options={"target_direction": math.radians(heading_deg)})
     env_core = env.unwrapped
-    states, starts, ends, times = [env_core.state.copy()], [], [], []
+    states, starts, ends = [env_core.state.copy()], [], []
     for _ in range(n_steps):
         action, _ = agent.predict(obs, deterministic=True)
         starts.append(env_core.leg_targets.copy())
-        times.append(env_core.time)  # the single env steps from its episode time (the vector env from 0)
         obs, _, terminated, truncated, _ = env.step(action)
         ends.append(env_core.leg_targets.copy())
         states.append(env_core.state.copy())
@@ -51,21 +49,20 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
             raise RuntimeError(f"the episode along {heading_deg} deg ended early")
     dt = env_core.dt
     env.close()
-    return np.array(states), np.array(starts), np.array(ends), np.array(times), dt, env_core.config.sim
+    return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
-def replay(config: SimConfig, start, starts, ends, times, dt: float, reference: bool = False):
-    """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step
-    (``times``: each step's start, the same for every episode)."""
+def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False):
+    """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step,
+    each from t = 0 as the envs step."""
     state = start.copy()
     out = [state[:, :2].copy()]
     for i in range(starts.shape[1]):
-        if reference:  # (simulate_reference starts at t = 0)
-            targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
+        targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
+        if reference:
             state = simulate_reference(config, targets, dt, state=state, sample_dt=dt).states[-1]
         else:
-            targets = RampTargets(starts[:, i], ends[:, i], times[i], dt)
-            state = advance(config, state, times[i], dt, targets, check=False)  # as the env calls it
+            state = advance(config, state, 0.0, dt, targets, check=False)  # as the envs call it
         out.append(state[:, :2].copy())
     return np.array(out), state
 
@@ -81,19 +78,19 @@ def main(argv=None):
     duration = 10.0 if args.quick else 50.0
     episodes = []
     for heading in args.headings:
-        states, starts, ends, times, dt, sim = rollout(agent, heading, round(duration / 0.05))
+        states, starts, ends, dt, sim = rollout(agent, heading, round(duration / 0.05))
         episodes.append((states, starts, ends))
     start = np.array([e[0][0] for e in episodes])
     starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
     env_states = np.array([e[0] for e in episodes])  # (N, n + 1, 13)
     print(f"{len(args.headings)} episodes of {duration:g} s, control step {dt:g} s, {sim!r}", flush=True)
 
-    ref, _ = replay(sim, start, starts, ends, times, dt, reference=True)
+    ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
     rows = []
     for step in STEPS_S:
         config = SimConfig(model=sim.model, robot=sim.robot, gains=sim.gains, timestep=step)
-        path, _ = replay(config, start, starts, ends, times, dt)
+        path, _ = replay(config, start, starts, ends, dt)
         err = contact_error(path, ref)  # (n + 1, N)
         row = {
             "integrator": "rk4",
