@@ -16,6 +16,7 @@ at the env's own step must reproduce the env's states to the bit (checked, print
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -30,6 +31,16 @@ from ._common import contact_error, fmt, machine, markdown_table, parser, write_
 MODEL = Path(__file__).resolve().parent.parent / "agents" / "pretrained" / "best_model.zip"
 STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
 """RK4 steps replayed; 1/300 s is the default."""
+
+
+def settings(dt: float):
+    """(label, [(duration, step)]): the uniform steps, then the default step with the start of each
+    control step taken in halves, where a new ramp's kick to the servo's fast mode is."""
+    out = [(f"1/{1 / h:.0f} s", [(dt, h)]) for h in STEPS_S]
+    h = STEPS_S[0]
+    for k in (1, 2):
+        out.append((f"1/{1 / h:.0f} s, the first {k} in halves", [(k * h, h / 2), (dt - k * h, h)]))
+    return out
 
 
 def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
@@ -52,17 +63,23 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
-def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False):
+def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False, pieces=None):
     """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step,
-    each from t = 0 as the envs step."""
+    each from t = 0 as the envs step. ``pieces`` [(duration, step)], summing to ``dt``: a graded
+    control step, one ``advance`` call a piece (default: one piece at ``config``'s step)."""
+    configs = [(dt, config)] if pieces is None else [(d, replace(config, timestep=h)) for d, h in pieces]
     state = start.copy()
     out = [state[:, :2].copy()]
     for i in range(starts.shape[1]):
         targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
         if reference:
             state = simulate_reference(config, targets, dt, state=state, sample_dt=dt).states[-1]
-        else:
-            state = advance(config, state, 0.0, dt, targets, check=False)  # as the envs call it
+            out.append(state[:, :2].copy())
+            continue
+        t = 0.0
+        for duration, piece in configs:
+            state = advance(piece, state, t, duration, targets, check=False)  # as the envs call it
+            t += duration
         out.append(state[:, :2].copy())
     return np.array(out), state
 
@@ -88,24 +105,25 @@ def main(argv=None):
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
     rows = []
-    for step in STEPS_S:
-        config = SimConfig(model=sim.model, robot=sim.robot, gains=sim.gains, timestep=step)
-        path, _ = replay(config, start, starts, ends, dt)
+    for label, pieces in settings(dt):
+        config = SimConfig(model=sim.model, robot=sim.robot, gains=sim.gains)
+        path, _ = replay(config, start, starts, ends, dt, pieces=pieces)
         err = contact_error(path, ref)  # (n + 1, N)
         row = {
             "integrator": "rk4",
-            "step_s": step,
-            "evals_per_env_step": 4 * round(dt / step),
+            "setting": label,
+            "pieces": [[d, h] for d, h in pieces],
+            "evals_per_env_step": sum(4 * round(d / h) for d, h in pieces),
             "contact_max_m": float(err.max()),
             "contact_end_m": float(err[-1].max()),
             "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
         }
-        if math.isclose(step, sim.step):
+        if len(pieces) == 1 and math.isclose(pieces[0][1], sim.step):
             row["reproduces_env"] = bool(np.array_equal(path, env_states[:, :, :2].transpose(1, 0, 2)))
         rows.append(row)
         extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
         print(
-            f"rk4 h=1/{1 / step:.0f} s ({row['evals_per_env_step']} evaluations an env step): max contact error "
+            f"rk4 {label} ({row['evals_per_env_step']} evaluations an env step): max contact error "
             f"{row['contact_max_m'] * 1e3:.3g} mm (" + ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items())
             + f"){extra}",
             flush=True,
@@ -113,8 +131,8 @@ def main(argv=None):
     print("distance travelled (reference, start to end): " + ", ".join(f"{h:g} deg {length:.2f} m" for h, length in zip(args.headings, lengths)))
     print(
         markdown_table(
-            ["step", "evaluations / env step", "max contact error (mm)"] + [f"{h:g} deg" for h in args.headings],
-            [[f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
+            ["RK4 step", "evaluations / env step", "max contact error (mm)"] + [f"{h:g} deg" for h in args.headings],
+            [[r["setting"], r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
              + [fmt(v * 1e3) for v in r["per_heading_max_m"].values()] for r in rows],
         )  # fmt: skip
     )
