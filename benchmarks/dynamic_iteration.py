@@ -25,7 +25,7 @@ integrated by RK4 at 1/1200 s for 0.5 s, which also fills the memory. Reported: 
 cases for 50 s (--quick: 10 s) against ``simulate_reference`` (DOP853, rtol = atol = 1e-10),
 and, for ``--policy``, the shipped policy's first 10 s of leg-target ramps
 (``benchmarks.policy_replay``). The leg ODE's RK4 is not counted in "evaluations": it is 480
-evaluations of a 2x2 linear map a step, which the closed form would replace with a 4x4 matrix
+evaluations of a 2x2 linear map a pass, which the closed form would replace with a 4x4 matrix
 exponential and a few products.
 """
 
