@@ -1,6 +1,6 @@
 """Accuracy on an RL policy's path: the shipped policy's actions replayed at other steps.
 
-    python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...] [--model ZIP]
+    python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...] [--model ZIP] [--no-motor-limit]
 
 The Table II gaits are smooth; an RL policy's leg targets change every control step (a ramp
 from the last target to the new one over 0.05 s), and the servo answers each change. So the
@@ -88,6 +88,11 @@ def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--headings", nargs="+", type=float, default=[0.0, 90.0, 180.0, 270.0], metavar="DEG")
     p.add_argument("--model", default=str(MODEL), metavar="ZIP", help="the PPO policy (default: the shipped one)")
+    p.add_argument(
+        "--no-motor-limit", action="store_true",
+        help="replay the same ramps on a servo without the env's torque and rate limits (their kinks are "
+        "where fixed steps lose their order)",
+    )  # fmt: skip
     args = p.parse_args(argv)
     from agents.ppo import load_ppo_agent
 
@@ -97,6 +102,8 @@ def main(argv=None):
     for heading in args.headings:
         states, starts, ends, dt, sim = rollout(agent, heading, round(duration / 0.05))
         episodes.append((states, starts, ends))
+    if args.no_motor_limit:
+        sim = replace(sim, torque_limit=None, leg_rate_limit=None)
     start = np.array([e[0][0] for e in episodes])
     starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
     env_states = np.array([e[0] for e in episodes])  # (N, n + 1, 13)
@@ -106,7 +113,7 @@ def main(argv=None):
     lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
     rows = []
     for label, pieces in settings(dt):
-        config = SimConfig(model=sim.model, robot=sim.robot, gains=sim.gains)
+        config = sim  # the env's own (a torque limit included); each piece replaces its step
         path, _ = replay(config, start, starts, ends, dt, pieces=pieces)
         err = contact_error(path, ref)  # (n + 1, N)
         row = {
@@ -118,7 +125,7 @@ def main(argv=None):
             "contact_end_m": float(err[-1].max()),
             "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
         }
-        if len(pieces) == 1 and math.isclose(pieces[0][1], sim.step):
+        if len(pieces) == 1 and math.isclose(pieces[0][1], sim.step) and not args.no_motor_limit:
             row["reproduces_env"] = bool(np.array_equal(path, env_states[:, :, :2].transpose(1, 0, 2)))
         rows.append(row)
         extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
@@ -143,6 +150,7 @@ def main(argv=None):
             "duration_s": duration,
             "model": args.model,
             "config": repr(sim),
+            "no_motor_limit": args.no_motor_limit,
             "headings_deg": args.headings,
             "distance_m": {f"{h:g}": float(length) for h, length in zip(args.headings, lengths)},
             "rows": rows,
