@@ -1,16 +1,20 @@
 """Accuracy on an RL policy's path: the shipped policy's actions replayed at other steps.
 
-    python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...] [--model ZIP] [--no-motor-limit]
+    python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...]
+        [--model ZIP] [--no-motor-limit]
 
 The Table II gaits are smooth; an RL policy's leg targets change every control step (a ramp
 from the last target to the new one over 0.05 s), and the servo answers each change. So the
-step that holds the gaits within 1 mm may not hold a policy's path. This rolls the shipped
-PPO policy (``agents/pretrained``; needs the ``train`` extra) out in ``RRRobot-v0`` for 50 s
-(--quick: 10 s) along each heading, keeps its leg-target ramps, and replays them from the same
-start with RK4 at several steps and with ``simulate_reference`` (DOP853, rtol = atol = 1e-10,
-solved control step by control step, since the ramps' rates jump there). Reported: the
-contact error against the reference, maximum over the path, and the distance travelled. The replay
-at the env's own step must reproduce the env's states to the bit (checked, printed).
+step that holds the gaits within 1 mm may not hold a policy's path. This rolls a PPO policy
+(default: the shipped plane one, ``agents/pretrained``; needs the ``train`` extra) out in
+``RRRobot-v0``, configured as it was trained, for 50 s (--quick: 10 s) along each heading, keeps
+its leg-target ramps, and replays them from the same starts with RK4 at several steps (also
+the default step with the first substeps of each control step in halves) and with
+``simulate_reference`` (DOP853, rtol = atol = 1e-10, solved control step by control step,
+since the ramps' rates jump there). Reported: the contact error against the reference, maximum
+over the path, and the distance travelled. The replay at the env's own step must reproduce the
+env's states to the bit (checked, printed). ``--no-motor-limit`` replays the same ramps on a
+servo without the env's torque and rate limits.
 """
 
 from __future__ import annotations
@@ -49,6 +53,8 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     env = gym.make("RRRobot-v0", max_episode_steps=n_steps, **kwargs)
     obs, _ = env.reset(seed=seed, options={"target_direction": math.radians(heading_deg)})
     env_core = env.unwrapped
+    if env_core.config.action_hold != "linear":
+        raise ValueError(f"the replay ramps the targets; this policy's env holds them {env_core.config.action_hold!r}")
     states, starts, ends = [env_core.state.copy()], [], []
     for _ in range(n_steps):
         action, _ = agent.predict(obs, deterministic=True)
