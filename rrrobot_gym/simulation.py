@@ -67,6 +67,10 @@ class SimConfig:
     legs: str = "servo"  # "servo" (PD servo dynamics) or "kinematic" (legs follow a smooth path exactly)
     torque_limit: float | None = None  # N m, the leg motors' stall torque; None: unlimited (the paper's servo)
     leg_rate_limit: float | None = None  # rad/s, the motors' no-load speed (needs torque_limit); None: unlimited
+    # Servo legs: the first start_halves substeps of every advance() call are taken as two half
+    # steps each, where a control step's new targets kick the servo's fast mode (4 evaluations
+    # more each with RK4; benchmarks.policy_replay). 0: uniform steps.
+    start_halves: int = 0
     # "auto", "numpy" or "numba" (BACKENDS): how, not what, is integrated, so it is left out of the repr
     # (which describes the physics: tests/reference_paths.py keys its stored paths on it)
     backend: str = field(default="auto", repr=False)
@@ -94,6 +98,12 @@ class SimConfig:
             raise ValueError(
                 "SimConfig.leg_rate_limit needs a torque_limit: the motor model's torque falls linearly "
                 "from the stall torque (torque_limit) to 0 at the no-load speed (leg_rate_limit)"
+            )
+        object.__setattr__(self, "start_halves", whole_number("SimConfig.start_halves", self.start_halves, minimum=0))
+        if self.legs == "kinematic" and self.start_halves:
+            raise ValueError(
+                "SimConfig.start_halves applies to servo legs (it refines where new targets kick the servo); "
+                "kinematic legs have no servo"
             )
         if self.legs == "kinematic" and self.torque_limit is not None:
             raise ValueError("SimConfig.torque_limit applies to servo legs; kinematic legs follow their path whatever it takes")
@@ -944,6 +954,8 @@ def advance(
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps = max(1, math.ceil(duration / step - 1e-9))
     h = duration / n_steps
+    if config.start_halves:
+        return _advance_graded(config, state, t0, duration, targets, record, workers, n_steps, h)
     summary = None
     described = _compiled_targets(config, targets)
     if described is not None:
@@ -980,6 +992,35 @@ def advance(
     if record:
         return out, _Recorder.merge(records, t0, h, summary)
     return out
+
+
+def _advance_graded(config: SimConfig, state, t0, duration, targets, record, workers, n_steps, h):
+    """:func:`advance` with ``config.start_halves``: the first k = min(start_halves, n_steps)
+    substeps of h as 2k of h / 2, then the rest as usual, each part one uniform call. The record
+    keeps the substeps' grid, t0 + i h: of the halves, the samples at their starts on it (every
+    other one), and its summary is computed from those samples (:meth:`StepRecord.summary`)."""
+    k = min(config.start_halves, n_steps)
+    uniform = replace(config, start_halves=0, timestep=h)
+    parts = [(replace(uniform, timestep=0.5 * h), t0, k * h)]
+    if k < n_steps:
+        parts.append((uniform, t0 + k * h, duration - k * h))
+    records = []
+    for part, start, length in parts:
+        result = advance(part, state, start, length, targets, check=False, record=record, workers=workers)
+        state, part_record = result if record else (result, None)
+        records.append(part_record)
+    if not record:
+        return state
+    def joined(name):
+        return np.concatenate([getattr(records[0], name)[::2]] + [getattr(r, name) for r in records[1:]])
+
+    merged = StepRecord(
+        times=t0 + h * np.arange(n_steps),
+        step=h,
+        **{name: joined(name) for name in ("torque", "force", "normal", "leg_clearance", "leg_rates")},
+    )
+    object.__setattr__(merged, "_tangential", joined("tangential"))
+    return state, merged
 
 
 def takes_compiled(config: SimConfig) -> bool:

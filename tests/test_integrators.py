@@ -76,3 +76,72 @@ def test_a_large_batch_tunes_glibcs_malloc_once_and_both_thresholds(monkeypatch)
     big = simulation.initial_state(20_000)
     simulation.advance(numpy, big, 0.0, 0.001, table2_gait(1))
     assert calls[2:] == [(-3, 32 << 20), (-1, 4096 * 20_000)]  # raised for a bigger working set
+
+
+def _random_ramps(rng, num_robots, steps):
+    """Leg-target ramps of an RL-like policy: a new random target every 0.05 s control step."""
+    return np.pi / 2 + rng.uniform(-0.8, 0.8, size=(steps + 1, num_robots, 2))
+
+
+def test_a_graded_start_follows_new_targets_more_closely():
+    """Each new ramp kicks the servo's fast mode at the start of its control step, where RK4 at the
+    default step errs most (benchmarks.policy_replay). Halving the first substeps there brings
+    2 s of random ramps several times closer to the reference (DOP853, rtol 1e-10, step by step)."""
+    from rrrobot_gym.control import RampTargets
+
+    targets = _random_ramps(np.random.default_rng(7), 6, 40)
+    start = simulation.initial_state(6)
+
+    def run(config, reference=False):
+        state = start.copy()
+        for i in range(len(targets) - 1):
+            ramp = RampTargets(targets[i], targets[i + 1], 0.0, 0.05)
+            if reference:
+                state = simulate_reference(config, ramp, 0.05, state=state, sample_dt=0.05).states[-1]
+            else:
+                state = simulation.advance(config, state, 0.0, 0.05, ramp)
+        return state
+
+    exact = run(SimConfig(), reference=True)
+    errors = [np.hypot(*(run(SimConfig(start_halves=k))[:, :2] - exact[:, :2]).T).max() for k in (0, 1, 2)]
+    assert errors[0] < 2e-3  # the uniform default: under a millimetre in 2 s
+    assert errors[1] < errors[0] / 2.5
+    assert errors[2] < errors[0] / 6.0
+
+
+@pytest.mark.parametrize("backend", ["numba", "numpy"])
+def test_a_graded_start_keeps_the_record_on_the_substep_grid(backend):
+    """The record of a graded advance has the uniform one's samples: one a substep, at t0 + i h,
+    the first being the same evaluation; its summary is of those samples."""
+    from rrrobot_gym import compiled
+    from rrrobot_gym.control import RampTargets
+
+    if backend == "numba" and not compiled.available():
+        pytest.skip("numba is not installed")
+    targets = _random_ramps(np.random.default_rng(3), 40, 1)
+    ramp = RampTargets(targets[0], targets[1], 0.3, 0.05)
+    start = simulation.initial_state(40)
+    uniform, plain = simulation.advance(SimConfig(backend=backend), start, 0.3, 0.05, ramp, record=True)
+    graded, record = simulation.advance(SimConfig(backend=backend, start_halves=2), start, 0.3, 0.05, ramp, record=True)
+    assert record.times.shape == plain.times.shape == (15,)
+    np.testing.assert_allclose(record.times, plain.times, rtol=0, atol=1e-15)
+    assert record.step == plain.step
+    np.testing.assert_array_equal(record.torque[0], plain.torque[0])  # the same state and time
+    assert not np.array_equal(record.torque[1], plain.torque[1])  # reached through two half steps
+    assert 0.0 < np.abs(graded - uniform).max() < 1e-2
+    summary = record.summary()
+    np.testing.assert_array_equal(summary["peak_torque"], np.abs(record.torque).max(axis=(0, 2)))
+    np.testing.assert_array_equal(summary["least_normal"], record.normal.min(axis=0))
+    # more halves than substeps: the whole advance in halves
+    short, short_record = simulation.advance(SimConfig(backend=backend, start_halves=9), start, 0.3, 0.01, ramp, record=True)
+    halves, _ = simulation.advance(SimConfig(backend=backend, timestep=1 / 600), start, 0.3, 0.01, ramp, record=True)
+    np.testing.assert_array_equal(short, halves)
+    assert short_record.times.shape == (3,)
+
+
+def test_a_graded_start_is_refused_where_it_means_nothing():
+    for bad in (-1, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="start_halves"):
+            SimConfig(start_halves=bad)
+    with pytest.raises(ValueError, match="start_halves applies to servo legs"):
+        SimConfig(legs="kinematic", start_halves=1)
