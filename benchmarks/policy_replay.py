@@ -9,7 +9,7 @@ step that holds the gaits within 1 mm may not hold a policy's path. This rolls a
 (default: the shipped plane one, ``agents/pretrained``; needs the ``train`` extra) out in
 ``RRRobot-v0``, configured as it was trained, for 50 s (--quick: 10 s) along each heading, keeps
 its leg-target ramps, and replays them from the same starts with RK4 at several steps (also
-the default step with the first substeps of each control step in halves) and with
+the default step with ``start_halves`` 1 and 2) and with
 ``simulate_reference`` (DOP853, rtol = atol = 1e-10, solved control step by control step,
 since the ramps' rates jump there). Reported: the contact error against the reference, maximum
 over the path, and the distance travelled. The replay at the env's own step must reproduce the
@@ -37,13 +37,12 @@ STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
 """RK4 steps replayed; 1/300 s is the default."""
 
 
-def settings(dt: float):
-    """(label, [(duration, step)]): the uniform steps, then the default step with the start of each
-    control step taken in halves, where a new ramp's kick to the servo's fast mode is."""
-    out = [(f"1/{1 / h:.0f} s", [(dt, h)]) for h in STEPS_S]
-    h = STEPS_S[0]
-    for k in (1, 2):
-        out.append((f"1/{1 / h:.0f} s, the first {k} in halves", [(k * h, h / 2), (dt - k * h, h)]))
+def settings():
+    """(label, step, start_halves): the uniform steps, then the default step with the first
+    substeps of each control step in halves (``SimConfig.start_halves``), where a new ramp kicks
+    the servo's fast mode."""
+    out = [(f"1/{1 / h:.0f} s", h, 0) for h in STEPS_S]
+    out += [(f"1/{1 / STEPS_S[0]:.0f} s, start_halves={k}", STEPS_S[0], k) for k in (1, 2)]
     return out
 
 
@@ -69,23 +68,17 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
-def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False, pieces=None):
+def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False):
     """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step,
-    each from t = 0 as the envs step. ``pieces`` [(duration, step)], summing to ``dt``: a graded
-    control step, one ``advance`` call a piece (default: one piece at ``config``'s step)."""
-    configs = [(dt, config)] if pieces is None else [(d, replace(config, timestep=h)) for d, h in pieces]
+    each from t = 0 as the envs step."""
     state = start.copy()
     out = [state[:, :2].copy()]
     for i in range(starts.shape[1]):
         targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
         if reference:
             state = simulate_reference(config, targets, dt, state=state, sample_dt=dt).states[-1]
-            out.append(state[:, :2].copy())
-            continue
-        t = 0.0
-        for duration, piece in configs:
-            state = advance(piece, state, t, duration, targets, check=False)  # as the envs call it
-            t += duration
+        else:
+            state = advance(config, state, 0.0, dt, targets, check=False)  # as the envs call it
         out.append(state[:, :2].copy())
     return np.array(out), state
 
@@ -118,20 +111,21 @@ def main(argv=None):
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
     rows = []
-    for label, pieces in settings(dt):
-        config = sim  # the env's own (a torque limit included); each piece replaces its step
-        path, _ = replay(config, start, starts, ends, dt, pieces=pieces)
+    for label, step, halves in settings():
+        config = replace(sim, timestep=step, start_halves=halves)  # the env's own (a torque limit included)
+        path, _ = replay(config, start, starts, ends, dt)
         err = contact_error(path, ref)  # (n + 1, N)
         row = {
             "integrator": "rk4",
             "setting": label,
-            "pieces": [[d, h] for d, h in pieces],
-            "evals_per_env_step": sum(4 * round(d / h) for d, h in pieces),
+            "step_s": step,
+            "start_halves": halves,
+            "evals_per_env_step": 4 * (round(dt / step) + halves),
             "contact_max_m": float(err.max()),
             "contact_end_m": float(err[-1].max()),
             "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
         }
-        if len(pieces) == 1 and math.isclose(pieces[0][1], sim.step) and not args.no_motor_limit:
+        if config == sim and not args.no_motor_limit:
             row["reproduces_env"] = bool(np.array_equal(path, env_states[:, :, :2].transpose(1, 0, 2)))
         rows.append(row)
         extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
