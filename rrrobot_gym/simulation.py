@@ -952,10 +952,30 @@ def advance(
     step = config.step
     if config.timestep == "auto":
         step = min(step, _rate_limited_step(state, path_rate))
-    n_steps = max(1, math.ceil(duration / step - 1e-9))
-    h = duration / n_steps
+    n_steps, h = _substeps(duration, step)
     if config.start_halves:
         return _advance_graded(config, state, t0, duration, targets, record, workers, n_steps, h)
+    out, records, summary = _advance_rows(config, state, t0, targets, blend, record, workers, n_steps, h)
+    if config.legs == "kinematic":
+        # The legs' path is known exactly: remove the integrator's tiny drift from it.
+        a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
+        out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
+    if not np.isfinite(out).all():
+        raise NumericalFailure(_diagnose(config, state, t0, duration, h))
+    if record:
+        return out, _Recorder.merge(records, t0, h, summary)
+    return out
+
+
+def _substeps(duration: float, step: float):
+    """(n, h): the fewest substeps of at most ``step`` that divide ``duration`` evenly."""
+    n_steps = max(1, math.ceil(duration / step - 1e-9))
+    return n_steps, duration / n_steps
+
+
+def _advance_rows(config: SimConfig, state, t0, targets, blend, record, workers, n_steps, h):
+    """The integration of :func:`advance`: (the states after n_steps of h, the record's row
+    blocks (in robot order) or Nones, the compiled stepper's summary or None)."""
     summary = None
     described = _compiled_targets(config, targets)
     if described is not None:
@@ -966,7 +986,7 @@ def advance(
             out, recorder = _integrate(config, targets, blend, state.tolist(), t0, h, n_steps, record)
             out = np.array(out)
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
-            raise NumericalFailure(_diagnose(config, state, t0, duration, h)) from None
+            raise NumericalFailure(_diagnose(config, state, t0, n_steps * h, h)) from None
         records = [None if recorder is None else recorder.rows]
     elif state.shape[0] <= ROW_BY_ROW_MAX:
         out, records = _integrate_rows(config, targets, blend, state, t0, h, n_steps, record)
@@ -983,15 +1003,7 @@ def advance(
             results = [_integrate_block(jobs[0]), *others]
         out = np.concatenate([block for block, _ in results]) if len(results) > 1 else results[0][0]
         records = [rows for _, rows in results]
-    if config.legs == "kinematic":
-        # The legs' path is known exactly: remove the integrator's tiny drift from it.
-        a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
-        out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
-    if not np.isfinite(out).all():
-        raise NumericalFailure(_diagnose(config, state, t0, duration, h))
-    if record:
-        return out, _Recorder.merge(records, t0, h, summary)
-    return out
+    return out, records, summary
 
 
 @functools.lru_cache(maxsize=64)
@@ -1004,31 +1016,27 @@ def _graded_configs(config: SimConfig, h: float):
 
 def _advance_graded(config: SimConfig, state, t0, duration, targets, record, workers, n_steps, h):
     """:func:`advance` with ``config.start_halves``: the first k = min(start_halves, n_steps)
-    substeps of h as 2k of h / 2, then the rest as usual, each part one uniform call. The record
-    keeps the substeps' grid, t0 + i h: of the halves, the samples at their starts on it (every
-    other one), and its summary is computed from those samples (:meth:`StepRecord.summary`)."""
+    substeps of h as 2k of h / 2, then the rest as usual, each part one uniform integration. The
+    record keeps the substeps' grid, t0 + i h: of the halves, the samples at their starts on it
+    (every other one); its summary is computed from those samples (:meth:`StepRecord.summary`)."""
     k = min(config.start_halves, n_steps)
     halves, uniform = _graded_configs(config, h)
     parts = [(halves, t0, k * h)]
     if k < n_steps:
         parts.append((uniform, t0 + k * h, duration - k * h))
-    records = []
+    blocks = []
     for part, start, length in parts:
-        result = advance(part, state, start, length, targets, check=False, record=record, workers=workers)
-        state, part_record = result if record else (result, None)
-        records.append(part_record)
+        part_steps, part_h = _substeps(length, part.step)
+        before = state
+        state, rows, _ = _advance_rows(part, state, start, targets, None, record, workers, part_steps, part_h)
+        if not np.isfinite(state).all():
+            raise NumericalFailure(_diagnose(part, before, start, length, part_h))
+        blocks.append(rows)
     if not record:
         return state
-    def joined(name):
-        return np.concatenate([getattr(records[0], name)[::2]] + [getattr(r, name) for r in records[1:]])
-
-    merged = StepRecord(
-        times=t0 + h * np.arange(n_steps),
-        step=h,
-        **{name: joined(name) for name in ("torque", "force", "normal", "leg_clearance", "leg_rates")},
-    )
-    object.__setattr__(merged, "_tangential", joined("tangential"))
-    return state, merged
+    # Each part's row blocks split the robots alike; join them in time, the halves' on the grid.
+    joined = [np.concatenate([first[::2], *rest]) for first, *rest in zip(*blocks)]
+    return state, _Recorder.merge(joined, t0, h)
 
 
 def takes_compiled(config: SimConfig) -> bool:
