@@ -911,7 +911,8 @@ def advance(
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
     The step is the largest that divides ``duration`` evenly and is no larger than
-    ``config.step``. Returns the new state (same shape as ``state``), and with
+    ``config.step``; with ``config.start_halves`` the first substeps are taken in halves (the
+    record still has one sample a substep). Returns the new state (same shape as ``state``), and with
     ``record=True`` also a :class:`StepRecord` of the torques applied and the ground force
     at the start of every substep: ``(state, record)``.
 
