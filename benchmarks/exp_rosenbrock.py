@@ -31,7 +31,7 @@ from scipy.linalg import expm
 
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import table2_gait
-from rrrobot_gym.simulation import SimConfig, _ServoJacobian, _stage_fns, initial_state
+from rrrobot_gym.simulation import SimConfig, _ServoJacobian, _stage_fns, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
 
@@ -117,14 +117,6 @@ def exprb43(problem: Problem, u, h, jacobian):
     return base + h * (whole[3] @ (16.0 * d2 - 2.0 * d3) + whole[4] @ (-48.0 * d2 + 12.0 * d3))
 
 
-def rk4(problem: Problem, u, h, jacobian=None):
-    k1 = problem(u)
-    k2 = problem(u + 0.5 * h * k1)
-    k3 = problem(u + 0.5 * h * k2)
-    k4 = problem(u + h * k3)
-    return u + h / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-
-
 def run_case(job):
     """Max and end contact error (m) and the steady evaluations per env step of one setting and case."""
     (jacobian_kind, n, start), (model, gait), duration = job
@@ -135,17 +127,18 @@ def run_case(job):
     states = np.empty((n_env + 1, dynamics.STATE_SIZE))
     states[0] = u[:-1]
     steady_evaluations = 0
+    fine = SimConfig(model=model, timestep=ENV_STEP / FINE_N, backend="numpy")
     for i in range(n_env):
-        fine = start == "fine" and i * ENV_STEP < FINE_START_S - 1e-9
-        step, substeps = (rk4, FINE_N) if fine else (exprb43, n)
-        before = problem.evaluations
-        for _ in range(substeps):
-            u = step(problem, u, ENV_STEP / substeps, jacobian)
-            u[dynamics.QUAT] /= np.linalg.norm(u[dynamics.QUAT])
+        if start == "fine" and i * ENV_STEP < FINE_START_S - 1e-9:
+            u[:-1] = advance(fine, u[:-1], i * ENV_STEP, ENV_STEP, problem.targets, check=False)
+        else:
+            before = problem.evaluations
+            for _ in range(n):
+                u = exprb43(problem, u, ENV_STEP / n, jacobian)
+                u[dynamics.QUAT] /= np.linalg.norm(u[dynamics.QUAT])
+            steady_evaluations = problem.evaluations - before
         u[-1] = (i + 1) * ENV_STEP
         states[i + 1] = u[:-1]
-        if not fine:
-            steady_evaluations = problem.evaluations - before
         if not np.all(np.isfinite(u)):
             return math.inf, math.inf, steady_evaluations
     err = contact_error(states, reference(SimConfig(model=model), table2_gait(gait), duration, ENV_STEP))
