@@ -41,10 +41,12 @@ from rrrobot_gym.control import RampTargets, pd_torque, table2_gait
 from rrrobot_gym.simulation import SimConfig, _stage_fns, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
+from .exp_rosenbrock import FINE_N, FINE_START_S
 
 ENV_STEP = 0.05
-START_S, START_N = 0.5, 60
-"""The start: RK4 at ENV_STEP / START_N for START_S seconds (it also fills the samples' memory)."""
+START_S, START_N = FINE_START_S, FINE_N
+"""The start, exp_rosenbrock's fine one: RK4 at ENV_STEP / START_N for START_S seconds (it also
+fills the samples' memory)."""
 LEG_SUBSTEPS = 120
 BODY = [0, 1, 2, 3, 4, 5, 8, 9, 10]
 CASES = [(model, gait) for model in ("plane", "pivot") for gait in (1, 2, 3)]
