@@ -169,8 +169,10 @@ class RampTargets:
     """Leg targets ramped linearly from ``start`` to ``end`` over [t0, t0 + duration], then held.
 
     A first-order hold of step-wise targets (an RL action per control step): the target
-    angle is continuous and its rate is the ramp's slope, so a new action does not kick
-    the servo with a torque step. ``start``/``end`` have shape (2,) or (N, 2), rad.
+    angle is continuous and its rate is the ramp's slope, so a new action does not step
+    the servo's angle term as a jump of target would. Its rate term still steps, by kd
+    times the change of slope, and that smaller kick is what a fixed step follows worst on
+    a policy's path (``benchmarks.policy_replay``). ``start``/``end`` have shape (2,) or (N, 2), rad.
     """
 
     def __init__(self, start, end, t0: float, duration: float):

@@ -40,8 +40,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     for the end of the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default).
     With `action_hold="linear"` (default) the target ramps there from the last step's target
     over the step, and the paper's PD servo (`kp`, `kd`) tracks the ramp and its rate: a new
-    action does not kick the servo, whose torque step on a jump of target makes the shell
-    hop or slip within milliseconds. `action_hold="zero_order"` jumps to the target and
+    action does not step the servo's angle term, whose torque step on a jump of target makes
+    the shell hop or slip within milliseconds; only the rate term steps, by `kd` times the
+    change of the ramp's slope. `action_hold="zero_order"` jumps to the target and
     holds it with target rate 0 (step-wise targets: the servo's target rate is the paper's gait
     derivative for a gait, zero for a held target). The map is affine:
     action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
