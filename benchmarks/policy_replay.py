@@ -1,7 +1,7 @@
 """Accuracy on an RL policy's path: the shipped policy's actions replayed at other steps.
 
     python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...]
-        [--model ZIP] [--no-motor-limit]
+        [--model ZIP] [--no-motor-limit | --refine-switches]
 
 The Table II gaits are smooth; an RL policy's leg targets change every control step (a ramp
 from the last target to the new one over 0.05 s), and the servo answers each change. So the
@@ -15,6 +15,17 @@ since the ramps' rates jump there). Reported: the contact error against the refe
 over the path, and the distance travelled. The replay at the env's own step must reproduce the
 env's states to the bit (checked, printed). ``--no-motor-limit`` replays the same ramps on a
 servo without the env's torque and rate limits.
+
+Also measured: how much the path itself amplifies a small error. The reference is solved again
+from starts whose first leg angle is PERTURBATION_RAD larger; the contact's deviation from the
+unperturbed reference, divided by the perturbation, is the amplification (m/rad) that an
+integrator's own errors meet too. Where it is large, no step makes a replay exact.
+
+``--refine-switches`` (motor limits only) asks what locating the motors' saturation switches
+would buy: the replay is taken substep by substep with ``advance``, and a substep across which
+a leg's motor changes branch (unsaturated, or at its stall torque, or on its torque-speed line,
+either way) is taken again in REFINE substeps. That is a stand-in for splitting the substep at
+the switch: it leaves RK4's kink error 1/REFINE^2 as large, where the exact split leaves none.
 """
 
 from __future__ import annotations
@@ -27,7 +38,7 @@ import gymnasium as gym
 import numpy as np
 
 import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
-from rrrobot_gym.control import RampTargets
+from rrrobot_gym.control import RampTargets, motor_torque, pd_torque
 from rrrobot_gym.simulation import SimConfig, advance, simulate_reference
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, write_json
@@ -35,6 +46,12 @@ from ._common import contact_error, fmt, machine, markdown_table, parser, write_
 MODEL = Path(__file__).resolve().parent.parent / "agents" / "pretrained" / "best_model.zip"
 STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
 """RK4 steps replayed; 1/300 s is the default."""
+REFINE = 64
+"""--refine-switches: a substep across a saturation switch is taken again in this many."""
+PERTURBATION_RAD = 1e-7
+"""The start change of the sensitivity run: small enough that the deviation stays linear in it
+(a 1e-9 rad change gave 100x less in a scratch run), large enough to stand above the
+reference's own error (rtol 1e-10 against 1e-12: 1.4 um after 20 s on the pivot policy)."""
 
 
 def settings():
@@ -68,6 +85,64 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
+def sensitivity(config: SimConfig, start, starts, ends, dt: float, ref, headings):
+    """The reference's contact deviation (n + 1, N) when each start's first leg angle is
+    PERTURBATION_RAD larger, and its summary for the JSON."""
+    perturbed = start.copy()
+    perturbed[:, 6] += PERTURBATION_RAD
+    path, _ = replay(config, perturbed, starts, ends, dt, reference=True)
+    dev = contact_error(path, ref)
+    n = dev.shape[0] - 1
+    return dev, {
+        "perturbation_rad": PERTURBATION_RAD,
+        "contact_max_m": float(dev.max()),
+        "amplification_m_per_rad": float(dev.max() / PERTURBATION_RAD),
+        "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(headings, dev.max(axis=0))},
+        # the worst heading's deviation every 5 s (a control step is dt)
+        "max_m_every_5_s": [float(dev[: i + 1].max()) for i in range(0, n + 1, round(5.0 / dt))],
+    }
+
+
+def motor_branches(config: SimConfig, state, targets, t: float):
+    """Per leg of one robot (state (13,)), which branch of control.motor_torque gives its torque at
+    time t: 0 unsaturated; 1 or 2 cut to the stall torque from above or below; 3 or 4 cut to the
+    torque-speed line (the leg turning the way it pushes). The derivative is smooth within a branch."""
+    angles, rates = (float(state[6]), float(state[7])), (float(state[11]), float(state[12]))
+    wanted = pd_torque(config.gains, angles, rates, targets.leg_targets(t))
+    out = []
+    for tau, rate in zip(wanted, rates):
+        given = motor_torque(tau, rate, config.torque_limit, config.leg_rate_limit)
+        if given == tau:
+            out.append(0)
+        else:
+            on_line = config.leg_rate_limit is not None and (rate > 0.0 if given < tau else rate < 0.0)
+            out.append((3 if on_line else 1) if given < tau else (4 if on_line else 2))
+    return tuple(out)
+
+
+def replay_refined(config: SimConfig, start, starts, ends, dt: float, refine: int):
+    """Contact points (n + 1, N, 2) of the episodes replayed substep by substep, each with
+    ``advance`` (one call a substep, a robot at a time), a substep across which a motor changes
+    branch (:func:`motor_branches`) taken again in ``refine`` substeps; and how many were."""
+    n_sub, h = round(dt / config.step), dt / round(dt / config.step)
+    fine = replace(config, timestep=h / refine)
+    out = np.empty((starts.shape[1] + 1, start.shape[0], 2))
+    refined = 0
+    for j, state in enumerate(start):
+        out[0, j] = state[:2]
+        for i in range(starts.shape[1]):
+            targets = RampTargets(starts[j, i], ends[j, i], 0.0, dt)
+            for s in range(n_sub):
+                t = s * h
+                new = advance(config, state, t, h, targets, check=False)
+                if refine > 1 and motor_branches(config, state, targets, t) != motor_branches(config, new, targets, t + h):
+                    new = advance(fine, state, t, h, targets, check=False)
+                    refined += 1
+                state = new
+            out[i + 1, j] = state[:2]
+    return out, refined
+
+
 def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False):
     """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step,
     each from t = 0 as the envs step."""
@@ -92,7 +167,14 @@ def main(argv=None):
         help="replay the same ramps on a servo without the env's torque and rate limits (their kinks are "
         "where fixed steps lose their order)",
     )  # fmt: skip
+    p.add_argument(
+        "--refine-switches", action="store_true",
+        help=f"also replay substep by substep, taking a substep across a motor's saturation switch again in {REFINE} "
+        "(what locating the switches would buy; needs the motor limits)",
+    )  # fmt: skip
     args = p.parse_args(argv)
+    if args.refine_switches and args.no_motor_limit:
+        p.error("--refine-switches refines the motor limits' switches; --no-motor-limit drops them")
     from agents.ppo import load_ppo_agent
 
     agent = load_ppo_agent(args.model)
@@ -110,7 +192,14 @@ def main(argv=None):
 
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     lengths = np.hypot(*(ref[-1] - ref[0]).T)  # m, start to end
-    rows = []
+    _, sens = sensitivity(sim, start, starts, ends, dt, ref, args.headings)
+    print(
+        f"reference from starts with the first leg angle {PERTURBATION_RAD:g} rad larger: contact moves "
+        f"{sens['contact_max_m'] * 1e3:.3g} mm at most ({sens['amplification_m_per_rad']:.3g} m/rad; by 5 s "
+        + ", ".join(f"{v * 1e3:.2g}" for v in sens["max_m_every_5_s"][1:]) + " mm)",
+        flush=True,
+    )
+    rows, refined_rows = [], []
     for label, step, halves in settings():
         config = replace(sim, timestep=step, start_halves=halves)  # the env's own (a torque limit included)
         path, _ = replay(config, start, starts, ends, dt)
@@ -135,6 +224,30 @@ def main(argv=None):
             + f"){extra}",
             flush=True,
         )
+    if args.refine_switches:
+        if sim.torque_limit is None:
+            raise SystemExit(f"--refine-switches: this policy's env has no motor limits ({sim!r})")
+        for label, step, _ in settings()[: len(STEPS_S)]:
+            config = replace(sim, timestep=step)
+            for refine in (1, REFINE):
+                path, refined = replay_refined(config, start, starts, ends, dt, refine)
+                err = contact_error(path, ref)
+                row = {
+                    "integrator": "rk4, substep by substep" + (f", switches' substeps in {refine}" if refine > 1 else ""),
+                    "setting": label,
+                    "step_s": step,
+                    "refine": refine,
+                    "substeps_refined": refined,
+                    "contact_max_m": float(err.max()),
+                    "contact_end_m": float(err[-1].max()),
+                    "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
+                }
+                refined_rows.append(row)
+                print(
+                    f"{row['integrator']} {label} ({refined} substeps refined): max contact error "
+                    f"{row['contact_max_m'] * 1e3:.3g} mm (" + ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items()) + ")",
+                    flush=True,
+                )
     print("distance travelled (reference, start to end): " + ", ".join(f"{h:g} deg {length:.2f} m" for h, length in zip(args.headings, lengths)))
     print(
         markdown_table(
@@ -153,6 +266,8 @@ def main(argv=None):
             "no_motor_limit": args.no_motor_limit,
             "headings_deg": args.headings,
             "distance_m": {f"{h:g}": float(length) for h, length in zip(args.headings, lengths)},
+            "sensitivity": sens,
+            **({"refined_switch_rows": refined_rows} if args.refine_switches else {}),
             "rows": rows,
         },
     )
