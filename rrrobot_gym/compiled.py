@@ -122,41 +122,50 @@ def _servo(c, targets, gains, torque_limit, rate_limit):
     return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
 
 
-def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i):
+def _one_robot(y, t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i):
     """simulation._rk4_floats on robot i's state y (13,), in place, with the record of simulation._Recorder
-    into rows[:, :, i] and its summary into summary[:, i] (when rows has any)."""
-    half, sixth = 0.5 * h, h / 6.0
+    into rows[:, :, i] and its summary into summary[:, i] (when rows has any): first n0 substeps of
+    h0 from t0, recorded every other one (a graded start's halves), then n_steps of h from t."""
     stage = np.empty(13)
     contact = np.empty(7)
+    for step in range(n0):
+        _robot_substep(y, t0, h0, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, step // 2 if step % 2 == 0 else -1, stage, contact)
+        t0 += h0
     for step in range(n_steps):
-        tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
-        if rows.shape[0]:
-            k1 = derivative_kernel(y, tau, k, None, None, None, contact)
-            rows[step, 0, i], rows[step, 1, i] = tau[0], tau[1]
-            for j in range(7):
-                rows[step, 2 + j, i] = contact[j]
-            rows[step, 9, i], rows[step, 10, i] = y[11], y[12]
-        else:
-            k1 = derivative_kernel(y, tau, k)
-        for j in range(13):
-            stage[j] = y[j] + half * k1[j]
-        k2 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            stage[j] = y[j] + half * k2[j]
-        k3 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            stage[j] = y[j] + h * k3[j]
-        k4 = derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-        inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
-        y[2] *= inv
-        y[3] *= inv
-        y[4] *= inv
-        y[5] *= inv
+        _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, n0 // 2 + step, stage, contact)
         t += h
     if rows.shape[0]:
         _summarise(rows, summary, i, 1)
+
+
+def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, stage, contact):
+    """One RK4 substep of _one_robot, in place; recorded into rows[row, :, i] unless row < 0."""
+    half, sixth = 0.5 * h, h / 6.0
+    tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+    if rows.shape[0] and row >= 0:
+        k1 = derivative_kernel(y, tau, k, None, None, None, contact)
+        rows[row, 0, i], rows[row, 1, i] = tau[0], tau[1]
+        for j in range(7):
+            rows[row, 2 + j, i] = contact[j]
+        rows[row, 9, i], rows[row, 10, i] = y[11], y[12]
+    else:
+        k1 = derivative_kernel(y, tau, k)
+    for j in range(13):
+        stage[j] = y[j] + half * k1[j]
+    k2 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+    for j in range(13):
+        stage[j] = y[j] + half * k2[j]
+    k3 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+    for j in range(13):
+        stage[j] = y[j] + h * k3[j]
+    k4 = derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
+    for j in range(13):
+        y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+    inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    y[2] *= inv
+    y[3] *= inv
+    y[4] *= inv
+    y[5] *= inv
 
 
 def _lesser(a, b):
@@ -283,7 +292,7 @@ def _lane_update(w, sixth):
         w[_S * L + m] = w[_Y * L + m]
 
 
-def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
+def _lanes(y, first, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
     """_one_robot for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
     L = LANES
     w = np.zeros(_ROWS * L)
@@ -294,50 +303,60 @@ def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind
         if params.shape[0] > 1:
             for j in range(params.shape[1]):
                 w[(_P + j) * L + i] = params[first + i, j]
-    half, sixth = 0.5 * h, h / 6.0
-    flat = rows.reshape(-1)
-    record = rows.shape[0] > 0
+    for step in range(n0):
+        _lane_substep(w, first, t0, h0, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step // 2 if step % 2 == 0 else -1)
+        t0 += h0
     for step in range(n_steps):
-        _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record)
-        if record:
-            for i in range(L):
-                w[_RATES * L + i], w[(_RATES + 1) * L + i] = w[(_Y + 11) * L + i], w[(_Y + 12) * L + i]
-            n = rows.shape[2]
-            for m in range(RECORD_ROWS * L):  # rows _TAU .. _RATES + 1 are the record's, in its order
-                j = m // L
-                flat[(step * RECORD_ROWS + j) * n + first + m - j * L] = w[_TAU * L + m]
-        _lane_combine(w, _K1, half)
-        _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-        _lane_combine(w, _K2, half)
-        _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-        _lane_combine(w, _K3, h)
-        _lane_stage(w, t + h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-        _lane_update(w, sixth)
+        _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, n0 // 2 + step)
         t += h
     for i in range(L):
         for j in range(13):
             y[first + i, j] = w[(_Y + j) * L + i]
-    if record:
+    if rows.shape[0]:
         _summarise(rows, summary, first, L)
 
 
-def _batch(y, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
+def _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, row):
+    """One RK4 substep of the lanes in w, recorded into rows[row] unless row < 0 (or rows is empty)."""
+    L = LANES
+    half, sixth = 0.5 * h, h / 6.0
+    record = rows.shape[0] > 0 and row >= 0
+    _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record)
+    if record:
+        flat = rows.reshape(-1)
+        for i in range(L):
+            w[_RATES * L + i], w[(_RATES + 1) * L + i] = w[(_Y + 11) * L + i], w[(_Y + 12) * L + i]
+        n = rows.shape[2]
+        for m in range(RECORD_ROWS * L):  # rows _TAU .. _RATES + 1 are the record's, in its order
+            j = m // L
+            flat[(row * RECORD_ROWS + j) * n + first + m - j * L] = w[_TAU * L + m]
+    _lane_combine(w, _K1, half)
+    _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _lane_combine(w, _K2, half)
+    _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _lane_combine(w, _K3, h)
+    _lane_stage(w, t + h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _lane_update(w, sixth)
+
+
+def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
     """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
-    Whole blocks of LANES robots take the lane stepper, the rest (fewer than LANES) one by one."""
+    Whole blocks of LANES robots take the lane stepper, the rest (fewer than LANES) one by one.
+    The schedule (n0 substeps of h0 from t0, then n_steps of h from t) is _one_robot's."""
     shared_targets = params.shape[0] == 1
     blocks = y.shape[0] // LANES
     for b in prange(blocks + y.shape[0] - blocks * LANES):
         if b < blocks:
-            _lanes(y, b * LANES, t0, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary)
+            _lanes(y, b * LANES, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary)
         else:
             i = blocks * LANES + (b - blocks)
             p = params[0] if shared_targets else params[i]
-            _one_robot(y[i], t0, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
+            _one_robot(y[i], t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
-_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes")
+_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_robot_substep", "_one_robot", "_lanes")
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
-_LANE_CALLED = ("_lane_stage", "_lane_update")
+_LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
 
 
 def _lane_kernels(njit):
@@ -451,23 +470,29 @@ def _scene(robot, depth, gains):
     return dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
 
 
-def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
+def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1, lead=None):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
     (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, the record's rows
     ((S, 11) for one robot, (S, 11, N) for a batch) or None, and the record's summary ((6,) or
     (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is what
     :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
-    shared among that many threads."""
+    shared among that many threads. ``lead`` = (t_lead, h_lead, n_lead), if given, is a start
+    taken first: n_lead (even) substeps of h_lead from t_lead, every other one recorded (a
+    graded start's halves, on the substep grid), before the ``n_steps`` of ``h`` from ``t0``.
+    """
     kind, params, shared = targets
     y = np.array(state, dtype=float, order="C").reshape(-1, dynamics.STATE_SIZE)
     if params.shape[0] not in (1, y.shape[0]):
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
-    rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
+    t_lead, h_lead, n_lead = (float(t0), 0.0, 0) if lead is None else (float(lead[0]), float(lead[1]), int(lead[2]))
+    if n_lead % 2:
+        raise ValueError(f"a lead of halves has an even number of substeps, got {n_lead}")
+    rows = np.empty((n_lead // 2 + n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
     step = _stepper(parallel)
     k, kc, gains = _scene(config.robot, config.depth, config.gains)
-    args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit,
+    args = (y, t_lead, h_lead, n_lead, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit,
             kind, params, shared, rows, summary)  # fmt: skip
     if parallel:
         import numba

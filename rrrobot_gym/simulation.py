@@ -1017,14 +1017,31 @@ def _graded_configs(config: SimConfig, h: float):
 
 def _advance_graded(config: SimConfig, state, t0, duration, targets, record, workers, n_steps, h):
     """:func:`advance` with ``config.start_halves``: the first k = min(start_halves, n_steps)
-    substeps of h as 2k of h / 2, then the rest as usual, each part one uniform integration. The
-    record keeps the substeps' grid, t0 + i h: of the halves, the samples at their starts on it
-    (every other one); its summary is computed from those samples (:meth:`StepRecord.summary`)."""
+    substeps of h as 2k of h / 2, then the rest as usual. The record keeps the substeps' grid,
+    t0 + i h: of the halves, the samples at their starts on it (every other one), and its
+    summary is of those samples. The compiled stepper runs the schedule in one call; the numpy
+    steppers run each part as one uniform integration and join the parts' records, whose
+    summary :meth:`StepRecord.summary` then computes."""
     k = min(config.start_halves, n_steps)
     halves, uniform = _graded_configs(config, h)
     parts = [(halves, t0, k * h)]
     if k < n_steps:
         parts.append((uniform, t0 + k * h, duration - k * h))
+    described = _compiled_targets(config, targets)
+    if described is not None:
+        # The compiled stepper takes the whole schedule in one call, recording and summarising
+        # the grid's samples itself: the same substeps as the two parts below, to the bit.
+        lead_steps, lead_h = _substeps(k * h, halves.step)
+        if len(parts) == 2:
+            rest_steps, rest_h = _substeps(parts[1][2], uniform.step)
+        else:
+            rest_steps, rest_h = 0, h
+        out, rows, summary = compiled.integrate(
+            uniform, described, state, t0 + k * h, rest_h, rest_steps, record, workers, lead=(t0, lead_h, lead_steps)
+        )
+        if not np.isfinite(out).all():
+            raise NumericalFailure(_diagnose(halves if rest_steps == 0 else uniform, state, t0, duration, h))
+        return (out, _Recorder.merge([rows], t0, h, summary)) if record else out
     blocks = []
     for part, start, length in parts:
         part_steps, part_h = _substeps(length, part.step)

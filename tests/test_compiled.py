@@ -46,6 +46,7 @@ def _float_path(config, states, targets, t0, duration):
         robot = targets.robot(i) if hasattr(targets, "robot") else targets
         runs.append(advance(replace(config, backend="numpy"), state, t0, duration, robot, record=True))
     fields = {f: np.stack([getattr(r, f) for _, r in runs], axis=1) for f in RECORD_FIELDS if f != "times"}
+    fields["summary"] = {key: np.array([r.summary()[key] for _, r in runs]) for key in runs[0][1].summary()}
     return np.stack([s for s, _ in runs]), fields
 
 
@@ -53,13 +54,16 @@ def _float_path(config, states, targets, t0, duration):
 @pytest.mark.parametrize(
     "config",
     [SimConfig(), SimConfig(model="pivot"), SimConfig(torque_limit=0.3),
-     SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto")],
-    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step"],
+     SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto"),
+     SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1)],
+    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded"],
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
     # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
-    # stepper and one robot on the one-robot stepper.
+    # stepper and one robot on the one-robot stepper. With start_halves, the compiled stepper
+    # takes the graded schedule in one call and summarises its record itself; the float stepper
+    # runs it as two uniform parts and StepRecord.summary summarises the joined record.
     assert compiled.LANES < 33 < 2 * compiled.LANES
     rng = np.random.default_rng(7)
     states = _states(33)
@@ -67,8 +71,11 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
     slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
     assert np.array_equal(fast, slow)
+    summaries = slow_fields.pop("summary")
     for field, values in slow_fields.items():
         assert np.array_equal(getattr(record, field), values), field
+    for key, values in record.summary().items():
+        assert np.array_equal(values, summaries[key]), key
     if config.torque_limit is not None:
         peak = np.max(np.abs(record.torque))
         assert peak <= config.torque_limit
@@ -273,12 +280,17 @@ def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     states = _states(n, seed=8)
     targets = compiled.target_arrays(_targets("ramp", n, np.random.default_rng(9)))
     k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
-    y = states.copy()
-    rows = np.empty((3, compiled.RECORD_ROWS, n))
-    summary = np.empty((compiled.SUMMARY_ROWS, n))
-    compiled._batch(y, 0.1, 0.05 / 15, 3, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
-    fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, 0.05 / 15, 3, True)
-    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
+    h = 0.05 / 15
+    # uniform; then a graded start (two halves, the first recorded) before two whole substeps
+    for lead, t, n_steps in ((None, 0.1, 3), ((0.1, 0.5 * h, 2), 0.1 + h, 2)):
+        y = states.copy()
+        rows = np.empty((3, compiled.RECORD_ROWS, n))
+        summary = np.empty((compiled.SUMMARY_ROWS, n))
+        t_lead, h_lead, n_lead = lead or (t, 0.0, 0)
+        compiled._batch(y, t_lead, h_lead, n_lead, t, h, n_steps, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
+        fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, t, h, n_steps, True,
+                                                           lead=lead)  # fmt: skip
+        assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
 
 
 def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp_path):
