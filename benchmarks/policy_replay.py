@@ -54,12 +54,18 @@ PERTURBATION_RAD = 1e-7
 reference's own error (rtol 1e-10 against 1e-12: 1.4 um after 20 s on the pivot policy)."""
 
 
+GRADED = ((1 / 300, 1), (1 / 300, 2), (1 / 260, 2), (1 / 200, 2))
+"""(step, start_halves) replayed with the first substeps of each control step in halves: on the
+default step, and at the default's 60 derivative evaluations an env step (13 substeps and two
+halves) and at 48 (10 and two)."""
+
+
 def settings():
-    """(label, step, start_halves): the uniform steps, then the default step with the first
+    """(label, step, start_halves): the uniform steps, then the GRADED ones, with the first
     substeps of each control step in halves (``SimConfig.start_halves``), where a new ramp kicks
     the servo's fast mode."""
     out = [(f"1/{1 / h:.0f} s", h, 0) for h in STEPS_S]
-    out += [(f"1/{1 / STEPS_S[0]:.0f} s, start_halves={k}", STEPS_S[0], k) for k in (1, 2)]
+    out += [(f"1/{1 / h:.0f} s, start_halves={k}", h, k) for h, k in GRADED]
     return out
 
 
