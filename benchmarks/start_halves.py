@@ -18,7 +18,9 @@ the three gaits, 50 s from the paper's start (--quick: 10 s) in env steps of 0.0
 ``advance`` call each, as the envs make them), against ``simulate_reference`` (DOP853, rtol =
 atol = 1e-10) at the same instants, for the default and the graded settings of ACCURACY_SETTINGS
 (the same 60 derivative evaluations an env step, 48, and two halves on the default step),
-and for the default with only its first env step taken finely (FINE_FIRST).
+and for the default with only its first env step taken finely (FINE_FIRST); then, model by
+model, RK4 at the fewest substeps its servo's stability allows and one more, with and without
+that fine first step.
 """
 
 from __future__ import annotations
@@ -77,15 +79,18 @@ def paired(num_envs: int, halves: int, steps: int, repeats: int, substeps: int =
 
 
 FINE_FIRST = 120
-"""--accuracy's last row: the first env step alone in this many substeps (1/2400 s), the rest at
-the default, to show where the default's error on the gaits is made."""
+"""--accuracy's last rows: the first env step alone in this many substeps (1/2400 s), the rest at
+the default, to show where the default's error on the gaits is made; then the same at RK4's
+fewest substeps a model's servo allows (STABLE_SUBSTEPS), with and without the fine first step."""
+STABLE_SUBSTEPS = {"plane": 7, "pivot": 3}
+"""The fewest RK4 substeps a 0.05 s step within the servo's stability limit (1/138 s plane, 1/54 s pivot)."""
 
 
-def gait_errors(substeps: int, halves: int, duration: float, fine_first: int = 0) -> dict:
+def gait_errors(substeps: int, halves: int, duration: float, fine_first: int = 0, models=("plane", "pivot")) -> dict:
     """Max contact error (m) over the path of each Table II gait on each model, in env steps of
     0.05 s (with ``fine_first``, the first of them in that many substeps)."""
     out = {}
-    for model in ("plane", "pivot"):
+    for model in models:
         config = SimConfig(model=model, timestep=0.05 / substeps, start_halves=halves)
         first = SimConfig(model=model, timestep=0.05 / fine_first) if fine_first else config
         for number in (1, 2, 3):
@@ -102,10 +107,15 @@ def gait_errors(substeps: int, halves: int, duration: float, fine_first: int = 0
 
 def accuracy(args):
     duration = 10.0 if args.quick else 50.0
+    runs = [(n, k, 0, ("plane", "pivot")) for n, k in ACCURACY_SETTINGS] + [(15, 0, FINE_FIRST, ("plane", "pivot"))]
+    for model in ("plane", "pivot"):
+        for substeps in (STABLE_SUBSTEPS[model], STABLE_SUBSTEPS[model] + 1):
+            runs += [(substeps, 0, 0, (model,)), (substeps, 0, FINE_FIRST, (model,))]
     rows = []
-    for substeps, halves, fine_first in [(n, k, 0) for n, k in ACCURACY_SETTINGS] + [(15, 0, FINE_FIRST)]:
-        errors = gait_errors(substeps, halves, duration, fine_first)
+    for substeps, halves, fine_first, models in runs:
+        errors = gait_errors(substeps, halves, duration, fine_first, models)
         label = f"1/{20 * substeps} s" + (f", the first env step at 1/{20 * fine_first} s" if fine_first else "")
+        label += f" ({models[0]} only)" if len(models) == 1 else ""
         rows.append({"setting": label, "substeps": substeps, "start_halves": halves, "first_env_step_substeps": fine_first or None,
                      "evals_per_env_step": 4 * (substeps + halves), "contact_max_m": errors, "worst_m": max(errors.values())})  # fmt: skip
         print(f"{label}, start_halves={halves}: worst {rows[-1]['worst_m'] * 1e3:.3g} mm", flush=True)
@@ -114,7 +124,7 @@ def accuracy(args):
         markdown_table(
             ["step", "start_halves", "evaluations / env step", "worst (mm)"] + names,
             [[r["setting"], r["start_halves"], r["evals_per_env_step"], fmt(r["worst_m"] * 1e3)]
-             + [fmt(r["contact_max_m"][k] * 1e3) for k in names] for r in rows],
+             + [fmt(r["contact_max_m"][k] * 1e3) if k in r["contact_max_m"] else "-" for k in names] for r in rows],
         )  # fmt: skip
     )
     write_json(args.json, {"machine": machine(), "duration_s": duration, "accuracy_rows": rows})
