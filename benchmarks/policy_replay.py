@@ -191,6 +191,8 @@ def main(argv=None):
         episodes.append((states, starts, ends))
     if args.no_motor_limit:
         sim = replace(sim, torque_limit=None, leg_rate_limit=None)
+    if args.refine_switches and sim.torque_limit is None:
+        raise SystemExit(f"--refine-switches: this policy's env has no motor limits ({sim!r})")
     start = np.array([e[0][0] for e in episodes])
     starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
     env_states = np.array([e[0] for e in episodes])  # (N, n + 1, 13)
@@ -231,8 +233,6 @@ def main(argv=None):
             flush=True,
         )
     if args.refine_switches:
-        if sim.torque_limit is None:
-            raise SystemExit(f"--refine-switches: this policy's env has no motor limits ({sim!r})")
         for label, step, _ in settings()[: len(STEPS_S)]:
             config = replace(sim, timestep=step)
             for refine in (1, REFINE):
