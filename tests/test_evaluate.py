@@ -123,6 +123,21 @@ def test_physics_holds_gaits_to_motor_limits_without_a_policy():
     assert max(r["peak_torque_nm"] for r in records if r["agent"] == "gait2") <= 0.3 + 1e-9
 
 
+def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move():
+    # The graded schedule at the default's cost (README, "At the default's cost"): 13 substeps, the
+    # first two in halves, the same 0.05 s control step. The same physics integrated otherwise:
+    # every gait's speed must agree with the default's to well under a mm/s, and not to the bit.
+    from evaluate import main
+
+    graded = {"timestep": 0.05 / 13, "frame_skip": 13, "start_halves": 2}
+    plain = main(["--no-policy", "--models", "plane", "--duration", "2"])
+    records = main(["--no-policy", "--models", "plane", "--duration", "2"] + [a for k, v in graded.items() for a in ("--physics", f"{k}={v!r}")])
+    assert records and all(r["physics"] == graded for r in records)
+    default = {(r["agent"], r["heading_deg"]): r["speed_mps"] for r in plain if r["compass"]}
+    moved = [abs(r["speed_mps"] - default[(r["agent"], r["heading_deg"])]) for r in records if r["compass"]]
+    assert len(moved) == len(default) == 6 * 8 and 0.0 < max(moved) < 1e-4
+
+
 def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
     from evaluate import evaluate, parse_physics
 
