@@ -1,0 +1,105 @@
+"""How the model envelope's verdict depends on the integration step, for the shipped baselines.
+
+    python -m benchmarks.envelope_steps [--quick] [--json FILE] [--headings 90 ...]
+        [--substeps 13 15 20 30 60 120]
+
+The env ends an episode on the plane when a step's slip velocity (the impulse the floor could
+not give, per unit mass: ``rrrobot_gym.validity.step_measures``) exceeds ``max_slip_velocity``
+(0.02 m/s), or a spell without contact outlasts ``max_liftoff_time``. Both are sums over the
+step record's samples, one at the start of each integration substep, so they depend on the
+step. The searched gaits were chosen by searches run at the default step (1/300 s), and the
+strongest sit close to that threshold. This runs each shipped plane baseline below (AGENTS)
+along each heading for 50 s (--quick: 10 s) at ``frame_skip`` n and ``timestep`` 0.05 s / n,
+the same 0.05 s control step, and reports the largest slip velocity and lift-off spell of any
+step after ``STARTUP_GRACE``, and when the episode ended if it did.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from agents import load_gait_agents
+from agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.envs.task import STARTUP_GRACE
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
+
+from ._common import machine, markdown_table, parser, write_json
+
+SEARCHED = Path(__file__).resolve().parent.parent / "agents" / "searched"
+AGENTS = (
+    ("plane_own.json", "searched-plane-own-1"),
+    ("plane_own_robust.json", "searched-plane-own-1"),
+    ("plane_own_robust.json", "searched-plane-own-2"),
+    ("turn_then_run.json", "turn-then-run"),
+)
+"""(file of agents/searched, agent): the plane baselines that docs/evaluation scores."""
+
+
+def load(file: str, name: str):
+    if name == "turn-then-run":
+        return load_turn_then_run_agent(SEARCHED / file)
+    return load_gait_agents(SEARCHED / file)[name]
+
+
+def run(agent, substeps: int, headings_deg, duration: float) -> dict:
+    """One episode along each heading at ``substeps`` a control step: the largest slip velocity
+    (m/s) and lift-off spell (s) of the steps after STARTUP_GRACE, and when each ended (s, or None)."""
+    n = len(headings_deg)
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model="plane", reset_noise_scale=0.0,
+                           timestep=0.05 / substeps, frame_skip=substeps)  # fmt: skip
+    obs, _ = env.reset(seed=0, options={"target_direction": np.radians(np.asarray(headings_deg, dtype=float))})
+    state, start = None, np.ones(n, dtype=bool)
+    slip, liftoff = np.zeros(n), np.zeros(n)
+    ended = np.full(n, np.nan)
+    for i in range(round(duration / env.dt)):
+        actions, state = agent.predict(obs, state=state, episode_start=start, deterministic=True)
+        start = np.zeros(n, dtype=bool)
+        obs, _, terminated, _, info = env.step(actions)
+        now = {key: np.array(info[key], dtype=float) for key in ("slip_velocity", "liftoff_time")}
+        if terminated.any():  # an ended robot has been reset already: its step's measures are in final_info
+            for key in now:
+                now[key][terminated] = np.asarray(info["final_info"][key], dtype=float)[terminated]
+        live = np.isnan(ended) & (i * env.dt >= STARTUP_GRACE - 1e-9)
+        slip[live] = np.maximum(slip[live], now["slip_velocity"][live])
+        liftoff[live] = np.maximum(liftoff[live], now["liftoff_time"][live])
+        ended[np.isnan(ended) & terminated] = (i + 1) * env.dt
+    env.close()
+    return {
+        "slip_velocity_max_mps": slip.tolist(),
+        "liftoff_time_max_s": liftoff.tolist(),
+        "ended_at_s": [None if np.isnan(t) else float(t) for t in ended],
+    }
+
+
+def main(argv=None):
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--headings", nargs="+", type=float, default=[90.0], metavar="DEG")
+    p.add_argument("--substeps", nargs="+", type=int, default=[13, 15, 20, 30, 60, 120])
+    args = p.parse_args(argv)
+    if min(args.substeps) < 7:
+        p.error("--substeps below 7 put the step past the plane servo's stability limit (1/138 s)")
+    duration = 10.0 if args.quick else 50.0
+    rows = []
+    for file, name in AGENTS:
+        agent = load(file, name)
+        for substeps in args.substeps:
+            result = run(agent, substeps, args.headings, duration)
+            rows.append({"file": file, "agent": name, "substeps": substeps, "step_s": 0.05 / substeps, **result})
+            ends = ", ".join("ran" if t is None else f"ended at {t:.2f} s" for t in result["ended_at_s"])
+            print(f"{file} {name}, 1/{20 * substeps} s: slip up to {max(result['slip_velocity_max_mps']) * 1e3:.2f} mm/s, "
+                  f"lift-off spells up to {max(result['liftoff_time_max_s']) * 1e3:.2f} ms; {ends}", flush=True)  # fmt: skip
+    print(
+        markdown_table(
+            ["agent", "step", "largest slip velocity (mm/s)", "longest lift-off (ms)", "ended"],
+            [[f"{r['file']}: {r['agent']}", f"1/{20 * r['substeps']} s", f"{max(r['slip_velocity_max_mps']) * 1e3:.2f}",
+              f"{max(r['liftoff_time_max_s']) * 1e3:.2f}",
+              ", ".join("-" if t is None else f"{t:.2f} s" for t in r["ended_at_s"])] for r in rows],
+        )  # fmt: skip
+    )
+    write_json(args.json, {"machine": machine(), "duration_s": duration, "headings_deg": args.headings, "rows": rows})
+
+
+if __name__ == "__main__":
+    main()
