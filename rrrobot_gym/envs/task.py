@@ -174,7 +174,8 @@ class TaskConfig:
     start_halves: int = _keyword(
         0, "servo legs: the first so many integration steps of each control step taken in halves, where the new "
         "targets kick the servo (4 derivative evaluations more each; `rrrobot_gym.simulation.SimConfig`). With "
-        "`timestep=0.05/13, frame_skip=13, start_halves=2` a step costs the default's 60 and errs less (README)"
+        "`timestep=0.05/13, frame_skip=13, start_halves=2` a step costs the default's 60 and errs less, though the "
+        "model checks' verdicts move with the step (README)"
     )
     forward_reward_weight: float = _keyword(1.0, "reward per cm/s along the commanded heading")
     ctrl_cost_weight: float = _keyword(0.01, "cost per unit \\|action\\|^2 (>= 0)")
