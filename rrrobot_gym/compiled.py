@@ -354,7 +354,8 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
             _one_robot(y[i], t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
-_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_robot_substep", "_one_robot", "_lanes")
+_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes")
+_STEPPER_INLINED = ("_robot_substep",)  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
 
@@ -452,6 +453,7 @@ def _stepper(parallel: bool):
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
+        _compiled_copies(sys.modules[__name__], _STEPPER_INLINED, inline, namespace)
         _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
         batch = types.FunctionType(_batch.__code__, namespace, "_batch")
         # numba's cache files are named by the function's qualified name and keyed by its
