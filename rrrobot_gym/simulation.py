@@ -1024,27 +1024,24 @@ def _advance_graded(config: SimConfig, state, t0, duration, targets, record, wor
     summary :meth:`StepRecord.summary` then computes."""
     k = min(config.start_halves, n_steps)
     halves, uniform = _graded_configs(config, h)
-    parts = [(halves, t0, k * h)]
+    # (config, start, length, substeps, step) of each part: the halves, then the rest if any
+    parts = [(halves, t0, k * h, *_substeps(k * h, halves.step))]
     if k < n_steps:
-        parts.append((uniform, t0 + k * h, duration - k * h))
+        parts.append((uniform, t0 + k * h, duration - k * h, *_substeps(duration - k * h, uniform.step)))
     described = _compiled_targets(config, targets)
     if described is not None:
         # The compiled stepper takes the whole schedule in one call, recording and summarising
-        # the grid's samples itself: the same substeps as the two parts below, to the bit.
-        lead_steps, lead_h = _substeps(k * h, halves.step)
-        if len(parts) == 2:
-            rest_steps, rest_h = _substeps(parts[1][2], uniform.step)
-        else:
-            rest_steps, rest_h = 0, h
+        # the grid's samples itself: the same substeps as the two parts, to the bit.
+        lead_steps, lead_h = parts[0][3:]
+        rest_t0, _, rest_steps, rest_h = parts[1][1:] if len(parts) == 2 else (t0 + k * h, 0.0, 0, h)
         out, rows, summary = compiled.integrate(
-            uniform, described, state, t0 + k * h, rest_h, rest_steps, record, workers, lead=(t0, lead_h, lead_steps)
+            uniform, described, state, rest_t0, rest_h, rest_steps, record, workers, lead=(t0, lead_h, lead_steps)
         )
         if not np.isfinite(out).all():
-            raise NumericalFailure(_diagnose(halves if rest_steps == 0 else uniform, state, t0, duration, h))
+            raise NumericalFailure(_diagnose(config, state, t0, duration, h))
         return (out, _Recorder.merge([rows], t0, h, summary)) if record else out
     blocks = []
-    for part, start, length in parts:
-        part_steps, part_h = _substeps(length, part.step)
+    for part, start, length, part_steps, part_h in parts:
         before = state
         state, rows, _ = _advance_rows(part, state, start, targets, None, record, workers, part_steps, part_h)
         if not np.isfinite(state).all():
