@@ -52,7 +52,7 @@ EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
 """Per-step summaries of the integrator's step record that the evaluation keeps (env info keys)."""
 
 
-def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, **env_kwargs):
+def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS, **env_kwargs):
     """Run every agent once along each heading (degrees), all in one batched env.
 
     ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
@@ -60,9 +60,9 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``terminated``
     (H,), and per control step (T, H) the step record's summaries from the env's info
     (``rrrobot_gym.validity.step_measures``: the torques the integrator applied, not a
-    rebuilt servo law): ``torque_rms``, ``torque_peak`` (N m), ``leg_rate_peak`` (rad/s),
-    ``liftoff_fraction``. After a robot's episode ends its path holds its last position,
-    then NaN (and its step summaries NaN).
+    rebuilt servo law) named by ``info_keys``, by default ``torque_rms``, ``torque_peak`` (N m),
+    ``leg_rate_peak`` (rad/s), ``liftoff_fraction``. After a robot's episode ends its path holds
+    its last position, then NaN (and its step summaries NaN).
     """
     names = list(agents)
     n_head = len(headings_deg)
@@ -75,7 +75,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     steps = int(round(duration / env.dt))
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
     xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
-    effort = {key: [] for key in EFFORT_KEYS}
+    effort = {key: [] for key in info_keys}
     agent_states = {name: None for name in names}
     episode_start = np.ones(n_head, dtype=bool)
     ended = np.zeros(len(headings), dtype=bool)
@@ -90,7 +90,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         obs, _, terminated, _, info = env.step(actions)
         leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
         current = env.states.copy()
-        step_effort = {key: np.array(info[key], dtype=float) for key in EFFORT_KEYS}
+        step_effort = {key: np.array(info[key], dtype=float) for key in info_keys}
         ended_before = ended.copy()
         if np.any(terminated):
             # SAME_STEP autoreset has already restarted a finished robot: take its last
@@ -99,7 +99,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
             for i in np.flatnonzero(terminated & ~ended):
                 current[i, :] = np.nan
                 current[i, 0:2] = final["x_position"][i], final["y_position"][i]
-                for key in EFFORT_KEYS:
+                for key in info_keys:
                     step_effort[key][i] = final[key][i]
             ended |= terminated
         # Ended at an earlier step: NaN, even when its autoreset episode terminates again now.
@@ -108,7 +108,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         targets.append(leg_target)
         xy.append(current[:, 0:2])
         legs.append(current[:, 6:8])
-        for key in EFFORT_KEYS:
+        for key in info_keys:
             step_effort[key][gone] = np.nan
             effort[key].append(step_effort[key])
     env.close()

@@ -16,14 +16,15 @@ step after ``STARTUP_GRACE``, and when the episode ended if it did.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from agents import load_gait_agents
 from agents.turn_then_run import load_turn_then_run_agent
+from evaluate import run_episodes
 from rrrobot_gym.envs.task import STARTUP_GRACE
-from rrrobot_gym.envs.vector import RRRobotVectorEnv
 
 from ._common import machine, markdown_table, parser, write_json
 
@@ -43,34 +44,23 @@ def load(file: str, name: str):
     return load_gait_agents(SEARCHED / file)[name]
 
 
-def run(agent, substeps: int, headings_deg, duration: float) -> dict:
-    """One episode along each heading at ``substeps`` a control step: the largest slip velocity
-    (m/s) and lift-off spell (s) of the steps after STARTUP_GRACE, and when each ended (s, or None)."""
-    n = len(headings_deg)
-    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model="plane", reset_noise_scale=0.0,
-                           timestep=0.05 / substeps, frame_skip=substeps)  # fmt: skip
-    obs, _ = env.reset(seed=0, options={"target_direction": np.radians(np.asarray(headings_deg, dtype=float))})
-    state, start = None, np.ones(n, dtype=bool)
-    slip, liftoff = np.zeros(n), np.zeros(n)
-    ended = np.full(n, np.nan)
-    for i in range(round(duration / env.dt)):
-        actions, state = agent.predict(obs, state=state, episode_start=start, deterministic=True)
-        start = np.zeros(n, dtype=bool)
-        obs, _, terminated, _, info = env.step(actions)
-        now = {key: np.array(info[key], dtype=float) for key in ("slip_velocity", "liftoff_time")}
-        if terminated.any():  # an ended robot has been reset already: its step's measures are in final_info
-            for key in now:
-                now[key][terminated] = np.asarray(info["final_info"][key], dtype=float)[terminated]
-        live = np.isnan(ended) & (i * env.dt >= STARTUP_GRACE - 1e-9)
-        slip[live] = np.maximum(slip[live], now["slip_velocity"][live])
-        liftoff[live] = np.maximum(liftoff[live], now["liftoff_time"][live])
-        ended[np.isnan(ended) & terminated] = (i + 1) * env.dt
-    env.close()
-    return {
-        "slip_velocity_max_mps": slip.tolist(),
-        "liftoff_time_max_s": liftoff.tolist(),
-        "ended_at_s": [None if np.isnan(t) else float(t) for t in ended],
-    }
+def run(agents: dict, substeps: int, headings_deg, duration: float) -> dict:
+    """Each agent's episodes along each heading at ``substeps`` a control step, in one batched env
+    (evaluate.run_episodes): the largest slip velocity (m/s) and lift-off spell (s) of the steps
+    after STARTUP_GRACE, and when each episode ended (s, or None)."""
+    runs = run_episodes(agents, "plane", headings_deg, duration, info_keys=("slip_velocity", "liftoff_time"),
+                        timestep=0.05 / substeps, frame_skip=substeps)  # fmt: skip
+    first = math.ceil(STARTUP_GRACE / 0.05 - 1e-9)  # the first step that starts after the grace
+    out = {}
+    for name, episode in runs.items():
+        # a step after an episode's end is NaN: it counts as nothing
+        slip, liftoff = (np.where(np.isnan(episode[key]), 0.0, episode[key])[first:].max(axis=0)
+                         for key in ("slip_velocity", "liftoff_time"))  # fmt: skip
+        # an ended episode's path holds its last position at the end of the step that ended it, then NaN
+        last = np.isfinite(episode["xy"][:, :, 0]).sum(axis=0) - 1
+        ended = [float(episode["times"][i]) if gone else None for i, gone in zip(last, episode["terminated"])]
+        out[name] = {"slip_velocity_max_mps": slip.tolist(), "liftoff_time_max_s": liftoff.tolist(), "ended_at_s": ended}
+    return out
 
 
 def main(argv=None):
@@ -81,11 +71,12 @@ def main(argv=None):
     if min(args.substeps) < 7:
         p.error("--substeps below 7 put the step past the plane servo's stability limit (1/138 s)")
     duration = 10.0 if args.quick else 50.0
+    agents = {f"{file}: {name}": load(file, name) for file, name in AGENTS}
     rows = []
+    results = {substeps: run(agents, substeps, args.headings, duration) for substeps in args.substeps}
     for file, name in AGENTS:
-        agent = load(file, name)
         for substeps in args.substeps:
-            result = run(agent, substeps, args.headings, duration)
+            result = results[substeps][f"{file}: {name}"]
             rows.append({"file": file, "agent": name, "substeps": substeps, "step_s": 0.05 / substeps, **result})
             ends = ", ".join("ran" if t is None else f"ended at {t:.2f} s" for t in result["ended_at_s"])
             print(f"{file} {name}, 1/{20 * substeps} s: slip up to {max(result['slip_velocity_max_mps']) * 1e3:.2f} mm/s, "
