@@ -35,9 +35,10 @@ import numpy as np
 import rrrobot_gym  # noqa: F401  (registers the env)
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
-from rrrobot_gym.simulation import SimConfig, advance, initial_state
+from rrrobot_gym.simulation import SimConfig, initial_state
 
 from ._common import contact_error, fmt, gentle_actions, machine, markdown_table, parser, reference, write_json
+from .work_precision import ENV_STEP, run_steps
 
 ACCURACY_SETTINGS = ((15, 0), (14, 1), (13, 2), (10, 2), (15, 2))
 """--accuracy: (substeps a 0.05 s control step, start_halves); 4 (substeps + halves) evaluations a
@@ -93,14 +94,10 @@ def gait_errors(substeps: int, halves: int, duration: float, fine_first: int = 0
     out = {}
     for model in models:
         config = SimConfig(model=model, timestep=0.05 / substeps, start_halves=halves)
-        first = SimConfig(model=model, timestep=0.05 / fine_first) if fine_first else config
+        first = SimConfig(model=model, timestep=0.05 / fine_first) if fine_first else None
         for number in (1, 2, 3):
             gait = table2_gait(number)
-            n = round(duration / 0.05)
-            states = np.empty((n + 1, 13))
-            states[0] = initial_state()
-            for i in range(n):
-                states[i + 1] = advance(first if i == 0 else config, states[i], i * 0.05, 0.05, gait, check=False)
+            states, _ = run_steps(config, gait, initial_state(), round(duration / ENV_STEP), first=first)
             ref = reference(SimConfig(model=model), gait, duration, 0.05)
             out[f"{model} gait {number}"] = float(contact_error(states, ref).max())
     return out

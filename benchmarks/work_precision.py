@@ -90,13 +90,15 @@ def config_for(model: str, legs: str, integrator: str, n, robot=None, gains=None
     return SimConfig(model=model, legs=legs, integrator=integrator, timestep=timestep, backend="numpy", **kwargs)
 
 
-def run_steps(config: SimConfig, targets, state, n_env_steps: int):
-    """States after each env step, shape (n_env_steps + 1, 13), and the CPU time it took."""
+def run_steps(config: SimConfig, targets, state, n_env_steps: int, first: SimConfig | None = None):
+    """States after each env step, shape (n_env_steps + 1, 13), and the CPU time it took
+    (``first``, if given, integrates the first env step instead of ``config``)."""
     out = np.empty((n_env_steps + 1, dynamics.STATE_SIZE))
     out[0] = state
     start = time.process_time()
     for i in range(n_env_steps):
-        out[i + 1] = advance(config, out[i], i * ENV_STEP, ENV_STEP, targets, check=False)
+        out[i + 1] = advance(first if i == 0 and first is not None else config, out[i], i * ENV_STEP, ENV_STEP, targets,
+                             check=False)  # fmt: skip
     return out, time.process_time() - start
 
 
