@@ -39,7 +39,7 @@ import numpy as np
 
 import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
 from rrrobot_gym.control import RampTargets, motor_torque, pd_torque
-from rrrobot_gym.simulation import SimConfig, advance, simulate_reference
+from rrrobot_gym.simulation import SimConfig, _substeps, advance, simulate_reference
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, write_json
 
@@ -91,6 +91,21 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
+def error_fields(err, headings) -> dict:
+    """The JSON's summary of contact errors or deviations ``err`` (n + 1, N), m."""
+    return {
+        "contact_max_m": float(err.max()),
+        "contact_end_m": float(err[-1].max()),
+        "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(headings, err.max(axis=0))},
+    }
+
+
+def described(row) -> str:
+    """A row's errors as printed: the worst, then each heading's (mm)."""
+    per_heading = ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items())
+    return f"max contact error {row['contact_max_m'] * 1e3:.3g} mm ({per_heading})"
+
+
 def sensitivity(config: SimConfig, start, starts, ends, dt: float, ref, headings):
     """The reference's contact deviation (n + 1, N) when each start's first leg angle is
     PERTURBATION_RAD larger, and its summary for the JSON."""
@@ -130,7 +145,7 @@ def replay_refined(config: SimConfig, start, starts, ends, dt: float, refine: in
     """Contact points (n + 1, N, 2) of the episodes replayed substep by substep, each with
     ``advance`` (one call a substep, a robot at a time), a substep across which a motor changes
     branch (:func:`motor_branches`) taken again in ``refine`` substeps; and how many were."""
-    n_sub, h = round(dt / config.step), dt / round(dt / config.step)
+    n_sub, h = _substeps(dt, config.step)  # advance's own substeps
     fine = replace(config, timestep=h / refine)
     out = np.empty((starts.shape[1] + 1, start.shape[0], 2))
     refined = 0
@@ -218,20 +233,13 @@ def main(argv=None):
             "step_s": step,
             "start_halves": halves,
             "evals_per_env_step": 4 * (round(dt / step) + halves),
-            "contact_max_m": float(err.max()),
-            "contact_end_m": float(err[-1].max()),
-            "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
+            **error_fields(err, args.headings),
         }
         if config == sim and not args.no_motor_limit:
             row["reproduces_env"] = bool(np.array_equal(path, env_states[:, :, :2].transpose(1, 0, 2)))
         rows.append(row)
         extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
-        print(
-            f"rk4 {label} ({row['evals_per_env_step']} evaluations an env step): max contact error "
-            f"{row['contact_max_m'] * 1e3:.3g} mm (" + ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items())
-            + f"){extra}",
-            flush=True,
-        )
+        print(f"rk4 {label} ({row['evals_per_env_step']} evaluations an env step): {described(row)}{extra}", flush=True)
     if args.refine_switches:
         for label, step, _ in settings()[: len(STEPS_S)]:
             config = replace(sim, timestep=step)
@@ -244,16 +252,10 @@ def main(argv=None):
                     "step_s": step,
                     "refine": refine,
                     "substeps_refined": refined,
-                    "contact_max_m": float(err.max()),
-                    "contact_end_m": float(err[-1].max()),
-                    "per_heading_max_m": {f"{h:g}": float(e) for h, e in zip(args.headings, err.max(axis=0))},
+                    **error_fields(err, args.headings),
                 }
                 refined_rows.append(row)
-                print(
-                    f"{row['integrator']} {label} ({refined} substeps refined): max contact error "
-                    f"{row['contact_max_m'] * 1e3:.3g} mm (" + ", ".join(f"{h} deg {v * 1e3:.3g}" for h, v in row["per_heading_max_m"].items()) + ")",
-                    flush=True,
-                )
+                print(f"{row['integrator']} {label} ({refined} substeps refined): {described(row)}", flush=True)
     print("distance travelled (reference, start to end): " + ", ".join(f"{h:g} deg {length:.2f} m" for h, length in zip(args.headings, lengths)))
     print(
         markdown_table(
