@@ -145,3 +145,48 @@ def test_a_graded_start_is_refused_where_it_means_nothing():
             SimConfig(start_halves=bad)
     with pytest.raises(ValueError, match="start_halves applies to servo legs"):
         SimConfig(legs="kinematic", start_halves=1)
+
+
+class _Semilinear:
+    """x' = -20 x + y + sin(x y) / 2 + cos 3t, y' = -2 y + x^2 + 0.3 sin t (u = (x, y, t)), its
+    Jacobian, and an inexact linear part: a toy for the exponential probes' orders."""
+
+    inexact = np.array([[-20.0, 1.5, 0.0], [0.7, -1.7, 0.0], [0.0, 0.0, 0.0]])
+
+    def __call__(self, u):
+        x, y, t = u
+        return np.array([-20 * x + y + 0.5 * np.sin(x * y) + np.cos(3 * t), -2 * y + x * x + 0.3 * np.sin(t), 1.0])
+
+    @staticmethod
+    def exact(u, fu):
+        x, y, t = u
+        c = 0.5 * np.cos(x * y)
+        return np.array([[-20 + c * y, 1 + c * x, -3 * np.sin(3 * t)], [2 * x, -2.0, 0.3 * np.cos(t)], [0.0, 0.0, 0.0]])
+
+
+def _observed_order(method, jacobian, steps=(40, 80)):
+    """log2 of the error ratio at t = 1 between the two step counts (DOP853 at rtol 1e-13 as truth)."""
+    from scipy.integrate import solve_ivp
+
+    toy, start = _Semilinear(), np.array([0.2, 1.0, 0.0])
+    truth = solve_ivp(lambda t, u: toy(u), (0.0, 1.0), start, method="DOP853", rtol=1e-13, atol=1e-14).y[:2, -1]
+    errors = []
+    for n in steps:
+        u = start.copy()
+        for _ in range(n):
+            u = method(toy, u, 1.0 / n, jacobian)
+        errors.append(np.abs(u[:2] - truth).max())
+    return np.log2(errors[0] / errors[1])
+
+
+def test_the_exponential_probes_orders_and_what_their_linear_part_must_be():
+    """benchmarks.exp_rosenbrock's methods at their orders: the exponential Runge-Kutta steps are
+    fourth order with any fixed linear part (so the free servo Jacobian serves), exprb43 only with
+    the exact Jacobian, and second order without it: why the probe's exprb43 lost with the servo's."""
+    from benchmarks.exp_rosenbrock import METHODS
+
+    toy = _Semilinear()
+    for name in ("etdrk4b", "ho5"):
+        assert _observed_order(METHODS[name], lambda u, fu: toy.inexact) > 3.8, name
+    assert _observed_order(METHODS["exprb43"], toy.exact) > 3.8
+    assert _observed_order(METHODS["exprb43"], lambda u, fu: toy.inexact) < 2.5
