@@ -190,3 +190,26 @@ def test_the_exponential_probes_orders_and_what_their_linear_part_must_be():
         assert _observed_order(METHODS[name], lambda u, fu: toy.inexact) > 3.8, name
     assert _observed_order(METHODS["exprb43"], toy.exact) > 3.8
     assert _observed_order(METHODS["exprb43"], lambda u, fu: toy.inexact) < 2.5
+
+
+def test_the_servo_linear_parts_phi_functions_come_from_its_5x5_block():
+    """What a compiled exponential step would use (README, the exponential probe): the free servo
+    Jacobian has non-zero columns only at the leg angles, leg rates and time, so phi_j(hA) is
+    I/j! + h A[:, S] phi_{j+1}(h A[S, S]); checked against scipy's expm of the whole matrix."""
+    import math
+
+    from benchmarks.exp_rosenbrock import Problem, phi_functions
+
+    problem = Problem(SimConfig(), table2_gait(2))
+    u = np.append(simulation.initial_state(), 0.3)
+    u[6], u[7], u[11], u[12] = 0.2, -0.4, 2.0, -1.0  # legs off vertical and moving
+    jac = problem.servo_jacobian(u, problem(u))
+    columns = [6, 7, 11, 12, 13]
+    assert np.array_equal(np.flatnonzero(np.abs(jac).sum(axis=0)), columns)
+    h = 1.0 / 80.0
+    whole = phi_functions(h * jac, 3)
+    block = phi_functions(h * jac[np.ix_(columns, columns)], 4)
+    for j in range(4):
+        reduced = np.eye(jac.shape[0]) / math.factorial(j)
+        reduced[:, columns] += h * jac[:, columns] @ block[j + 1]
+        np.testing.assert_allclose(reduced, whole[j], rtol=0, atol=1e-13 * np.abs(whole[j]).max())
