@@ -275,10 +275,10 @@ def policy_episode(job):
         with np.errstate(all="ignore"):
             u = env_step(problem, u, setting, dt)
         evaluations = problem.evaluations
-        out.append(u[:2].copy() if np.all(np.isfinite(u)) else np.full(2, np.inf))
-        if not np.all(np.isfinite(u)):
+        if not np.all(np.isfinite(u)):  # inf from here on
             out += [np.full(2, np.inf)] * (len(starts) + 1 - len(out))
             break
+        out.append(u[:2].copy())
     return np.array(out), evaluations
 
 
@@ -287,24 +287,21 @@ def policy_rows(workers: int):
     envs' own stepping), then each of POLICY_SETTINGS; the worst contact error over the path."""
     from agents.ppo import load_ppo_agent
 
-    from .policy_replay import MODEL, error_fields, replay, rollout
+    from .policy_replay import MODEL, error_fields, replay, rollouts
 
-    agent = load_ppo_agent(MODEL)
-    episodes = [rollout(agent, heading, round(POLICY_S / ENV_STEP)) for heading in POLICY_HEADINGS]
-    sim, dt = episodes[0][4], episodes[0][3]
-    start = np.array([e[0][0] for e in episodes])
-    starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
+    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), POLICY_HEADINGS, round(POLICY_S / ENV_STEP))
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     path, _ = replay(sim, start, starts, ends, dt)
     rows = [{"method": "rk4", "setting": f"1/{1 / sim.step:.0f} s (the default)",
              "evals_per_env_step": 4 * round(dt / sim.step), **error_fields(contact_error(path, ref), POLICY_HEADINGS)}]  # fmt: skip
-    for setting in POLICY_SETTINGS:
-        jobs = [(setting, sim, start[j], starts[j], ends[j], dt) for j in range(len(POLICY_HEADINGS))]
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            results = list(pool.map(policy_episode, jobs))
-        path = np.stack([p for p, _ in results], axis=1)  # (n + 1, N, 2)
+    jobs = [(setting, sim, start[j], starts[j], ends[j], dt) for setting in POLICY_SETTINGS for j in range(len(start))]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        results = list(pool.map(policy_episode, jobs))
+    for i, setting in enumerate(POLICY_SETTINGS):
+        episodes = results[i * len(start) : (i + 1) * len(start)]
+        path = np.stack([p for p, _ in episodes], axis=1)  # (n + 1, N, 2)
         rows.append({"method": setting.method, "jacobian": setting.jacobian, "setting": setting.step_label(),
-                     "weights": setting.weights, "evals_per_env_step": results[0][1],
+                     "weights": setting.weights, "evals_per_env_step": episodes[0][1],
                      **error_fields(contact_error(path, ref), POLICY_HEADINGS)})  # fmt: skip
     for r in rows:
         print(f"policy, {POLICY_S:g} s: {r['method']} {r['setting']} ({r['evals_per_env_step']} evaluations an env step): "

@@ -91,6 +91,14 @@ def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     return np.array(states), np.array(starts), np.array(ends), dt, env_core.config.sim
 
 
+def rollouts(agent, headings, n_steps: int):
+    """The episodes of :func:`rollout` along each heading, as batches: (env states (N, n + 1, 13),
+    starts' states (N, 13), ramp starts (N, n, 2), ramp ends (N, n, 2), control step, simulator config)."""
+    episodes = [rollout(agent, heading, n_steps) for heading in headings]
+    env_states, starts, ends = (np.array([e[k] for e in episodes]) for k in range(3))
+    return env_states, env_states[:, 0].copy(), starts, ends, episodes[0][3], episodes[0][4]
+
+
 def error_fields(err, headings) -> dict:
     """The JSON's summary of contact errors or deviations ``err`` (n + 1, N), m."""
     return {
@@ -200,17 +208,11 @@ def main(argv=None):
 
     agent = load_ppo_agent(args.model)
     duration = 10.0 if args.quick else 50.0
-    episodes = []
-    for heading in args.headings:
-        states, starts, ends, dt, sim = rollout(agent, heading, round(duration / 0.05))
-        episodes.append((states, starts, ends))
+    env_states, start, starts, ends, dt, sim = rollouts(agent, args.headings, round(duration / 0.05))
     if args.no_motor_limit:
         sim = replace(sim, torque_limit=None, leg_rate_limit=None)
     if args.refine_switches and sim.torque_limit is None:
         raise SystemExit(f"--refine-switches: this policy's env has no motor limits ({sim!r})")
-    start = np.array([e[0][0] for e in episodes])
-    starts, ends = np.array([e[1] for e in episodes]), np.array([e[2] for e in episodes])
-    env_states = np.array([e[0] for e in episodes])  # (N, n + 1, 13)
     print(f"{len(args.headings)} episodes of {duration:g} s, control step {dt:g} s, {sim!r}", flush=True)
 
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
