@@ -276,7 +276,7 @@ def short_episode(steps=20, **kwargs):
     return np.array([(i["x_position"], i["y_position"]) for i in rows]), rows
 
 
-@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"integrator": "rk3"}])
+@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"integrator": "rk3"}, {"integrator": "etdrk4b"}])
 def test_simulator_keywords_run_an_episode_that_differs_from_the_default(kwargs):
     default, _ = short_episode()
     other, _ = short_episode(**kwargs)

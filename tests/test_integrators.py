@@ -213,3 +213,157 @@ def test_the_servo_linear_parts_phi_functions_come_from_its_5x5_block():
         reduced = np.eye(jac.shape[0]) / math.factorial(j)
         reduced[:, columns] += h * jac[:, columns] @ block[j + 1]
         np.testing.assert_allclose(reduced, whole[j], rtol=0, atol=1e-13 * np.abs(whole[j]).max())
+
+
+# ---------------------------------------------------------------------------
+# The shipped exponential step, integrator="etdrk4b"
+
+
+def _phi_high_precision(z, count):
+    """[phi_0(z), ..., phi_count(z)] of a 4x4 float matrix, by mpmath's expm of a block matrix at 40
+    digits (scipy's expm of the same block loses up to 1e-10 on the stiffest servos)."""
+    import mpmath
+
+    mpmath.mp.dps = 40
+    n = z.shape[0]
+    big = mpmath.zeros((count + 1) * n)
+    for i in range(n):
+        for j in range(n):
+            big[i, j] = mpmath.mpf(float(z[i, j]))
+    for k in range(count):
+        for i in range(n):
+            big[k * n + i, (k + 1) * n + i] = 1
+    top = mpmath.expm(big)
+    return [np.array([[float(top[i, k * n + j]) for j in range(n)] for i in range(n)]) for k in range(count + 1)]
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        ("default plane servo at 1/80 s", np.array([[12.0, 3.0], [3.0, 7.0]]), 2.0, 0.05, 1 / 80),
+        ("stiff servo at 1/300 s", np.array([[20.0, -6.0], [-6.0, 4.0]]), 200.0, 5.0, 1 / 300),
+        ("critically damped, G a multiple of I", np.array([[9.0, 0.0], [0.0, 9.0]]), 4.0, 4.0 / 3.0, 1 / 80),
+        ("undamped", np.array([[5.0, 1.0], [1.0, 2.0]]), 2.0, 0.0, 1 / 40),
+        ("short step, soft servo", np.array([[0.5, 0.1], [0.1, 0.3]]), 0.1, 1e-3, 1e-4),
+    ],
+    ids=lambda case: case[0],
+)
+def test_the_exponential_steps_phi_functions_match_a_40_digit_matrix_exponential(case):
+    """The closed form (Taylor's series at h L / 2^s, then doublings) of phi_0 .. phi_4 of the legs'
+    servo block L = [[0, I], [-kp G, -kd G]] and of h L / 2, against mpmath: over- and underdamped
+    modes, a double pole (where formulas through eigenvalues divide by zero), no damping."""
+    _, mobility, kp, kd, h = case
+    block = np.zeros((4, 4))
+    block[0:2, 2:4] = np.eye(2)
+    block[2:4, 0:2], block[2:4, 2:4] = -kp * mobility, -kd * mobility
+    radius = h * (kd + np.sqrt(kp / np.linalg.eigvalsh(mobility).max())) * np.linalg.eigvalsh(mobility).max()
+    levels = max(1, int(np.ceil(np.log2(max(2.0 * radius, 1.0)))))
+    trace, det = np.trace(mobility), np.linalg.det(mobility)
+    half, whole = simulation._servo_phi(trace, det, kp, kd, h, levels, simulation._ServoExponential.TERMS)
+    per_leg = np.kron(np.eye(2), mobility)
+    for scale, elements in ((0.5 * h, half), (h, whole)):
+        exact = _phi_high_precision(scale * block, 4)
+        for k, ((a0, a1), (b0, b1)) in enumerate(elements):
+            ours = a0 * np.eye(4) + a1 * per_leg + (b0 * np.eye(4) + b1 * per_leg) @ block
+            np.testing.assert_allclose(ours, exact[k], rtol=0, atol=1e-13 * np.abs(exact[k]).max(), err_msg=f"phi_{k}")
+
+
+def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypatch):
+    """With A = 0 ETDRK4-B's weights reduce to RK4's: the same states to rounding. With the servo's
+    A (which includes the legs' phi' = phidot) it is another method, differing far beyond rounding."""
+
+    class Zero(simulation._ServoExponential):
+        def set(self, *mobility):
+            super().set(*mobility)
+            self.elements = dict.fromkeys(self.elements, ((0.0, 0.0), (0.0, 0.0)))
+
+        def apply(self, *w):
+            return (0.0, 0.0), (0.0, 0.0), (0.0, 0.0, 0.0)
+
+    states = simulation.initial_state(3)
+    states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
+    states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
+    rk4 = simulation.advance(SimConfig(backend="numpy", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
+    exponential = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
+    assert np.abs(exponential - rk4).max() > 1e-9
+    monkeypatch.setattr(simulation, "_ServoExponential", Zero)
+    exponential = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
+    np.testing.assert_allclose(exponential, rk4, rtol=0, atol=1e-12)
+
+
+def test_the_exponential_step_is_fourth_order_on_a_gait():
+    """From a state mid-gait (the reference's at 5 s, past the start's transient), 1 s of Gait 3 at
+    1/40, 1/80 and 1/160 s: the contact error falls by ~16 each halving (order 4), though h |lambda|
+    of the servo's fast pole is 6 to 1.5, where RK4 is unstable at the first two steps."""
+    config = SimConfig(model="plane")
+    start = simulate_reference(config, table2_gait(3), 5.0, sample_dt=0.05).states[-1]
+
+    class FromFiveSeconds:
+        def leg_targets(self, t):
+            return table2_gait(3).leg_targets(t + 5.0)
+
+    exact = simulate_reference(config, FromFiveSeconds(), 1.0, state=start, sample_dt=1.0).states[-1]
+    errors = []
+    for n in (40, 80, 160):
+        end = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1.0 / n), start, 0.0, 1.0, FromFiveSeconds())
+        errors.append(np.hypot(*(end[:2] - exact[:2])))
+    assert 1.0 / 80 > simulation.stable_step_limit("plane", config.robot, config.gains)
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > 3.5), (errors, orders)
+
+
+def _gait_run(model: str, gait: int, config: SimConfig, first: SimConfig, duration: float, env_step=0.05):
+    """Contact points every env step, the first env step taken in ``first``'s steps."""
+    state, points = simulation.initial_state(), [simulation.initial_state()[:2]]
+    for i in range(round(duration / env_step)):
+        state = simulation.advance(first if i == 0 else config, state, i * env_step, env_step, table2_gait(gait))
+        points.append(state[:2])
+    return np.array(points)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_the_exponential_step_holds_every_gait_within_a_millimetre_at_16_evaluations(model):
+    """Issue 10's aim on the six gait cases: 4 steps of 1/80 s (16 evaluations) an env step, after a
+    first env step of 12 steps (48 evaluations, once: the legs start from rest onto moving targets),
+    within 1 mm of the rtol 1e-10 reference for 50 s. Without the finer first step plane Gait 2 errs
+    ~3 mm, so that step is part of the recipe, not decoration."""
+    config = SimConfig(model=model, integrator="etdrk4b", timestep=1 / 80)
+    first = SimConfig(model=model, integrator="etdrk4b", timestep=1 / 240)
+    worst = {}
+    for gait in (1, 2, 3):
+        ref = simulate_reference(SimConfig(model=model), table2_gait(gait), 50.0, sample_dt=0.05).states[:, :2]
+        worst[gait] = np.hypot(*(_gait_run(model, gait, config, first, 50.0) - ref).T).max()
+        assert worst[gait] < 1e-3, (gait, worst[gait])
+    if model == "plane":
+        coarse = _gait_run(model, 2, config, config, 50.0)
+        ref = simulate_reference(SimConfig(model=model), table2_gait(2), 50.0, sample_dt=0.05).states[:, :2]
+        assert np.hypot(*(coarse - ref).T).max() > 2e-3
+
+
+def test_the_exponential_step_follows_a_stiff_servo_at_a_step_rk4_cannot_take():
+    """The servo's linear part is integrated exactly, so a servo 100x stiffer than the default runs at
+    1/1000 s, over 7x RK4's stability limit, within 0.1 mm of the reference over 1 s."""
+    step = 1.0 / 1000.0
+    assert step > 7 * stable_step_limit("pivot", SimConfig().robot, STIFF, "rk4")
+    ours = simulate(SimConfig(model="pivot", gains=STIFF, integrator="etdrk4b", timestep=step), table2_gait(1), 1.0)
+    reference = simulate_reference(SimConfig(model="pivot", gains=STIFF, timestep="auto"), table2_gait(1), 1.0)
+    error = np.hypot(*(ours.states[:, 0:2] - reference.states[:, 0:2]).T).max()
+    travel = np.hypot(*(reference.states[-1, 0:2] - reference.states[0, 0:2]))
+    assert error < 1e-4 and travel > 20 * error
+
+
+def test_the_exponential_step_one_robot_and_a_batch_agree_and_refuse_what_they_cannot_do():
+    config = SimConfig(integrator="etdrk4b", timestep=1.0 / 80.0)
+    states = np.tile(simulation.initial_state(), (24, 1))  # over ROW_BY_ROW_MAX: the array path
+    states[:, 6] += np.linspace(0.0, 1.0, 24)
+    states[:, 11:13] = (2.0, -3.0)
+    batch, batch_record = simulation.advance(config, states, 0.0, 0.05, table2_gait(2), record=True)
+    for i in (0, 11, 23):
+        one, one_record = simulation.advance(config, states[i], 0.0, 0.05, table2_gait(2), record=True)
+        np.testing.assert_allclose(batch[i], one, rtol=1e-12, atol=1e-13)
+        np.testing.assert_allclose(batch_record.torque[:, i], one_record.torque, rtol=1e-11, atol=1e-12)
+    with pytest.raises(ValueError, match="'etdrk4b' treats the leg servo exactly; kinematic legs"):
+        SimConfig(legs="kinematic", integrator="etdrk4b")
+    with pytest.raises(ValueError, match="give integrator 'etdrk4b' a fixed step"):
+        SimConfig(integrator="etdrk4b", timestep="auto")

@@ -22,8 +22,8 @@ def _states(n, seed=0):
 @pytest.mark.parametrize(
     "config",
     [SimConfig(), SimConfig(backend="numpy"), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),
-     SimConfig(legs="kinematic", timestep="auto")],
-    ids=["servo-rk4", "servo-rk4-numpy-processes", "pivot-rosw", "kinematic-auto"],
+     SimConfig(legs="kinematic", timestep="auto"), SimConfig(integrator="etdrk4b", timestep=1 / 80)],
+    ids=["servo-rk4", "servo-rk4-numpy-processes", "pivot-rosw", "kinematic-auto", "etdrk4b"],
 )  # fmt: skip
 @pytest.mark.parametrize("workers", [2, 3])
 def test_workers_give_bit_identical_states_and_records(config, workers):
@@ -72,8 +72,8 @@ def test_make_vec_with_workers_steps_exactly_as_with_one():
 @pytest.mark.parametrize(
     "config",
     [SimConfig(torque_limit=0.3, leg_rate_limit=8.0), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),
-     SimConfig(legs="kinematic", timestep="auto"), SimConfig(integrator="rk3")],
-    ids=["servo-limited", "pivot-rosw", "kinematic-auto", "rk3"],
+     SimConfig(legs="kinematic", timestep="auto"), SimConfig(integrator="rk3"), SimConfig(integrator="etdrk4b", timestep=1 / 80)],
+    ids=["servo-limited", "pivot-rosw", "kinematic-auto", "rk3", "etdrk4b"],
 )  # fmt: skip
 def test_a_small_batch_run_robot_by_robot_matches_the_array_path_and_one_robot(config, monkeypatch):
     """Batches up to ROW_BY_ROW_MAX robots run robot by robot on floats: the same motion and
