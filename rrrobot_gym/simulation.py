@@ -753,31 +753,52 @@ def _l_product(x, y, tg, dg, xkp, xkd):
     return (ac[0] - xkp * gbd[0], ac[1] - xkp * gbd[1]), (ad[0] + bc[0] - xkd * gbd[0], ad[1] + bc[1] - xkd * gbd[1])
 
 
+def _x_times(element, tg, dg, xkp, xkd):
+    """(A + B X) X = -xkp G B + (A - xkd G B) X."""
+    (a0, a1), (b0, b1) = element
+    g0, g1 = -dg * b1, b0 + tg * b1
+    return (-xkp * g0, -xkp * g1), (a0 - xkd * g0, a1 - xkd * g1)
+
+
+def _phis_from_phi4(phi4, tg, dg, xkp, xkd):
+    """[phi_0, ..., phi_4] from phi_4 by phi_k = X phi_{k+1} + 1/k!: exact, and accurate where
+    ||X|| is small (the error of phi_0 grows like ||X||^3)."""
+    phis = [phi4]
+    for k in (3, 2, 1, 0):
+        (a0, a1), b = _x_times(phis[0], tg, dg, xkp, xkd)
+        phis.insert(0, ((a0 + 1.0 / _FACTORIALS[k], a1), b))
+    return phis
+
+
 _FACTORIALS = tuple(float(math.factorial(n)) for n in range(24))
+_RECURRENCE_RADIUS = 8.0
+"""A doubling whose result's argument has spectral radius up to this (by the bound) doubles
+phi_4 alone and takes the lower phi-functions by recurrence; a stiffer one doubles all five."""
 
 
-def _servo_phi(tg, dg, kp, kd, h, levels, terms):
+def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
     """phi_0 .. phi_4 of h L / 2 and of h L, each as (A, B) with the function = A + B L.
 
-    Taylor's series at X = h L / 2^levels (whose norm the caller keeps near 1/2 or less), then
-    ``levels`` doublings, phi_k(2X) = (e^X phi_k(X) + sum_{j=1..k} phi_j(X) / (k - j)!) / 2^k
-    (Skaflestad and Wright's modified squaring, which keeps the phi-functions of stiff arguments
-    accurate where the recurrence phi_{k+1} = (phi_k - 1/k!) / X would cancel)."""
+    phi_4 by Taylor's series (Horner) at X = h L / 2^levels, whose norm the caller keeps near 1/2
+    or less, and the lower ones by recurrence; then ``levels`` doublings,
+    phi_k(2X) = (e^X phi_k(X) + sum_{j=1..k} phi_j(X) / (k - j)!) / 2^k (Skaflestad and Wright's
+    modified squaring, accurate for stiff arguments, where phi_{k+1} = (phi_k - 1/k!) / X would
+    cancel). ``radius`` bounds the spectral radius of h L: a doubling to an argument within
+    _RECURRENCE_RADIUS doubles phi_4 only (one product instead of five)."""
     xkd, xkp = kd * h / 2.0**levels, kp * (h / 2.0**levels) ** 2  # X^2 = -xkd G X - xkp G
     zero = 0.0 * tg
-    p0, p1, q0, q1 = 1.0 + zero, zero, zero, zero  # X^m = (p0 + p1 G) + (q0 + q1 G) X, from m = 0
-    sums = [[zero, zero, zero, zero] for _ in range(5)]
-    for m in range(terms):
-        for k, acc in enumerate(sums):
-            w = 1.0 / _FACTORIALS[m + k]
-            acc[0], acc[1], acc[2], acc[3] = acc[0] + w * p0, acc[1] + w * p1, acc[2] + w * q0, acc[3] + w * q1
-        gq0, gq1 = -dg * q1, q0 + tg * q1  # G Q; X^{m+1} = -xkp G Q + (P - xkd G Q) X
-        p0, p1, q0, q1 = -xkp * gq0, -xkp * gq1, p0 - xkd * gq0, p1 - xkd * gq1
-    phis = [((a0, a1), (b0, b1)) for a0, a1, b0, b1 in sums]
-    half = phis if levels == 1 else None
+    phi4 = ((1.0 / _FACTORIALS[terms + 3] + zero, zero), (zero, zero))
+    for m in range(terms - 2, -1, -1):
+        (a0, a1), b = _x_times(phi4, tg, dg, xkp, xkd)
+        phi4 = ((a0 + 1.0 / _FACTORIALS[m + 4], a1), b)
+    phis = _phis_from_phi4(phi4, tg, dg, xkp, xkd)
+    half = phis
     for level in range(levels):
+        if level == levels - 1:
+            half = phis
+        cheap = radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS
         doubled = []
-        for k in range(5):
+        for k in (4,) if cheap else range(5):
             (a0, a1), (b0, b1) = _l_product(phis[0], phis[k], tg, dg, xkp, xkd)
             for j in range(1, k + 1):
                 w = 1.0 / _FACTORIALS[k - j]
@@ -785,10 +806,8 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms):
                 a0, a1, b0, b1 = a0 + w * c0, a1 + w * c1, b0 + w * d0, b1 + w * d1
             w = 1.0 / 2.0**k
             doubled.append(((w * a0, w * a1), (0.5 * w * b0, 0.5 * w * b1)))  # B of X is B / 2 of 2X
-        phis = doubled
         xkd, xkp = 2.0 * xkd, 4.0 * xkp
-        if level == levels - 2:
-            half = phis
+        phis = _phis_from_phi4(doubled[0], tg, dg, xkp, xkd) if cheap else doubled
 
     def per_leg_block(elements, scale):
         return [((a0, a1), (b0 * scale, b1 * scale)) for (a0, a1), (b0, b1) in elements]
@@ -799,17 +818,17 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms):
 class _ServoExponential:
     """What the exponential step needs of the servo's linear part A (``_ServoJacobian``'s, frozen
     at the step's start): A w and phi_j(cA) v, with the phi-functions of the legs' 4x4 block in
-    closed form (:func:`_servo_phi`). The number of doublings is fixed by the scene (the legs'
-    largest mobility over all configurations), not by the state, so no robot's result depends
-    on the batch it is in."""
+    closed form (:func:`_servo_phi`). The number of doublings is fixed by the scene (the servo's
+    fastest pole over all configurations), not by the state, so no robot's result depends on
+    the batch it is in."""
 
     TERMS = 13  # of Taylor's series at ||X|| <= 1/2: a remainder below 1e-15
 
     def __init__(self, config: SimConfig, h: float):
         self.jacobian = _ServoJacobian(config.gains, h)
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h
-        mu = _effective_leg_inverse_inertia(config.model, config.robot)
-        radius = h * (self.kd * mu + math.sqrt(self.kp * mu))  # >= |h lambda| of every servo pole
+        radius = h * servo_fastest_rate(config.model, config.robot, config.gains)  # >= |h lambda|, every pole
+        self.radius = radius
         self.levels = max(1, math.ceil(math.log2(max(2.0 * radius, 1.0))))
 
     def set(self, g11, g12, g22, *body):
@@ -817,7 +836,7 @@ class _ServoExponential:
         self.jacobian.set(g11, g12, g22, *body)
         self.g = (g11, g12, g22)
         tg, dg = g11 + g22, g11 * g22 - g12 * g12
-        half, whole = _servo_phi(tg, dg, self.kp, self.kd, self.h, self.levels, self.TERMS)
+        half, whole = _servo_phi(tg, dg, self.kp, self.kd, self.h, self.levels, self.TERMS, self.radius)
         p3, p4 = whole[3], whole[4]
         self.elements = {
             "phi2/2": half[2],
@@ -830,9 +849,10 @@ class _ServoExponential:
             "b4": tuple(tuple(4.0 * b - a for a, b in zip(x, y)) for x, y in zip(p3, p4)),
         }
 
-    def apply(self, w1, w2, w3, w4):
-        """A w for w = (leg angles, leg rates): ((6, 7), (11, 12), (8, 9, 10)) rows."""
-        return self.jacobian.apply(w1, w2, w3, w4)
+    def apply(self, w1, w2, w3, w4, scale=1.0):
+        """scale A w for w = (leg angles, leg rates), as 13 rows (zeros where A has none)."""
+        (x1, x2), (r1, r2), (o1, o2, o3) = self.jacobian.apply(w1, w2, w3, w4)
+        return [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, scale * x1, scale * x2, scale * o1, scale * o2, scale * o3, scale * r1, scale * r2]
 
     def _leg_function(self, element, w):
         """(A + B L) w on the legs' four rows."""
@@ -844,14 +864,10 @@ class _ServoExponential:
             out += [c0 * z1 + c1 * (g11 * z1 + g12 * z2), c0 * z2 + c1 * (g12 * z1 + g22 * z2)]
         return out[0] + out[4], out[1] + out[5], out[2] + out[6], out[3] + out[7]
 
-    def times(self, weight, c, element, v):
-        """weight v + c A[:, S] f(cL) v_S for 13 rows v (floats or arrays), f = ``element``:
-        phi_j(cA) v is weight 1/j! with phi_{j+1}(cL)."""
-        (x1, x2), (r1, r2), (o1, o2, o3) = self.apply(*self._leg_function(self.elements[element], (v[6], v[7], v[11], v[12])))
-        out = [weight * a for a in v]
-        for r, a in zip(_ServoJacobian._ROWS, (x1, x2, r1, r2, o1, o2, o3)):
-            out[r] = out[r] + c * a
-        return out
+    def correction(self, c, element, w):
+        """c A[:, S] f(cL) w as 13 rows, f = ``element``, w = the four leg rows of a vector v:
+        phi_j(cA) v = v / j! + this with phi_{j+1}(cL)."""
+        return self.apply(*self._leg_function(self.elements[element], w), scale=c)
 
 
 def _normalize_quat_rows(y):
@@ -870,29 +886,34 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     u + = B + h ((2 phi_2 - 4 phi_3)(D(U2) + D(U3)) + (4 phi_3 - phi_2) D(U4)), phi_j of hA unless
     said. It integrates u' = A u + (f(u) - A u) with the second part explicit, so its order (4)
     needs that part smooth, not A exact. Classical RK4 when A = 0. Four evaluations a step."""
-    half_h = 0.5 * h
+    half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     mobility = [0.0] * 9
     for _ in range(n_steps):
         fu = list(first(t, y, mobility))
         servo.set(*mobility)
 
         def change(point, time):
-            derivative = list(f(time, point))
-            (x1, x2), (r1, r2), (o1, o2, o3) = servo.apply(*(point[r] - y[r] for r in (6, 7, 11, 12)))
-            for r, a in zip(_ServoJacobian._ROWS, (x1, x2, r1, r2, o1, o2, o3)):
-                derivative[r] = derivative[r] - a
-            return [d - b for d, b in zip(derivative, fu)]
+            """D = f(U) - f(u) - A (U - u)."""
+            linear = servo.apply(point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12])
+            return [d - a - b for d, a, b in zip(f(time, point), linear, fu)]
 
-        u2 = [a + half_h * b for a, b in zip(y, servo.times(1.0, half_h, "phi2/2", fu))]
+        def legs(v):
+            return v[6], v[7], v[11], v[12]
+
+        k = servo.correction(half_h, "phi2/2", legs(fu))
+        u2 = [a + half_h * (b + c) for a, b, c in zip(y, fu, k)]
         d2 = change(u2, t + half_h)
-        u3 = [a + h * b for a, b in zip(u2, servo.times(0.5, half_h, "phi3/2", d2))]
+        k = servo.correction(half_h, "phi3/2", legs(d2))
+        u3 = [a + h * (0.5 * b + c) for a, b, c in zip(u2, d2, k)]
         d3 = change(u3, t + half_h)
-        base = [a + h * b for a, b in zip(y, servo.times(1.0, h, "phi2", fu))]
-        u4 = [a + 2.0 * h * b for a, b in zip(base, servo.times(0.5, h, "phi3", d3))]
+        k = servo.correction(h, "phi2", legs(fu))
+        base = [a + h * (b + c) for a, b, c in zip(y, fu, k)]
+        k = servo.correction(h, "phi3", legs(d3))
+        u4 = [a + 2.0 * h * (0.5 * b + c) for a, b, c in zip(base, d3, k)]
         d4 = change(u4, t + h)
-        g23 = servo.times(1.0 / 3.0, h, "b23", [a + b for a, b in zip(d2, d3)])
-        g4 = servo.times(1.0 / 6.0, h, "b4", d4)
-        y = [a + h * (b + c) for a, b, c in zip(base, g23, g4)]
+        k23 = servo.correction(h, "b23", tuple(a + b for a, b in zip(legs(d2), legs(d3))))
+        k4 = servo.correction(h, "b4", legs(d4))
+        y = [a + h * (third * (p + q) + sixth * r + c + e) for a, p, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
         _normalize_quat_rows(y)
         t += h
     return y

@@ -242,6 +242,8 @@ def _phi_high_precision(z, count):
     [
         ("default plane servo at 1/80 s", np.array([[12.0, 3.0], [3.0, 7.0]]), 2.0, 0.05, 1 / 80),
         ("stiff servo at 1/300 s", np.array([[20.0, -6.0], [-6.0, 4.0]]), 200.0, 5.0, 1 / 300),
+        ("stiff servo at 1/20 s, both kinds of doubling", np.array([[20.0, -6.0], [-6.0, 4.0]]), 200.0, 5.0, 1 / 20),
+        ("very stiff servo, h |lambda| ~ 500", np.array([[900.0, 100.0], [100.0, 300.0]]), 50.0, 2.0, 1 / 4),
         ("critically damped, G a multiple of I", np.array([[9.0, 0.0], [0.0, 9.0]]), 4.0, 4.0 / 3.0, 1 / 80),
         ("undamped", np.array([[5.0, 1.0], [1.0, 2.0]]), 2.0, 0.0, 1 / 40),
         ("short step, soft servo", np.array([[0.5, 0.1], [0.1, 0.3]]), 0.1, 1e-3, 1e-4),
@@ -249,17 +251,19 @@ def _phi_high_precision(z, count):
     ids=lambda case: case[0],
 )
 def test_the_exponential_steps_phi_functions_match_a_40_digit_matrix_exponential(case):
-    """The closed form (Taylor's series at h L / 2^s, then doublings) of phi_0 .. phi_4 of the legs'
-    servo block L = [[0, I], [-kp G, -kd G]] and of h L / 2, against mpmath: over- and underdamped
-    modes, a double pole (where formulas through eigenvalues divide by zero), no damping."""
+    """The closed form (Taylor's series at h L / 2^s, then doublings, of phi_4 alone with the others
+    by recurrence while the argument is mild, of all five where it is stiff) of phi_0 .. phi_4 of
+    the legs' servo block L = [[0, I], [-kp G, -kd G]] and of h L / 2, against mpmath: over- and
+    underdamped modes, a double pole (where formulas through eigenvalues divide by zero), no
+    damping, and arguments up to h |lambda| ~ 500."""
     _, mobility, kp, kd, h = case
     block = np.zeros((4, 4))
     block[0:2, 2:4] = np.eye(2)
     block[2:4, 0:2], block[2:4, 2:4] = -kp * mobility, -kd * mobility
-    radius = h * (kd + np.sqrt(kp / np.linalg.eigvalsh(mobility).max())) * np.linalg.eigvalsh(mobility).max()
+    radius = h * np.abs(np.linalg.eigvals(block)).max()
     levels = max(1, int(np.ceil(np.log2(max(2.0 * radius, 1.0)))))
     trace, det = np.trace(mobility), np.linalg.det(mobility)
-    half, whole = simulation._servo_phi(trace, det, kp, kd, h, levels, simulation._ServoExponential.TERMS)
+    half, whole = simulation._servo_phi(trace, det, kp, kd, h, levels, simulation._ServoExponential.TERMS, radius)
     per_leg = np.kron(np.eye(2), mobility)
     for scale, elements in ((0.5 * h, half), (h, whole)):
         exact = _phi_high_precision(scale * block, 4)
@@ -277,8 +281,8 @@ def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypat
             super().set(*mobility)
             self.elements = dict.fromkeys(self.elements, ((0.0, 0.0), (0.0, 0.0)))
 
-        def apply(self, *w):
-            return (0.0, 0.0), (0.0, 0.0), (0.0, 0.0, 0.0)
+        def apply(self, *w, scale=1.0):
+            return [0.0] * 13
 
     states = simulation.initial_state(3)
     states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
