@@ -816,23 +816,27 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
 
 
 class _ServoExponential:
-    """What the exponential step needs of the servo's linear part A (``_ServoJacobian``'s, frozen
-    at the step's start): A w and phi_j(cA) v, with the phi-functions of the legs' 4x4 block in
-    closed form (:func:`_servo_phi`). The number of doublings is fixed by the scene (the servo's
-    fastest pole over all configurations), not by the state, so no robot's result depends on
-    the batch it is in."""
+    """What the exponential step needs of the servo's linear part A, frozen at the step's start:
+    ``_ServoJacobian``'s columns (leg angles and rates) and the time column, the servo torque's
+    change with time through the targets (kp phi_target' + kd phi_target'', pushed through G and
+    P), so that a servo following a ramp is linear in (state, t) and integrated exactly. A w,
+    phi_j(cA) v with the phi-functions of the legs' 4x4 block in closed form (:func:`_servo_phi`),
+    and the time column's part of phi_1(cA) f(u). The number of doublings is fixed by the scene
+    (the servo's fastest pole over all configurations), not by the state, so no robot's result
+    depends on the batch it is in."""
 
     TERMS = 13  # of Taylor's series at ||X|| <= 1/2: a remainder below 1e-15
 
-    def __init__(self, config: SimConfig, h: float):
+    def __init__(self, config: SimConfig, h: float, targets):
         self.jacobian = _ServoJacobian(config.gains, h)
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h
+        self.leg_targets = targets.leg_targets
         radius = h * servo_fastest_rate(config.model, config.robot, config.gains)  # >= |h lambda|, every pole
         self.radius = radius
         self.levels = max(1, math.ceil(math.log2(max(2.0 * radius, 1.0))))
 
-    def set(self, g11, g12, g22, *body):
-        """Freeze A at G and P (``mobility_out``) and make the phi-functions of h L / 2 and h L."""
+    def set(self, t, g11, g12, g22, *body):
+        """Freeze A at time t, G and P (``mobility_out``) and make the phi-functions of h L / 2 and h L."""
         self.jacobian.set(g11, g12, g22, *body)
         self.g = (g11, g12, g22)
         tg, dg = g11 + g22, g11 * g22 - g12 * g12
@@ -848,6 +852,19 @@ class _ServoExponential:
             "b23": tuple(tuple(2.0 * a - 4.0 * b for a, b in zip(x, y)) for x, y in zip(p3, p4)),
             "b4": tuple(tuple(4.0 * b - a for a, b in zip(x, y)) for x, y in zip(p3, p4)),
         }
+        # The time column: d tau / dt = kp phi_target' + kd phi_target'', the map of -(phi, phidot)
+        _, (r1, r2), (a1, a2) = self.leg_targets(t)
+        column = self.apply(r1, r2, a1, a2, scale=-1.0)
+        column[6] = column[7] = 0.0  # (apply's leg-angle rows are its leg-rate input: not a torque's)
+        self.time_column = column
+        # With A~ = [[L, beta], [0, 0]] on (legs, t), phi_1(cA~) (f_S, 1) = (phi_1(cL) f_S + c phi_2(cL) beta, 1),
+        # so phi_1(cA) f(u) gains c A[:, S] c phi_3(cL) beta + c A_t / 2 beyond correction(): one 13-row
+        # vector for c = h / 2 and one for h.
+        beta = (0.0 * g11, 0.0 * g11, column[11], column[12])
+        self.forcing = {}
+        for c, element in ((0.5 * self.h, "phi3/2"), (self.h, "phi3")):
+            legs = self.apply(*self._leg_function(self.elements[element], beta), scale=c * c)
+            self.forcing[element] = [a + 0.5 * c * b for a, b in zip(legs, column)]
 
     def apply(self, w1, w2, w3, w4, scale=1.0):
         """scale A w for w = (leg angles, leg rates), as 13 rows (zeros where A has none)."""
@@ -890,24 +907,26 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     mobility = [0.0] * 9
     for _ in range(n_steps):
         fu = list(first(t, y, mobility))
-        servo.set(*mobility)
+        servo.set(t, *mobility)
+        column = servo.time_column
 
         def change(point, time):
-            """D = f(U) - f(u) - A (U - u)."""
+            """D = f(U) - f(u) - A (U - u), the time column included."""
             linear = servo.apply(point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12])
-            return [d - a - b for d, a, b in zip(f(time, point), linear, fu)]
+            dt = time - t
+            return [d - (a + dt * e) - b for d, a, e, b in zip(f(time, point), linear, column, fu)]
 
         def legs(v):
             return v[6], v[7], v[11], v[12]
 
         k = servo.correction(half_h, "phi2/2", legs(fu))
-        u2 = [a + half_h * (b + c) for a, b, c in zip(y, fu, k)]
+        u2 = [a + half_h * (b + c + e) for a, b, c, e in zip(y, fu, k, servo.forcing["phi3/2"])]
         d2 = change(u2, t + half_h)
         k = servo.correction(half_h, "phi3/2", legs(d2))
         u3 = [a + h * (0.5 * b + c) for a, b, c in zip(u2, d2, k)]
         d3 = change(u3, t + half_h)
         k = servo.correction(h, "phi2", legs(fu))
-        base = [a + h * (b + c) for a, b, c in zip(y, fu, k)]
+        base = [a + h * (b + c + e) for a, b, c, e in zip(y, fu, k, servo.forcing["phi3"])]
         k = servo.correction(h, "phi3", legs(d3))
         u4 = [a + 2.0 * h * (0.5 * b + c) for a, b, c in zip(base, d3, k)]
         d4 = change(u4, t + h)
@@ -1305,7 +1324,7 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
     stepper = step_floats if isinstance(y, list) else step_arrays
     if config.integrator in ("rosw", "etdrk4b"):
         start = recorder if recorder is not None else (lambda t, c, mobility: first(t, c, mobility)[0])
-        servo = _ServoJacobian(config.gains, h) if config.integrator == "rosw" else _ServoExponential(config, h)
+        servo = _ServoJacobian(config.gains, h) if config.integrator == "rosw" else _ServoExponential(config, h, targets)
         return stepper(f, t0, y, h, n_steps, start, servo), recorder
     return stepper(f, t0, y, h, n_steps, recorder), recorder
 

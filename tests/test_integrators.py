@@ -277,9 +277,11 @@ def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypat
     A (which includes the legs' phi' = phidot) it is another method, differing far beyond rounding."""
 
     class Zero(simulation._ServoExponential):
-        def set(self, *mobility):
-            super().set(*mobility)
+        def set(self, t, *mobility):
+            super().set(t, *mobility)
             self.elements = dict.fromkeys(self.elements, ((0.0, 0.0), (0.0, 0.0)))
+            self.forcing = dict.fromkeys(self.forcing, [0.0] * 13)
+            self.time_column = [0.0] * 13
 
         def apply(self, *w, scale=1.0):
             return [0.0] * 13
@@ -297,8 +299,8 @@ def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypat
 
 def test_the_exponential_step_is_fourth_order_on_a_gait():
     """From a state mid-gait (the reference's at 5 s, past the start's transient), 1 s of Gait 3 at
-    1/40, 1/80 and 1/160 s: the contact error falls by ~16 each halving (order 4), though h |lambda|
-    of the servo's fast pole is 6 to 1.5, where RK4 is unstable at the first two steps."""
+    1/80, 1/160 and 1/320 s: the contact error falls by ~16 each halving (order 4; 12 and 14 here),
+    though h |lambda| of the servo's fast pole is 4.8 at 1/80 s, where RK4 is unstable."""
     config = SimConfig(model="plane")
     start = simulate_reference(config, table2_gait(3), 5.0, sample_dt=0.05).states[-1]
 
@@ -308,7 +310,7 @@ def test_the_exponential_step_is_fourth_order_on_a_gait():
 
     exact = simulate_reference(config, FromFiveSeconds(), 1.0, state=start, sample_dt=1.0).states[-1]
     errors = []
-    for n in (40, 80, 160):
+    for n in (80, 160, 320):
         end = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1.0 / n), start, 0.0, 1.0, FromFiveSeconds())
         errors.append(np.hypot(*(end[:2] - exact[:2])))
     assert 1.0 / 80 > simulation.stable_step_limit("plane", config.robot, config.gains)
@@ -371,3 +373,25 @@ def test_the_exponential_step_one_robot_and_a_batch_agree_and_refuse_what_they_c
         SimConfig(legs="kinematic", integrator="etdrk4b")
     with pytest.raises(ValueError, match="give integrator 'etdrk4b' a fixed step"):
         SimConfig(integrator="etdrk4b", timestep="auto")
+
+
+@pytest.mark.parametrize("targets", [table2_gait(2), "ramp"], ids=["gait", "ramp"])
+def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets):
+    """One step of the shipped ETDRK4-B (phi-functions in closed form on the legs' block, A applied
+    row by row) against benchmarks.exp_rosenbrock's (A as a 14x14 matrix with its time column,
+    phi-functions by scipy's expm of block matrices): an implementation sharing only the equations
+    of motion. From a state far off the targets, so the servo works hard within the step."""
+    from benchmarks import exp_rosenbrock as probe
+    from rrrobot_gym.control import RampTargets
+
+    if targets == "ramp":
+        targets = RampTargets((1.0, 2.0), (1.5, 1.2), 0.0, 0.05)
+    start = simulation.initial_state()
+    start[6:13] = (0.3, 2.0, 0.2, -0.1, 0.3, 2.0, -3.0)
+    for t0, h in ((0.01, 1 / 80), (0.02, 1 / 300)):
+        ours = simulation.advance(SimConfig(integrator="etdrk4b", timestep=h), start, t0, h, targets)
+        problem = probe.Problem(SimConfig(), targets)
+        theirs = probe.etdrk4b(problem, np.append(start, t0), h, problem.servo_jacobian)[:-1]
+        theirs[2:6] /= np.linalg.norm(theirs[2:6])
+        assert np.abs(ours - start).max() > 1.0  # the legs' rates change by more than 1 rad/s
+        np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
