@@ -1,0 +1,221 @@
+"""The exponential step (``integrator="etdrk4b"``) against RK4: error, evaluations, CPU time, energy.
+
+    python -m benchmarks.exponential_step [--quick] [--json FILE] [--markdown FILE] [--policy] [--workers W]
+
+Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.advance`:
+
+- gaits: the six Table II cases (both models, gaits 1-3, 50 s from the paper's start; --quick:
+  10 s), in env steps of 0.05 s, against ``simulate_reference`` (DOP853, rtol = atol = 1e-10):
+  RK4 at the default 1/300 s, and ETDRK4-B at 1/60, 1/80 and 1/100 s, each with its first env
+  step in three times as many steps (the legs start from rest onto moving targets, the one stiff
+  transient of a gait) and at 1/80 s without. Worst contact error over the path, and CPU time of
+  one robot's run (numpy backend for both, so the methods and not the backends are compared;
+  the compiled RK4's time is given beside them);
+- batches: one env step (0.05 s of leg-target ramps) of N = 64 and 4096 robots, median wall time
+  of REPEATS, ETDRK4-B at 1/80 s against RK4 at 1/300 s on numpy and compiled, side by side;
+- energy: a servo without damping (kd = 0) holding fixed targets on a robot without damping,
+  started off its targets, tilted and spinning. Nothing drains or feeds energy, so the body's
+  energy plus the servo's spring energy kp/2 |phi - target|^2 is conserved; its largest relative
+  drift over the run, per method and step (the servo works all along, unlike
+  ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B is RK4);
+- ``--policy``: the shipped policy's leg-target ramps along four headings (50 s; --quick:
+  10 s), replayed control step by control step (``benchmarks.policy_replay``): every new ramp
+  kicks the servo, the path where the exponential step's order is not reached.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+
+import numpy as np
+
+from rrrobot_gym import compiled, dynamics
+from rrrobot_gym.control import HeldTargets, RampTargets, table2_gait
+from rrrobot_gym.params import PDGains, RobotParams
+from rrrobot_gym.simulation import SimConfig, advance, initial_state
+
+from ._common import contact_error, fmt, machine, markdown_table, median_time, parser, reference, write_json
+
+ENV_STEP = 0.05
+CASES = [(model, gait) for model in ("plane", "pivot") for gait in (1, 2, 3)]
+FIRST_FACTOR = 3
+"""The first env step is taken in FIRST_FACTOR times the method's steps (where marked)."""
+GAIT_SETTINGS = [("rk4", 15, False), ("etdrk4b", 3, True), ("etdrk4b", 4, True), ("etdrk4b", 5, True), ("etdrk4b", 4, False)]
+"""(integrator, steps an env step, fine first env step)."""
+BATCHES = (64, 4096)
+REPEATS = 5
+ENERGY_SETTINGS = [("rk4", 15), ("rk4", 30), ("etdrk4b", 4), ("etdrk4b", 15)]
+POLICY_SETTINGS = [("rk4", 15), ("etdrk4b", 4), ("etdrk4b", 8), ("etdrk4b", 15)]
+
+
+def _config(model: str, integrator: str, n: int, **kwargs) -> SimConfig:
+    return SimConfig(model=model, integrator=integrator, timestep=ENV_STEP / n, backend="numpy", **kwargs)
+
+
+def gait_case(job):
+    """(worst contact error over the path (m), CPU s) of one gait case in one setting."""
+    (integrator, n, fine_first), (model, gait), duration = job
+    config = _config(model, integrator, n)
+    first = _config(model, integrator, FIRST_FACTOR * n) if fine_first else config
+    targets = table2_gait(gait)
+    states = np.empty((round(duration / ENV_STEP) + 1, dynamics.STATE_SIZE))
+    states[0] = initial_state()
+    start = time.process_time()
+    for i in range(len(states) - 1):
+        states[i + 1] = advance(first if i == 0 else config, states[i], i * ENV_STEP, ENV_STEP, targets, check=False)
+    cpu = time.process_time() - start
+    return float(contact_error(states, reference(SimConfig(model=model), targets, duration, ENV_STEP)).max()), cpu
+
+
+def compiled_rk4_cpu(duration: float) -> float | None:
+    """CPU s of one robot's run of Gait 1 on the plane with the compiled RK4 (None without numba)."""
+    if not compiled.available():
+        return None
+    config, targets, state = SimConfig(backend="numba"), table2_gait(1), initial_state()
+    advance(config, state, 0.0, ENV_STEP, targets)  # compile or load outside the clock
+    start = time.process_time()
+    for i in range(round(duration / ENV_STEP)):
+        state = advance(config, state, i * ENV_STEP, ENV_STEP, targets, check=False)
+    return time.process_time() - start
+
+
+def gait_rows(duration: float, workers: int):
+    for model, gait in CASES:  # fill the reference cache before the workers read it
+        reference(SimConfig(model=model), table2_gait(gait), duration, ENV_STEP)
+    jobs = [(setting, case, duration) for setting in GAIT_SETTINGS for case in CASES]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        results = list(pool.map(gait_case, jobs))
+    rows = []
+    for i, (integrator, n, fine_first) in enumerate(GAIT_SETTINGS):
+        per_case = results[i * len(CASES) : (i + 1) * len(CASES)]
+        rows.append({
+            "integrator": integrator, "step_s": ENV_STEP / n, "evals_per_env_step": 4 * n,
+            "first_env_step_evals": 4 * n * (FIRST_FACTOR if fine_first else 1),
+            "contact_max_m": max(e for e, _ in per_case),
+            "per_case_max_m": {f"{m}_gait{g}": e for (m, g), (e, _) in zip(CASES, per_case)},
+            "cpu_s_per_run": sum(c for _, c in per_case) / len(per_case),
+        })  # fmt: skip
+        r = rows[-1]
+        print(f"gaits: {integrator} 1/{n / ENV_STEP:.0f} s{' (fine first env step)' if fine_first else ''}: worst "
+              f"{r['contact_max_m'] * 1e3:.3g} mm, {r['cpu_s_per_run']:.2f} CPU s a run", flush=True)  # fmt: skip
+    return rows
+
+
+def batch_rows():
+    """Median wall time of one env step of N robots per stepper, and its ratio to RK4 on numpy."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for n in BATCHES:
+        state = initial_state(n)
+        ramp = RampTargets(state[:, 6:8], state[:, 6:8] + rng.uniform(-0.5, 0.5, (n, 2)), 0.0, ENV_STEP)
+        configs = {"rk4 1/300 s, numpy": SimConfig(backend="numpy"), "etdrk4b 1/80 s, numpy": _config("plane", "etdrk4b", 4)}
+        if compiled.available():
+            configs["rk4 1/300 s, compiled"] = SimConfig(backend="numba")
+        times = {}
+        for label, config in configs.items():
+            advance(config, state, 0.0, ENV_STEP, ramp)  # warm: compile, caches, allocator
+            times[label] = median_time(lambda: advance(config, state, 0.0, ENV_STEP, ramp, check=False), REPEATS)
+        base = times["rk4 1/300 s, numpy"]
+        for label, seconds in times.items():
+            rows.append({"num_robots": n, "stepper": label, "median_s": seconds, "env_steps_per_s": n / seconds,
+                         "speed_vs_rk4_numpy": base / seconds})  # fmt: skip
+            print(f"batch N = {n}: {label}: {n / seconds:,.0f} env steps/s ({base / seconds:.2f}x RK4 numpy)", flush=True)
+    return rows
+
+
+def spring_energy(config: SimConfig, state, targets) -> np.ndarray:
+    """The conserved energy of an undamped servo on an undamped robot: body and legs plus kp/2 |phi - target|^2."""
+    spring = 0.5 * config.gains.kp * np.sum((state[..., 6:8] - np.asarray(targets)) ** 2, axis=-1)
+    return dynamics.total_energy(state, config.robot, config.model) + spring
+
+
+def energy_rows(duration: float):
+    rows = []
+    targets = (0.5 * math.pi, 0.5 * math.pi)
+    start = initial_state(leg_angles=(1.2, 2.0))
+    tilt = 0.3
+    start[dynamics.QUAT] = (math.cos(tilt / 2), math.sin(tilt / 2) * 0.8, math.sin(tilt / 2) * 0.6, 0.0)
+    start[dynamics.BODY_RATE] = (0.3, -0.2, 1.0)
+    for model in ("plane", "pivot"):
+        for integrator, n in ENERGY_SETTINGS:
+            config = _config(model, integrator, n, robot=RobotParams(damping=0.0), gains=PDGains(kp=2.0, kd=0.0))
+            state, energy0, drift = start.copy(), float(spring_energy(config, start, targets)), 0.0
+            for i in range(round(duration / ENV_STEP)):
+                state = advance(config, state, i * ENV_STEP, ENV_STEP, HeldTargets(targets), check=False)
+                drift = max(drift, abs(float(spring_energy(config, state, targets)) - energy0) / abs(energy0))
+            rows.append({"model": model, "integrator": integrator, "step_s": ENV_STEP / n, "evals_per_env_step": 4 * n,
+                         "energy_drift": drift})  # fmt: skip
+            print(f"energy ({model}): {integrator} 1/{n / ENV_STEP:.0f} s: max relative drift {drift:.2g}", flush=True)
+    return rows
+
+
+def policy_rows(duration: float):
+    from agents.ppo import load_ppo_agent
+
+    from .policy_replay import MODEL, error_fields, replay, rollouts
+
+    headings = (0.0, 90.0, 180.0, 270.0)
+    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), headings, round(duration / ENV_STEP))
+    ref, _ = replay(sim, start, starts, ends, dt, reference=True)
+    rows = []
+    for integrator, n in POLICY_SETTINGS:
+        config = replace(sim, integrator=integrator, timestep=dt / n, backend="numpy")
+        with np.errstate(all="ignore"):
+            path, _ = replay(config, start, starts, ends, dt)
+        rows.append({"integrator": integrator, "step_s": dt / n, "evals_per_env_step": 4 * n,
+                     **error_fields(contact_error(path, ref), headings)})  # fmt: skip
+        print(f"policy, {duration:g} s: {integrator} 1/{n / dt:.0f} s: worst {rows[-1]['contact_max_m'] * 1e3:.3g} mm", flush=True)
+    return rows
+
+
+def main(argv=None):
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
+    p.add_argument("--workers", type=int, default=2, help="processes for the gait cases (errors do not depend on it)")
+    p.add_argument("--policy", action="store_true", help="also the shipped policy's replay (needs the train extra)")
+    args = p.parse_args(argv)
+    duration = 10.0 if args.quick else 50.0
+    payload = {"machine": machine(), "duration_s": duration}
+    payload["gaits"] = gaits = gait_rows(duration, args.workers)
+    payload["compiled_rk4_cpu_s_per_run"] = compiled_cpu = compiled_rk4_cpu(duration)
+    payload["batches"] = batches = batch_rows()
+    payload["energy"] = energy = energy_rows(duration)
+    base = gaits[0]["cpu_s_per_run"]
+    command = f"python -m benchmarks.exponential_step{' --quick' if args.quick else ''}{' --policy' if args.policy else ''}"
+    text = f"`{command}`, {duration:g} s\n\nSix gait cases, one robot, numpy backend:\n\n" + markdown_table(
+        ["integrator", "step", "first env step (evaluations)", "evaluations / env step", "worst max contact error (mm)",
+         "CPU s / run", "CPU vs RK4"] + [f"{m} gait {g}" for m, g in CASES],
+        [[r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["first_env_step_evals"], r["evals_per_env_step"],
+          fmt(r["contact_max_m"] * 1e3), fmt(r["cpu_s_per_run"]), f"{r['cpu_s_per_run'] / base:.2f}x"]
+         + [fmt(v * 1e3) for v in r["per_case_max_m"].values()] for r in gaits],
+    )  # fmt: skip
+    if compiled_cpu is not None:
+        text += f"\n\nThe compiled RK4 at 1/300 s: {compiled_cpu:.3g} CPU s for plane Gait 1's run.\n"
+    text += "\nOne env step of a batch (median of %d, wall time):\n\n" % REPEATS + markdown_table(
+        ["N", "stepper", "env steps / s", "vs RK4 numpy"],
+        [[r["num_robots"], r["stepper"], f"{r['env_steps_per_s']:,.0f}", f"{r['speed_vs_rk4_numpy']:.2f}x"] for r in batches],
+    )  # fmt: skip
+    text += "\n\nEnergy book with the servo working (kd = 0, no damping), max relative drift:\n\n" + markdown_table(
+        ["model", "integrator", "step", "evaluations / env step", "energy drift"],
+        [[r["model"], r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["energy_drift"], 2)]
+         for r in energy],
+    )  # fmt: skip
+    if args.policy:
+        payload["policy"] = policy = policy_rows(duration)
+        text += f"\n\nThe shipped policy's ramps, {duration:g} s, four headings:\n\n" + markdown_table(
+            ["integrator", "step", "evaluations / env step", "worst max contact error (mm)"],
+            [[r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
+             for r in policy],
+        )  # fmt: skip
+    print(text)
+    if args.markdown:
+        with open(args.markdown, "w") as fh:
+            fh.write(text + "\n")
+    write_json(args.json, payload)
+
+
+if __name__ == "__main__":
+    main()
