@@ -792,8 +792,7 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
         (a0, a1), b = _x_times(phi4, tg, dg, xkp, xkd)
         phi4 = ((a0 + 1.0 / _FACTORIALS[m + 4], a1), b)
     phis = _phis_from_phi4(phi4, tg, dg, xkp, xkd)
-    half = phis
-    for level in range(levels):
+    for level in range(levels):  # (levels >= 1: the last doubling starts from h L / 2)
         if level == levels - 1:
             half = phis
         cheap = radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS
@@ -1322,7 +1321,7 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
     recorder = _Recorder(first, config, n_steps, None if isinstance(y, list) else y.shape[1]) if record else None
     step_floats, step_arrays = _STEPPERS[config.integrator]
     stepper = step_floats if isinstance(y, list) else step_arrays
-    if config.integrator in ("rosw", "etdrk4b"):
+    if config.integrator in SERVO_INTEGRATORS:
         start = recorder if recorder is not None else (lambda t, c, mobility: first(t, c, mobility)[0])
         servo = _ServoJacobian(config.gains, h) if config.integrator == "rosw" else _ServoExponential(config, h, targets)
         return stepper(f, t0, y, h, n_steps, start, servo), recorder

@@ -395,3 +395,26 @@ def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets)
         theirs[2:6] /= np.linalg.norm(theirs[2:6])
         assert np.abs(ours - start).max() > 1.0  # the legs' rates change by more than 1 rad/s
         np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
+def test_the_exponential_step_is_stable_under_bang_bang_targets_at_1_80_s(gains):
+    """Leg targets slammed between 0 and pi every control step (24 robots, the batch path), at 1/80 s:
+    beyond RK4's stability limit for both servos (~50x for the stiff one), ETDRK4-B stays finite and,
+    once the targets are held for 1 s, the servo has brought every leg to its target but for the
+    offset its load needs (gravity and the body's rocking, some 0.065 N m: an offset ~0.065 / kp rad,
+    as RK4 at its own stable step finds too), and the legs have nearly stopped."""
+    from rrrobot_gym.control import HeldTargets
+
+    rng = np.random.default_rng(5)
+    config = SimConfig(model="plane", integrator="etdrk4b", timestep=1 / 80, gains=gains)
+    assert 1 / 80 > 1.5 * stable_step_limit("plane", config.robot, gains, "rk4")
+    state = simulation.initial_state(24)
+    for i in range(6):
+        slam = np.where(rng.random((24, 2)) < 0.5, 0.0, np.pi)
+        state = simulation.advance(config, state, 0.05 * i, 0.05, HeldTargets(slam))
+    assert np.abs(state[:, 11:13]).max() > 1.0  # the legs are still moving fast
+    for i in range(6, 26):  # 1 s holding the last targets
+        state = simulation.advance(config, state, 0.05 * i, 0.05, HeldTargets(slam))
+    np.testing.assert_allclose(state[:, 6:8], slam, atol=0.1 / gains.kp)
+    assert np.abs(state[:, 11:13]).max() < 0.5
