@@ -26,7 +26,7 @@ import numpy as np
 from . import analysis, dynamics, plotting
 from .control import GAIT_OFFSETS, table2_gait
 from .params import MODELS, PDGains, RobotParams
-from .simulation import BACKENDS, DEFAULT_TIMESTEP, NumericalFailure, SimConfig, simulate
+from .simulation import BACKENDS, DEFAULT_TIMESTEP, INTEGRATORS, NumericalFailure, SimConfig, simulate
 
 PROG = "rrrobot"
 PAPER_DURATION = 50.0
@@ -243,7 +243,14 @@ def _add_run_options(parser):
         "--timestep",
         type=_timestep,
         default=DEFAULT_TIMESTEP,
-        help="s, RK4 step, or 'auto': derived from the gains, masses and model (default: 1/300)",
+        help="s, the integration step, or 'auto': derived from the gains, masses and model (default: 1/300)",
+    )
+    parser.add_argument(
+        "--integrator",
+        choices=INTEGRATORS,
+        default="rk4",
+        help="rk4; rk3; rosw or etdrk4b, which treat the leg servo implicitly or exactly and so take steps "
+        "beyond RK4's stability limit (README) (default: %(default)s)",
     )
     parser.add_argument(
         "--backend",
@@ -258,7 +265,8 @@ def sim_config(args, model: str) -> SimConfig:
     try:
         robot = RobotParams(**{**dict(args.param), "damping": args.damping})
         gains = PDGains(kp=args.kp, kd=args.kd)
-        return SimConfig(model=model, robot=robot, gains=gains, timestep=args.timestep, backend=args.backend)
+        return SimConfig(model=model, robot=robot, gains=gains, timestep=args.timestep, integrator=args.integrator,
+                         backend=args.backend)  # fmt: skip
     except (TypeError, ValueError, ImportError) as exc:
         raise UsageError(str(exc)) from None
 
