@@ -8,7 +8,9 @@ Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   10 s), in env steps of 0.05 s, against ``simulate_reference`` (DOP853, rtol = atol = 1e-10):
   RK4 at the default 1/300 s, and ETDRK4-B at 1/60, 1/80 and 1/100 s, each with its first env
   step in three times as many steps (the legs start from rest onto moving targets, the one stiff
-  transient of a gait) and at 1/80 s without. Worst contact error over the path, and CPU time of
+  transient of a gait) and at 1/80 s without, and at 1/220 s with ``start_halves=4`` (the first
+  four steps of every env step in halves: 60 evaluations, the default's cost, graded as the
+  policy's rows below want). Worst contact error over the path, and CPU time of
   one robot's run (numpy backend for both, so the methods and not the backends are compared;
   the compiled RK4's time is given beside them);
 - batches: one env step (0.05 s of leg-target ramps) of N = 64 and 4096 robots, median wall time
@@ -20,7 +22,8 @@ Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B is RK4);
 - ``--policy``: the shipped policy's leg-target ramps along four headings (50 s; --quick:
   10 s), replayed control step by control step (``benchmarks.policy_replay``): every new ramp
-  kicks the servo, the path where the exponential step's order is not reached.
+  kicks the servo, the path where the exponential step's order is not reached at 16 evaluations.
+  Uniform and graded (``start_halves``) steps of both methods.
 """
 
 from __future__ import annotations
@@ -43,22 +46,34 @@ ENV_STEP = 0.05
 CASES = [(model, gait) for model in ("plane", "pivot") for gait in (1, 2, 3)]
 FIRST_FACTOR = 3
 """The first env step is taken in FIRST_FACTOR times the method's steps (where marked)."""
-GAIT_SETTINGS = [("rk4", 15, False), ("etdrk4b", 3, True), ("etdrk4b", 4, True), ("etdrk4b", 5, True), ("etdrk4b", 4, False)]
-"""(integrator, steps an env step, fine first env step)."""
+GAIT_SETTINGS = [("rk4", 15, False, 0), ("etdrk4b", 3, True, 0), ("etdrk4b", 4, True, 0), ("etdrk4b", 5, True, 0),
+                 ("etdrk4b", 4, False, 0), ("etdrk4b", 11, False, 4)]  # fmt: skip
+"""(integrator, steps an env step, fine first env step, ``start_halves``: the first steps of every
+env step in halves, which costs 4 evaluations more each)."""
 BATCHES = (64, 4096)
 REPEATS = 5
 ENERGY_SETTINGS = [("rk4", 15), ("rk4", 30), ("etdrk4b", 4), ("etdrk4b", 15)]
-POLICY_SETTINGS = [("rk4", 15), ("etdrk4b", 4), ("etdrk4b", 8), ("etdrk4b", 15)]
+POLICY_SETTINGS = [("rk4", 15, 0), ("rk4", 15, 2), ("etdrk4b", 4, 0), ("etdrk4b", 3, 1), ("etdrk4b", 8, 0), ("etdrk4b", 8, 2),
+                   ("etdrk4b", 15, 0), ("etdrk4b", 11, 4)]  # fmt: skip
+"""(integrator, steps a control step, ``start_halves``)."""
 
 
 def _config(model: str, integrator: str, n: int, **kwargs) -> SimConfig:
     return SimConfig(model=model, integrator=integrator, timestep=ENV_STEP / n, backend="numpy", **kwargs)
 
 
+def _label(integrator: str, n: int, halves: int, step: float = ENV_STEP) -> str:
+    return f"{integrator} 1/{n / step:.0f} s" + (f", start_halves={halves}" if halves else "")
+
+
+def _step_text(row) -> str:
+    return f"1/{1 / row['step_s']:.0f} s" + (f", start_halves={row['start_halves']}" if row.get("start_halves") else "")
+
+
 def gait_case(job):
     """(worst contact error over the path (m), CPU s) of one gait case in one setting."""
-    (integrator, n, fine_first), (model, gait), duration = job
-    config = _config(model, integrator, n)
+    (integrator, n, fine_first, halves), (model, gait), duration = job
+    config = _config(model, integrator, n, start_halves=halves)
     first = _config(model, integrator, FIRST_FACTOR * n) if fine_first else config
     targets = table2_gait(gait)
     states = np.empty((round(duration / ENV_STEP) + 1, dynamics.STATE_SIZE))
@@ -89,17 +104,17 @@ def gait_rows(duration: float, workers: int):
     with ProcessPoolExecutor(max_workers=workers) as pool:
         results = list(pool.map(gait_case, jobs))
     rows = []
-    for i, (integrator, n, fine_first) in enumerate(GAIT_SETTINGS):
+    for i, (integrator, n, fine_first, halves) in enumerate(GAIT_SETTINGS):
         per_case = results[i * len(CASES) : (i + 1) * len(CASES)]
         rows.append({
-            "integrator": integrator, "step_s": ENV_STEP / n, "evals_per_env_step": 4 * n,
-            "first_env_step_evals": 4 * n * (FIRST_FACTOR if fine_first else 1),
+            "integrator": integrator, "step_s": ENV_STEP / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
+            "first_env_step_evals": 4 * n * FIRST_FACTOR if fine_first else 4 * (n + halves),
             "contact_max_m": max(e for e, _ in per_case),
             "per_case_max_m": {f"{m}_gait{g}": e for (m, g), (e, _) in zip(CASES, per_case)},
             "cpu_s_per_run": sum(c for _, c in per_case) / len(per_case),
         })  # fmt: skip
         r = rows[-1]
-        print(f"gaits: {integrator} 1/{n / ENV_STEP:.0f} s{' (fine first env step)' if fine_first else ''}: worst "
+        print(f"gaits: {_label(integrator, n, halves)}{' (fine first env step)' if fine_first else ''}: worst "
               f"{r['contact_max_m'] * 1e3:.3g} mm, {r['cpu_s_per_run']:.2f} CPU s a run", flush=True)  # fmt: skip
     return rows
 
@@ -161,13 +176,14 @@ def policy_rows(duration: float):
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), headings, round(duration / ENV_STEP))
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     rows = []
-    for integrator, n in POLICY_SETTINGS:
-        config = replace(sim, integrator=integrator, timestep=dt / n, backend="numpy")
+    for integrator, n, halves in POLICY_SETTINGS:
+        config = replace(sim, integrator=integrator, timestep=dt / n, start_halves=halves, backend="numpy")
         with np.errstate(all="ignore"):
             path, _ = replay(config, start, starts, ends, dt)
-        rows.append({"integrator": integrator, "step_s": dt / n, "evals_per_env_step": 4 * n,
+        rows.append({"integrator": integrator, "step_s": dt / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
                      **error_fields(contact_error(path, ref), headings)})  # fmt: skip
-        print(f"policy, {duration:g} s: {integrator} 1/{n / dt:.0f} s: worst {rows[-1]['contact_max_m'] * 1e3:.3g} mm", flush=True)
+        print(f"policy, {duration:g} s: {_label(integrator, n, halves, dt)}: worst {rows[-1]['contact_max_m'] * 1e3:.3g} mm",
+              flush=True)  # fmt: skip
     return rows
 
 
@@ -188,7 +204,7 @@ def main(argv=None):
     text = f"`{command}`, {duration:g} s\n\nSix gait cases, one robot, numpy backend:\n\n" + markdown_table(
         ["integrator", "step", "first env step (evaluations)", "evaluations / env step", "worst max contact error (mm)",
          "CPU s / run", "CPU vs RK4"] + [f"{m} gait {g}" for m, g in CASES],
-        [[r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["first_env_step_evals"], r["evals_per_env_step"],
+        [[r["integrator"], _step_text(r), r["first_env_step_evals"], r["evals_per_env_step"],
           fmt(r["contact_max_m"] * 1e3), fmt(r["cpu_s_per_run"]), f"{r['cpu_s_per_run'] / base:.2f}x"]
          + [fmt(v * 1e3) for v in r["per_case_max_m"].values()] for r in gaits],
     )  # fmt: skip
@@ -207,7 +223,7 @@ def main(argv=None):
         payload["policy"] = policy = policy_rows(duration)
         text += f"\n\nThe shipped policy's ramps, {duration:g} s, four headings:\n\n" + markdown_table(
             ["integrator", "step", "evaluations / env step", "worst max contact error (mm)"],
-            [[r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
+            [[r["integrator"], _step_text(r), r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
              for r in policy],
         )  # fmt: skip
     print(text)
