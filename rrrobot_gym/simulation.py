@@ -605,6 +605,19 @@ _ROSW_B = (2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00
 _ROSW_C = tuple(sum(row) for row in _ROSW_A)
 
 
+def _servo_response(g, p, kp, kd, w_phi1, w_phi2, w_v1, w_v2):
+    """A w for the servo's linear part A (:class:`_ServoJacobian`) frozen at the legs' mobility G =
+    (g11, g12, g22) and the body's rows P (six): (leg angle rows, leg rate rows, body rate rows)."""
+    g11, g12, g22 = g
+    u1 = kp * w_phi1 + kd * w_v1
+    u2 = kp * w_phi2 + kd * w_v2
+    return (
+        (w_v1, w_v2),
+        (-(g11 * u1 + g12 * u2), -(g12 * u1 + g22 * u2)),
+        (-(p[0] * u1 + p[3] * u2), -(p[1] * u1 + p[4] * u2), -(p[2] * u1 + p[5] * u2)),
+    )
+
+
 class _ServoJacobian:
     """The stiff part of the dynamics that the Rosenbrock-W steps treat implicitly: the leg servo.
 
@@ -633,15 +646,7 @@ class _ServoJacobian:
 
     def apply(self, w_phi1, w_phi2, w_v1, w_v2):
         """A w: (leg angle rows, leg rate rows, body rate rows)."""
-        g11, g12, g22 = self.g
-        u1 = self.kp * w_phi1 + self.kd * w_v1
-        u2 = self.kp * w_phi2 + self.kd * w_v2
-        p = self.p
-        return (
-            (w_v1, w_v2),
-            (-(g11 * u1 + g12 * u2), -(g12 * u1 + g22 * u2)),
-            (-(p[0] * u1 + p[3] * u2), -(p[1] * u1 + p[4] * u2), -(p[2] * u1 + p[5] * u2)),
-        )
+        return _servo_response(self.g, self.p, self.kp, self.kd, w_phi1, w_phi2, w_v1, w_v2)
 
     def solve(self, r_phi1, r_phi2, r_v1, r_v2, r_o1, r_o2, r_o3):
         """(I - h gamma A)^-1 r on the leg and body rate rows (the other rows of I - h gamma A
@@ -763,11 +768,14 @@ def _x_times(element, tg, dg, xkp, xkd):
 def _phis_from_phi4(phi4, tg, dg, xkp, xkd):
     """[phi_0, ..., phi_4] from phi_4 by phi_k = X phi_{k+1} + 1/k!: exact, and accurate where
     ||X|| is small (the error of phi_0 grows like ||X||^3)."""
-    phis = [phi4]
-    for k in (3, 2, 1, 0):
-        (a0, a1), b = _x_times(phis[0], tg, dg, xkp, xkd)
-        phis.insert(0, ((a0 + 1.0 / _FACTORIALS[k], a1), b))
-    return phis
+    (a0, a1), b = _x_times(phi4, tg, dg, xkp, xkd)
+    phi3 = ((a0 + 1.0 / _FACTORIALS[3], a1), b)
+    (a0, a1), b = _x_times(phi3, tg, dg, xkp, xkd)
+    phi2 = ((a0 + 1.0 / _FACTORIALS[2], a1), b)
+    (a0, a1), b = _x_times(phi2, tg, dg, xkp, xkd)
+    phi1 = ((a0 + 1.0 / _FACTORIALS[1], a1), b)
+    (a0, a1), b = _x_times(phi1, tg, dg, xkp, xkd)
+    return [((a0 + 1.0 / _FACTORIALS[0], a1), b), phi1, phi2, phi3, phi4]
 
 
 _FACTORIALS = tuple(float(math.factorial(n)) for n in range(24))
@@ -776,15 +784,21 @@ _RECURRENCE_RADIUS = 8.0
 phi_4 alone and takes the lower phi-functions by recurrence; a stiffer one doubles all five."""
 
 
-def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
+def _per_leg_block(elements, scale):
+    """Elements A + B X as A + (scale B) L, for X = scale L."""
+    return [((a0, a1), (b0 * scale, b1 * scale)) for (a0, a1), (b0, b1) in elements]
+
+
+def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius):
     """phi_0 .. phi_4 of h L / 2 and of h L, each as (A, B) with the function = A + B L.
 
     phi_4 by Taylor's series (Horner) at X = h L / 2^levels, whose norm the caller keeps near 1/2
-    or less, and the lower ones by recurrence; then ``levels`` doublings,
+    or less, and the lower ones by recurrence; then ``levels`` (>= 1) doublings,
     phi_k(2X) = (e^X phi_k(X) + sum_{j=1..k} phi_j(X) / (k - j)!) / 2^k (Skaflestad and Wright's
     modified squaring, accurate for stiff arguments, where phi_{k+1} = (phi_k - 1/k!) / X would
     cancel). ``radius`` bounds the spectral radius of h L: a doubling to an argument within
-    _RECURRENCE_RADIUS doubles phi_4 only (one product instead of five)."""
+    _RECURRENCE_RADIUS doubles phi_4 only (one product instead of five). Plain arithmetic on
+    tuples, so floats, (N,) arrays and the compiled stepper (:mod:`rrrobot_gym.compiled`) share it."""
     xkd, xkp = kd * h / 2.0**levels, kp * (h / 2.0**levels) ** 2  # X^2 = -xkd G X - xkp G
     zero = 0.0 * tg
     phi4 = ((1.0 / _FACTORIALS[terms + 3] + zero, zero), (zero, zero))
@@ -792,12 +806,13 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
         (a0, a1), b = _x_times(phi4, tg, dg, xkp, xkd)
         phi4 = ((a0 + 1.0 / _FACTORIALS[m + 4], a1), b)
     phis = _phis_from_phi4(phi4, tg, dg, xkp, xkd)
-    for level in range(levels):  # (levels >= 1: the last doubling starts from h L / 2)
-        if level == levels - 1:
+    half = phis
+    for level in range(levels):
+        if level == levels - 1:  # the last doubling starts from h L / 2
             half = phis
         cheap = radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS
         doubled = []
-        for k in (4,) if cheap else range(5):
+        for k in range(4 if cheap else 0, 5):
             (a0, a1), (b0, b1) = _l_product(phis[0], phis[k], tg, dg, xkp, xkd)
             for j in range(1, k + 1):
                 w = 1.0 / _FACTORIALS[k - j]
@@ -807,83 +822,92 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius=math.inf):
             doubled.append(((w * a0, w * a1), (0.5 * w * b0, 0.5 * w * b1)))  # B of X is B / 2 of 2X
         xkd, xkp = 2.0 * xkd, 4.0 * xkp
         phis = _phis_from_phi4(doubled[0], tg, dg, xkp, xkd) if cheap else doubled
+    return _per_leg_block(half, 0.5 * h), _per_leg_block(phis, h)
 
-    def per_leg_block(elements, scale):
-        return [((a0, a1), (b0 * scale, b1 * scale)) for (a0, a1), (b0, b1) in elements]
 
-    return per_leg_block(half, 0.5 * h), per_leg_block(phis, h)
+def _servo_rows(g, p, kp, kd, w1, w2, w3, w4, scale):
+    """scale A w for w = (leg angles, leg rates), as 13 rows (zeros where A has none)."""
+    (x1, x2), (r1, r2), (o1, o2, o3) = _servo_response(g, p, kp, kd, w1, w2, w3, w4)
+    return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, scale * x1, scale * x2, scale * o1, scale * o2, scale * o3, scale * r1, scale * r2)
+
+
+def _g_apply(c0, c1, g, z1, z2):
+    """(c0 + c1 G) z for a leg pair z."""
+    g11, g12, g22 = g
+    return c0 * z1 + c1 * (g11 * z1 + g12 * z2), c0 * z2 + c1 * (g12 * z1 + g22 * z2)
+
+
+def _leg_function(g, p, kp, kd, element, w1, w2, w3, w4):
+    """(A + B L) w on the legs' four rows, for an element (A, B) of :func:`_servo_phi`."""
+    (a0, a1), (b0, b1) = element
+    (l1, l2), (l3, l4), _ = _servo_response(g, p, kp, kd, w1, w2, w3, w4)  # L w: the legs' rows of A w
+    p1, p2 = _g_apply(a0, a1, g, w1, w2)
+    r1, r2 = _g_apply(a0, a1, g, w3, w4)
+    q1, q2 = _g_apply(b0, b1, g, l1, l2)
+    s1, s2 = _g_apply(b0, b1, g, l3, l4)
+    return p1 + q1, p2 + q2, r1 + s1, r2 + s2
+
+
+def _etd_correction(g, p, kp, kd, c, element, w1, w2, w3, w4):
+    """c A[:, S] f(cL) w as 13 rows, f = ``element``, w = the four leg rows of a vector v:
+    phi_j(cA) v = v / j! + this with phi_{j+1}(cL)."""
+    f1, f2, f3, f4 = _leg_function(g, p, kp, kd, element, w1, w2, w3, w4)
+    return _servo_rows(g, p, kp, kd, f1, f2, f3, f4, c)
+
+
+def _combine_rows(x, scale, y):
+    """x + scale y for 13 rows."""
+    return (x[0] + scale * y[0], x[1] + scale * y[1], x[2] + scale * y[2], x[3] + scale * y[3], x[4] + scale * y[4],
+            x[5] + scale * y[5], x[6] + scale * y[6], x[7] + scale * y[7], x[8] + scale * y[8], x[9] + scale * y[9],
+            x[10] + scale * y[10], x[11] + scale * y[11], x[12] + scale * y[12])  # fmt: skip
+
+
+def _etd_setup(mobility, kp, kd, h, levels, terms, radius, rates, accels):
+    """The servo's linear part A frozen at a step's start, as the exponential step uses it, from the
+    first evaluation's ``mobility`` (nine: G's three, P's six) and the targets' rates and
+    accelerations there: (G, P, the phi-elements (phi_2, phi_3 of hL/2; phi_2, phi_3, 2 phi_3 - 4 phi_4,
+    4 phi_4 - phi_3 of hL), A's time column (13 rows), and the time column's part of phi_1(cA) f(u)
+    for c = h/2 and h (13 rows each)).
+
+    The time column is the servo torque's change through the targets, d tau / dt = kp phi_target' +
+    kd phi_target'' (the map of -(phi, phidot)), so a servo following a ramp is linear in (state, t).
+    With A~ = [[L, beta], [0, 0]] on (legs, t), phi_1(cA~) (f_S, 1) = (phi_1(cL) f_S + c phi_2(cL) beta, 1),
+    so phi_1(cA) f(u) gains c A[:, S] c phi_3(cL) beta + c A_t / 2 beyond the correction of f_S."""
+    g = (mobility[0], mobility[1], mobility[2])
+    p = (mobility[3], mobility[4], mobility[5], mobility[6], mobility[7], mobility[8])
+    g11, g12, g22 = g
+    half, whole = _servo_phi(g11 + g22, g11 * g22 - g12 * g12, kp, kd, h, levels, terms, radius)
+    (c0, c1), (d0, d1) = whole[3]
+    (e0, e1), (f0, f1) = whole[4]
+    b23 = ((2.0 * c0 - 4.0 * e0, 2.0 * c1 - 4.0 * e1), (2.0 * d0 - 4.0 * f0, 2.0 * d1 - 4.0 * f1))
+    b4 = ((4.0 * e0 - c0, 4.0 * e1 - c1), (4.0 * f0 - d0, 4.0 * f1 - d1))
+    elements = (half[2], half[3], whole[2], whole[3], b23, b4)
+    t = _servo_rows(g, p, kp, kd, rates[0], rates[1], accels[0], accels[1], -1.0)
+    # (the leg-angle rows of A w are its leg-rate input, not a torque's: none in the time column)
+    column = (t[0], t[1], t[2], t[3], t[4], t[5], 0.0, 0.0, t[8], t[9], t[10], t[11], t[12])
+    c = 0.5 * h
+    forcing_half = _combine_rows(_etd_correction(g, p, kp, kd, c * c, half[3], 0.0, 0.0, t[11], t[12]), 0.5 * c, column)
+    forcing = _combine_rows(_etd_correction(g, p, kp, kd, h * h, whole[3], 0.0, 0.0, t[11], t[12]), 0.5 * h, column)
+    return g, p, elements, column, forcing_half, forcing
 
 
 class _ServoExponential:
-    """What the exponential step needs of the servo's linear part A, frozen at the step's start:
-    ``_ServoJacobian``'s columns (leg angles and rates) and the time column, the servo torque's
-    change with time through the targets (kp phi_target' + kd phi_target'', pushed through G and
-    P), so that a servo following a ramp is linear in (state, t) and integrated exactly. A w,
-    phi_j(cA) v with the phi-functions of the legs' 4x4 block in closed form (:func:`_servo_phi`),
-    and the time column's part of phi_1(cA) f(u). The number of doublings is fixed by the scene
-    (the servo's fastest pole over all configurations), not by the state, so no robot's result
-    depends on the batch it is in."""
+    """The scene's constants of the exponential step: the gains, the step, and the number of
+    doublings of :func:`_servo_phi`, fixed by the servo's fastest pole over all configurations,
+    not by the state, so no robot's result depends on the batch it is in."""
 
     TERMS = 13  # of Taylor's series at ||X|| <= 1/2: a remainder below 1e-15
 
     def __init__(self, config: SimConfig, h: float, targets):
-        self.jacobian = _ServoJacobian(config.gains, h)
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h
         self.leg_targets = targets.leg_targets
-        radius = h * servo_fastest_rate(config.model, config.robot, config.gains)  # >= |h lambda|, every pole
-        self.radius = radius
-        self.levels = max(1, math.ceil(math.log2(max(2.0 * radius, 1.0))))
+        self.radius, self.levels = _doublings(config, h)
 
-    def set(self, t, g11, g12, g22, *body):
-        """Freeze A at time t, G and P (``mobility_out``) and make the phi-functions of h L / 2 and h L."""
-        self.jacobian.set(g11, g12, g22, *body)
-        self.g = (g11, g12, g22)
-        tg, dg = g11 + g22, g11 * g22 - g12 * g12
-        half, whole = _servo_phi(tg, dg, self.kp, self.kd, self.h, self.levels, self.TERMS, self.radius)
-        p3, p4 = whole[3], whole[4]
-        self.elements = {
-            "phi2/2": half[2],
-            "phi3/2": half[3],
-            "phi2": whole[2],
-            "phi3": p3,
-            # the update's weights, 2 phi_2 - 4 phi_3 and 4 phi_3 - phi_2 of hA, need 2 phi_3 - 4 phi_4
-            # and 4 phi_4 - phi_3 of hL
-            "b23": tuple(tuple(2.0 * a - 4.0 * b for a, b in zip(x, y)) for x, y in zip(p3, p4)),
-            "b4": tuple(tuple(4.0 * b - a for a, b in zip(x, y)) for x, y in zip(p3, p4)),
-        }
-        # The time column: d tau / dt = kp phi_target' + kd phi_target'', the map of -(phi, phidot)
-        _, (r1, r2), (a1, a2) = self.leg_targets(t)
-        column = self.apply(r1, r2, a1, a2, scale=-1.0)
-        column[6] = column[7] = 0.0  # (apply's leg-angle rows are its leg-rate input: not a torque's)
-        self.time_column = column
-        # With A~ = [[L, beta], [0, 0]] on (legs, t), phi_1(cA~) (f_S, 1) = (phi_1(cL) f_S + c phi_2(cL) beta, 1),
-        # so phi_1(cA) f(u) gains c A[:, S] c phi_3(cL) beta + c A_t / 2 beyond correction(): one 13-row
-        # vector for c = h / 2 and one for h.
-        beta = (0.0 * g11, 0.0 * g11, column[11], column[12])
-        self.forcing = {}
-        for c, element in ((0.5 * self.h, "phi3/2"), (self.h, "phi3")):
-            legs = self.apply(*self._leg_function(self.elements[element], beta), scale=c * c)
-            self.forcing[element] = [a + 0.5 * c * b for a, b in zip(legs, column)]
 
-    def apply(self, w1, w2, w3, w4, scale=1.0):
-        """scale A w for w = (leg angles, leg rates), as 13 rows (zeros where A has none)."""
-        (x1, x2), (r1, r2), (o1, o2, o3) = self.jacobian.apply(w1, w2, w3, w4)
-        return [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, scale * x1, scale * x2, scale * o1, scale * o2, scale * o3, scale * r1, scale * r2]
-
-    def _leg_function(self, element, w):
-        """(A + B L) w on the legs' four rows."""
-        g11, g12, g22 = self.g
-        (a0, a1), (b0, b1) = element
-        (l1, l2), (l3, l4), _ = self.jacobian.apply(*w)  # L w: the legs' rows of A w
-        out = []
-        for z1, z2, c0, c1 in ((w[0], w[1], a0, a1), (w[2], w[3], a0, a1), (l1, l2, b0, b1), (l3, l4, b0, b1)):
-            out += [c0 * z1 + c1 * (g11 * z1 + g12 * z2), c0 * z2 + c1 * (g12 * z1 + g22 * z2)]
-        return out[0] + out[4], out[1] + out[5], out[2] + out[6], out[3] + out[7]
-
-    def correction(self, c, element, w):
-        """c A[:, S] f(cL) w as 13 rows, f = ``element``, w = the four leg rows of a vector v:
-        phi_j(cA) v = v / j! + this with phi_{j+1}(cL)."""
-        return self.apply(*self._leg_function(self.elements[element], w), scale=c)
+def _doublings(config: SimConfig, h: float):
+    """(bound on h |lambda| of the servo's poles, number of doublings) of the exponential step at h."""
+    radius = h * servo_fastest_rate(config.model, config.robot, config.gains)
+    return radius, max(1, math.ceil(math.log2(max(2.0 * radius, 1.0))))
 
 
 def _normalize_quat_rows(y):
@@ -895,43 +919,45 @@ def _normalize_quat_rows(y):
 
 
 def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
-    """Krogstad's ETDRK4-B with A the servo's linear part (:class:`_ServoExponential`), on y as
-    13 rows (floats, or the (N,) arrays of a batch). Stages at c = 0, 1/2, 1/2, 1; with
+    """Krogstad's ETDRK4-B with A the servo's linear part (:func:`_etd_setup`), on y as 13 rows
+    (floats, or the (N,) arrays of a batch). Stages at c = 0, 1/2, 1/2, 1; with
     D(U) = f(U) - f(u) - A (U - u): U2 = u + h/2 phi_1(hA/2) f(u), U3 = U2 + h phi_2(hA/2) D(U2),
     B = u + h phi_1(hA) f(u), U4 = B + 2 h phi_2(hA) D(U3), and the step
     u + = B + h ((2 phi_2 - 4 phi_3)(D(U2) + D(U3)) + (4 phi_3 - phi_2) D(U4)), phi_j of hA unless
     said. It integrates u' = A u + (f(u) - A u) with the second part explicit, so its order (4)
-    needs that part smooth, not A exact. Classical RK4 when A = 0. Four evaluations a step."""
+    needs that part smooth, not A exact. Classical RK4 when A = 0. Four evaluations a step.
+    :mod:`rrrobot_gym.compiled` repeats it operation for operation."""
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
+    kp, kd = servo.kp, servo.kd
     mobility = [0.0] * 9
     for _ in range(n_steps):
         fu = list(first(t, y, mobility))
-        servo.set(t, *mobility)
-        column = servo.time_column
+        _, rates, accels = servo.leg_targets(t)
+        g, p, elements, column, forcing_half, forcing = _etd_setup(
+            mobility, kp, kd, h, servo.levels, servo.TERMS, servo.radius, rates, accels
+        )
+        p2h, p3h, p2, p3, b23, b4 = elements
 
         def change(point, time):
             """D = f(U) - f(u) - A (U - u), the time column included."""
-            linear = servo.apply(point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12])
+            linear = _servo_rows(g, p, kp, kd, point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12], 1.0)
             dt = time - t
             return [d - (a + dt * e) - b for d, a, e, b in zip(f(time, point), linear, column, fu)]
 
-        def legs(v):
-            return v[6], v[7], v[11], v[12]
-
-        k = servo.correction(half_h, "phi2/2", legs(fu))
-        u2 = [a + half_h * (b + c + e) for a, b, c, e in zip(y, fu, k, servo.forcing["phi3/2"])]
+        k = _etd_correction(g, p, kp, kd, half_h, p2h, fu[6], fu[7], fu[11], fu[12])
+        u2 = [a + half_h * (b + c + e) for a, b, c, e in zip(y, fu, k, forcing_half)]
         d2 = change(u2, t + half_h)
-        k = servo.correction(half_h, "phi3/2", legs(d2))
+        k = _etd_correction(g, p, kp, kd, half_h, p3h, d2[6], d2[7], d2[11], d2[12])
         u3 = [a + h * (0.5 * b + c) for a, b, c in zip(u2, d2, k)]
         d3 = change(u3, t + half_h)
-        k = servo.correction(h, "phi2", legs(fu))
-        base = [a + h * (b + c + e) for a, b, c, e in zip(y, fu, k, servo.forcing["phi3"])]
-        k = servo.correction(h, "phi3", legs(d3))
+        k = _etd_correction(g, p, kp, kd, h, p2, fu[6], fu[7], fu[11], fu[12])
+        base = [a + h * (b + c + e) for a, b, c, e in zip(y, fu, k, forcing)]
+        k = _etd_correction(g, p, kp, kd, h, p3, d3[6], d3[7], d3[11], d3[12])
         u4 = [a + 2.0 * h * (0.5 * b + c) for a, b, c in zip(base, d3, k)]
         d4 = change(u4, t + h)
-        k23 = servo.correction(h, "b23", tuple(a + b for a, b in zip(legs(d2), legs(d3))))
-        k4 = servo.correction(h, "b4", legs(d4))
-        y = [a + h * (third * (p + q) + sixth * r + c + e) for a, p, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
+        k23 = _etd_correction(g, p, kp, kd, h, b23, d2[6] + d3[6], d2[7] + d3[7], d2[11] + d3[11], d2[12] + d3[12])
+        k4 = _etd_correction(g, p, kp, kd, h, b4, d4[6], d4[7], d4[11], d4[12])
+        y = [a + h * (third * (p_ + q) + sixth * r + c + e) for a, p_, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
         _normalize_quat_rows(y)
         t += h
     return y
