@@ -57,10 +57,14 @@ def available() -> bool:
     return True
 
 
+INTEGRATORS = ("rk4", "etdrk4b")
+"""The integrators compiled: RK4 (lanes of robots, SIMD) and the exponential ETDRK4-B (one robot at a time)."""
+
+
 def supports(config) -> bool:
     """True if the compiled stepper covers this :class:`~rrrobot_gym.simulation.SimConfig`'s scene
     (the targets are checked by :func:`target_arrays`)."""
-    return config.integrator == "rk4" and config.legs == "servo"
+    return config.integrator in INTEGRATORS and config.legs == "servo"
 
 
 def target_arrays(targets):
@@ -166,6 +170,115 @@ def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared,
     y[3] *= inv
     y[4] *= inv
     y[5] *= inv
+
+
+# The exponential step (SimConfig(integrator="etdrk4b")): simulation._etdrk4b_rows on one robot,
+# operation for operation, with the servo algebra compiled from simulation's own functions
+# (_etd_setup, _etd_correction, _servo_rows: plain arithmetic on tuples).
+
+
+def _etd_setup(*args):
+    """simulation._etd_setup (the compiled stepper's namespace binds its compiled copy instead)."""
+    from .simulation import _etd_setup as setup
+
+    return setup(*args)
+
+
+def _etd_correction(*args):
+    """simulation._etd_correction (compiled copy in the compiled stepper)."""
+    from .simulation import _etd_correction as correction
+
+    return correction(*args)
+
+
+def _servo_rows(*args):
+    """simulation._servo_rows (compiled copy in the compiled stepper)."""
+    from .simulation import _servo_rows as rows
+
+    return rows(*args)
+
+
+
+def _one_robot_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit, kind, p,
+                   shared, rows, summary, i):  # fmt: skip
+    """_one_robot with ETDRK4-B: ``doublings`` (and ``lead_doublings`` for the lead's h0) = (terms,
+    radius, levels) of simulation._ServoExponential at that step."""
+    work = np.empty((6, 13))
+    mobility = np.empty(9)
+    contact = np.empty(7)
+    for step in range(n0):
+        _etd_substep(y, t0, h0, lead_doublings, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i,
+                     step // 2 if step % 2 == 0 else -1, work, mobility, contact)  # fmt: skip
+        t0 += h0
+    for step in range(n_steps):
+        _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, n0 // 2 + step,
+                     work, mobility, contact)  # fmt: skip
+        t += h
+    if rows.shape[0]:
+        _summarise(rows, summary, i, 1)
+
+
+def _etd_change(point, time, y, t, fu, g, pp, kp, kd, column, k, gains, torque_limit, rate_limit, kind, p, shared, out):
+    """D = f(U) - f(u) - A (U - u) into ``out`` (simulation._etdrk4b_rows' change)."""
+    linear = _servo_rows(g, pp, kp, kd, point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12], 1.0)
+    dt = time - t
+    d = derivative_kernel(point, _torque(point, time, gains, torque_limit, rate_limit, kind, p, shared), k)
+    for j in range(13):
+        out[j] = d[j] - (linear[j] + dt * column[j]) - fu[j]
+
+
+def _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, work, mobility, contact):
+    """One ETDRK4-B step of _one_robot_etd, in place; recorded into rows[row, :, i] unless row < 0."""
+    half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
+    kp, kd = gains.kp, gains.kd
+    terms, radius, levels = doublings
+    tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+    if rows.shape[0] and row >= 0:
+        fu = derivative_kernel(y, tau, k, None, None, mobility, contact)
+        rows[row, 0, i], rows[row, 1, i] = tau[0], tau[1]
+        for j in range(7):
+            rows[row, 2 + j, i] = contact[j]
+        rows[row, 9, i], rows[row, 10, i] = y[11], y[12]
+    else:
+        fu = derivative_kernel(y, tau, k, None, None, mobility)
+    _, rates, accels = _leg_targets(kind, p, shared, t)
+    g, pp, elements, column, forcing_half, forcing = _etd_setup(mobility, kp, kd, h, levels, terms, radius, rates, accels)
+    p2h, p3h, p2, p3, b23, b4 = elements
+    u, base, d2, d3, d4, s = work[0], work[1], work[2], work[3], work[4], work[5]
+    c = _etd_correction(g, pp, kp, kd, half_h, p2h, fu[6], fu[7], fu[11], fu[12])
+    for j in range(13):
+        u[j] = y[j] + half_h * (fu[j] + c[j] + forcing_half[j])
+    _etd_change(u, t + half_h, y, t, fu, g, pp, kp, kd, column, k, gains, torque_limit, rate_limit, kind, p, shared, d2)
+    c = _etd_correction(g, pp, kp, kd, half_h, p3h, d2[6], d2[7], d2[11], d2[12])
+    for j in range(13):
+        s[j] = u[j] + h * (0.5 * d2[j] + c[j])
+    _etd_change(s, t + half_h, y, t, fu, g, pp, kp, kd, column, k, gains, torque_limit, rate_limit, kind, p, shared, d3)
+    c = _etd_correction(g, pp, kp, kd, h, p2, fu[6], fu[7], fu[11], fu[12])
+    for j in range(13):
+        base[j] = y[j] + h * (fu[j] + c[j] + forcing[j])
+    c = _etd_correction(g, pp, kp, kd, h, p3, d3[6], d3[7], d3[11], d3[12])
+    for j in range(13):
+        u[j] = base[j] + 2.0 * h * (0.5 * d3[j] + c[j])
+    _etd_change(u, t + h, y, t, fu, g, pp, kp, kd, column, k, gains, torque_limit, rate_limit, kind, p, shared, d4)
+    c23 = _etd_correction(g, pp, kp, kd, h, b23, d2[6] + d3[6], d2[7] + d3[7], d2[11] + d3[11], d2[12] + d3[12])
+    c4 = _etd_correction(g, pp, kp, kd, h, b4, d4[6], d4[7], d4[11], d4[12])
+    for j in range(13):
+        y[j] = base[j] + h * (third * (d2[j] + d3[j]) + sixth * d4[j] + c23[j] + c4[j])
+    inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    y[2] = y[2] * inv
+    y[3] = y[3] * inv
+    y[4] = y[4] * inv
+    y[5] = y[5] * inv
+
+
+def _batch_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit, kind, params,
+               shared, rows, summary):  # fmt: skip
+    """_batch with ETDRK4-B: every robot by _one_robot_etd (threaded over robots when compiled parallel)."""
+    shared_targets = params.shape[0] == 1
+    for i in prange(y.shape[0]):
+        p = params[0] if shared_targets else params[i]
+        _one_robot_etd(y[i], t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit,
+                       kind, p, shared, rows, summary, i)  # fmt: skip
 
 
 def _lesser(a, b):
@@ -354,7 +467,11 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
             _one_robot(y[i], t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
-_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes")
+_STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
+            "_etd_change", "_etd_substep", "_one_robot_etd")  # fmt: skip
+_ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block", "_doubled", "_servo_phi",
+                "_servo_rows", "_g_apply", "_leg_function", "_etd_correction", "_combine_rows", "_etd_setup")  # fmt: skip
+"""simulation's functions of the exponential step that the compiled stepper compiles (copies sharing their code)."""
 _STEPPER_INLINED = ("_robot_substep",)  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
@@ -380,8 +497,10 @@ def cache_dir(sources=None):
 
     import numba
 
+    from . import simulation  # (imported here: simulation imports this module)
+
     digest = hashlib.sha256(f"{numba.__version__} {sys.version} {platform.machine()}".encode())
-    for path in sources or (__file__, dynamics.__file__, control.__file__):
+    for path in sources or (__file__, dynamics.__file__, control.__file__, simulation.__file__):
         with open(path, "rb") as f:
             digest.update(f.read())
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -422,12 +541,19 @@ def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: 
     return removed
 
 
+def _stepper(parallel: bool, integrator: str = "rk4"):
+    """The compiled :func:`_batch` (RK4) or :func:`_batch_etd` (ETDRK4-B), threaded over robots if
+    ``parallel``; cached on disk (:func:`cache_dir`) and in memory."""
+    return _compiled_stepper(bool(parallel), integrator)
+
+
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool):
-    """The compiled :func:`_batch`, threaded over robots if ``parallel``; cached on disk (:func:`cache_dir`)."""
+def _compiled_stepper(parallel: bool, integrator: str):
     import os
 
     import numba
+
+    from . import simulation
 
     directory = cache_dir()
     try:
@@ -453,13 +579,16 @@ def _stepper(parallel: bool):
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
+        etd = _compiled_copies(simulation, _ETD_ALGEBRA, njit)
+        namespace.update((name, etd[name]) for name in ("_etd_setup", "_etd_correction", "_servo_rows"))
         _compiled_copies(sys.modules[__name__], _STEPPER_INLINED, inline, namespace)
         _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
-        batch = types.FunctionType(_batch.__code__, namespace, "_batch")
+        source = _batch_etd if integrator == "etdrk4b" else _batch
+        batch = types.FunctionType(source.__code__, namespace, source.__name__)
         # numba's cache files are named by the function's qualified name and keyed by its
         # signature, not by parallel=: the threaded copy needs a name of its own, else one
         # version is loaded for the other
-        batch.__qualname__ = "_batch_threaded" if parallel else "_batch"
+        batch.__qualname__ = source.__name__ + ("_threaded" if parallel else "")
         return njit(batch, parallel=parallel)
     finally:
         numba.config.CACHE_DIR = previous
@@ -492,10 +621,19 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     rows = np.empty((n_lead // 2 + n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
-    step = _stepper(parallel)
+    step = _stepper(parallel, config.integrator)
     k, kc, gains = _scene(config.robot, config.depth, config.gains)
-    args = (y, t_lead, h_lead, n_lead, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit,
-            kind, params, shared, rows, summary)  # fmt: skip
+    if config.integrator == "etdrk4b":
+        from .simulation import _doublings, _ServoExponential
+
+        def doublings(step_h):
+            return (_ServoExponential.TERMS, *_doublings(config, step_h)) if step_h > 0.0 else (_ServoExponential.TERMS, 0.0, 1)
+
+        args = (y, t_lead, h_lead, n_lead, doublings(h_lead), float(t0), float(h), int(n_steps), doublings(float(h)), k, gains,
+                config.torque_limit, config.leg_rate_limit, kind, params, shared, rows, summary)  # fmt: skip
+    else:
+        args = (y, t_lead, h_lead, n_lead, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit,
+                config.leg_rate_limit, kind, params, shared, rows, summary)  # fmt: skip
     if parallel:
         import numba
 

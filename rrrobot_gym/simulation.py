@@ -93,7 +93,7 @@ class SimConfig:
                 raise ImportError("SimConfig.backend='numba' needs numba: pip install 'rrrobot_gym[fast]' (or numba)")
             if not compiled.supports(self):
                 raise ValueError(
-                    f"SimConfig.backend='numba' compiles servo legs with integrator 'rk4' only, got legs "
+                    f"SimConfig.backend='numba' compiles servo legs with integrator 'rk4' or 'etdrk4b' only, got legs "
                     f"{self.legs!r} and integrator {self.integrator!r}: use backend 'auto' or 'numpy'"
                 )
         for name in ("torque_limit", "leg_rate_limit"):
@@ -775,7 +775,7 @@ def _phis_from_phi4(phi4, tg, dg, xkp, xkd):
     (a0, a1), b = _x_times(phi2, tg, dg, xkp, xkd)
     phi1 = ((a0 + 1.0 / _FACTORIALS[1], a1), b)
     (a0, a1), b = _x_times(phi1, tg, dg, xkp, xkd)
-    return [((a0 + 1.0 / _FACTORIALS[0], a1), b), phi1, phi2, phi3, phi4]
+    return ((a0 + 1.0 / _FACTORIALS[0], a1), b), phi1, phi2, phi3, phi4
 
 
 _FACTORIALS = tuple(float(math.factorial(n)) for n in range(24))
@@ -785,8 +785,26 @@ phi_4 alone and takes the lower phi-functions by recurrence; a stiffer one doubl
 
 
 def _per_leg_block(elements, scale):
-    """Elements A + B X as A + (scale B) L, for X = scale L."""
-    return [((a0, a1), (b0 * scale, b1 * scale)) for (a0, a1), (b0, b1) in elements]
+    """The five elements A + B X as A + (scale B) L, for X = scale L."""
+    return (_per_l(elements[0], scale), _per_l(elements[1], scale), _per_l(elements[2], scale), _per_l(elements[3], scale),
+            _per_l(elements[4], scale))  # fmt: skip
+
+
+def _per_l(element, scale):
+    (a0, a1), (b0, b1) = element
+    return (a0, a1), (b0 * scale, b1 * scale)
+
+
+def _doubled(phis, k, tg, dg, xkp, xkd):
+    """phi_k(2X) = (e^X phi_k(X) + sum_{j=1..k} phi_j(X) / (k - j)!) / 2^k from phis = phi_0..phi_4 of X,
+    as an element of 2X."""
+    (a0, a1), (b0, b1) = _l_product(phis[0], phis[k], tg, dg, xkp, xkd)
+    for j in range(1, k + 1):
+        w = 1.0 / _FACTORIALS[k - j]
+        (c0, c1), (d0, d1) = phis[j]
+        a0, a1, b0, b1 = a0 + w * c0, a1 + w * c1, b0 + w * d0, b1 + w * d1
+    w = 1.0 / 2.0**k
+    return (w * a0, w * a1), (0.5 * w * b0, 0.5 * w * b1)  # B of X is B / 2 of 2X
 
 
 def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius):
@@ -810,18 +828,13 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius):
     for level in range(levels):
         if level == levels - 1:  # the last doubling starts from h L / 2
             half = phis
-        cheap = radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS
-        doubled = []
-        for k in range(4 if cheap else 0, 5):
-            (a0, a1), (b0, b1) = _l_product(phis[0], phis[k], tg, dg, xkp, xkd)
-            for j in range(1, k + 1):
-                w = 1.0 / _FACTORIALS[k - j]
-                (c0, c1), (d0, d1) = phis[j]
-                a0, a1, b0, b1 = a0 + w * c0, a1 + w * c1, b0 + w * d0, b1 + w * d1
-            w = 1.0 / 2.0**k
-            doubled.append(((w * a0, w * a1), (0.5 * w * b0, 0.5 * w * b1)))  # B of X is B / 2 of 2X
+        if radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS:
+            phi4 = _doubled(phis, 4, tg, dg, xkp, xkd)
+            phis = _phis_from_phi4(phi4, tg, dg, 4.0 * xkp, 2.0 * xkd)
+        else:
+            phis = (_doubled(phis, 0, tg, dg, xkp, xkd), _doubled(phis, 1, tg, dg, xkp, xkd), _doubled(phis, 2, tg, dg, xkp, xkd),
+                    _doubled(phis, 3, tg, dg, xkp, xkd), _doubled(phis, 4, tg, dg, xkp, xkd))  # fmt: skip
         xkd, xkp = 2.0 * xkd, 4.0 * xkp
-        phis = _phis_from_phi4(doubled[0], tg, dg, xkp, xkd) if cheap else doubled
     return _per_leg_block(half, 0.5 * h), _per_leg_block(phis, h)
 
 

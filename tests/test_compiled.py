@@ -55,8 +55,11 @@ def _float_path(config, states, targets, t0, duration):
     "config",
     [SimConfig(), SimConfig(model="pivot"), SimConfig(torque_limit=0.3),
      SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto"),
-     SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1)],
-    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded"],
+     SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
+     SimConfig(integrator="etdrk4b", timestep=1 / 80),
+     SimConfig(model="pivot", integrator="etdrk4b", torque_limit=0.5, leg_rate_limit=10.0, timestep=1 / 220, start_halves=4)],
+    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded",
+         "plane-etdrk4b", "pivot-motor-etdrk4b-graded"],
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
@@ -83,9 +86,9 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
             assert peak == config.torque_limit
 
 
-def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit():
+@pytest.mark.parametrize("config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80)], ids=["rk4", "etdrk4b"])
+def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit(config):
     # 4 s of Gait 2 from the paper's start, the hardest start transient, in env-sized steps.
-    config = SimConfig()
     fast = slow = initial_state()
     for i in range(80):
         fast, fast_record = advance(config, fast, 0.05 * i, 0.05, table2_gait(2), record=True)
@@ -106,12 +109,13 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
     np.testing.assert_allclose(fast, numpy, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("integrator", ["rk4", "etdrk4b"])
 @pytest.mark.parametrize("workers", [2, 3])
-def test_threads_give_the_one_thread_result(workers):
+def test_threads_give_the_one_thread_result(workers, integrator):
     n = 3 * compiled.LANES + 5  # lane blocks and single robots, shared among the threads
     states = _states(n, seed=4)
     targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (n, 2)), 0.0, 0.05)
-    config = SimConfig(backend="numba")
+    config = SimConfig(backend="numba", integrator=integrator, timestep=1 / 300 if integrator == "rk4" else 1 / 80)
     one, one_record = advance(config, states, 0.0, 0.05, targets, record=True)
     many, many_record = advance(config, states, 0.0, 0.05, targets, record=True, workers=workers)
     assert np.array_equal(one, many)
@@ -304,3 +308,24 @@ def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp
     assert removed == [str(folders["numba-old"])]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["numba-current", "numba-young", "other-old"]
     assert os.stat(folders["numba-current"]).st_mtime == now  # in use: its own age starts again
+
+
+def test_the_exponential_stepper_run_as_plain_python_gives_what_numba_compiled():
+    # compiled._batch_etd uncompiled (simulation's servo algebra, plain Python) against its compiled
+    # copy: a graded start (two halves, the first recorded), then two whole steps
+    from rrrobot_gym.simulation import _doublings, _ServoExponential
+
+    config = SimConfig(integrator="etdrk4b", timestep=1 / 80, torque_limit=0.4)
+    states = _states(2, seed=8)
+    targets = compiled.target_arrays(_targets("ramp", 2, np.random.default_rng(9)))
+    k, _, gains = compiled._scene(config.robot, config.depth, config.gains)
+    h = 1 / 80
+    lead = (0.1, 0.5 * h, 2)
+    y = states.copy()
+    rows = np.empty((3, compiled.RECORD_ROWS, 2))
+    summary = np.empty((compiled.SUMMARY_ROWS, 2))
+    doublings = [(_ServoExponential.TERMS, *_doublings(config, step)) for step in (0.5 * h, h)]
+    compiled._batch_etd(y, *lead, doublings[0], 0.1 + h, h, 2, doublings[1], k, gains, 0.4, None, *targets, rows, summary)
+    fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1 + h, h, 2, True,
+                                                       lead=lead)  # fmt: skip
+    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)

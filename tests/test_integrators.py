@@ -280,11 +280,12 @@ def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypat
     states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
     states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
     rk4 = simulation.advance(SimConfig(backend="numpy", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
-    exponential = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
+    exponential_config = SimConfig(integrator="etdrk4b", timestep=1 / 300, backend="numpy")  # (the patch below is Python's)
+    exponential = simulation.advance(exponential_config, states, 0.2, 0.05, table2_gait(2))
     assert np.abs(exponential - rk4).max() > 1e-9
     zero = ((0.0, 0.0), (0.0, 0.0), (0.0, 0.0, 0.0))
     monkeypatch.setattr(simulation, "_servo_response", lambda *args: zero)  # A w = 0 for every w
-    exponential = simulation.advance(SimConfig(integrator="etdrk4b", timestep=1 / 300), states, 0.2, 0.05, table2_gait(2))
+    exponential = simulation.advance(exponential_config, states, 0.2, 0.05, table2_gait(2))
     np.testing.assert_allclose(exponential, rk4, rtol=0, atol=1e-12)
 
 
@@ -351,7 +352,9 @@ def test_the_exponential_step_follows_a_stiff_servo_at_a_step_rk4_cannot_take():
 
 
 def test_the_exponential_step_one_robot_and_a_batch_agree_and_refuse_what_they_cannot_do():
-    config = SimConfig(integrator="etdrk4b", timestep=1.0 / 80.0)
+    """numpy's batched rows against the float stepper (the compiled one is the float stepper's to the
+    bit: tests/test_compiled.py)."""
+    config = SimConfig(integrator="etdrk4b", timestep=1.0 / 80.0, backend="numpy")
     states = np.tile(simulation.initial_state(), (24, 1))  # over ROW_BY_ROW_MAX: the array path
     states[:, 6] += np.linspace(0.0, 1.0, 24)
     states[:, 11:13] = (2.0, -3.0)
