@@ -10,11 +10,10 @@ Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   step in three times as many steps (the legs start from rest onto moving targets, the one stiff
   transient of a gait) and at 1/80 s without, and at 1/220 s with ``start_halves=4`` (the first
   four steps of every env step in halves: 60 evaluations, the default's cost, graded as the
-  policy's rows below want). Worst contact error over the path, and CPU time of
-  one robot's run (numpy backend for both, so the methods and not the backends are compared;
-  the compiled RK4's time is given beside them);
+  policy's rows below want). Worst contact error over the path, and CPU time of one robot's run
+  on the numpy backend and on the compiled one (which must give the same states to the bit);
 - batches: one env step (0.05 s of leg-target ramps) of N = 64 and 4096 robots, median wall time
-  of REPEATS, ETDRK4-B at 1/80 s against RK4 at 1/300 s on numpy and compiled, side by side;
+  of REPEATS, ETDRK4-B against RK4 at 1/300 s on numpy and compiled, side by side;
 - energy: a servo without damping (kd = 0) holding fixed targets on a robot without damping,
   started off its targets, tilted and spinning. Nothing drains or feeds energy, so the body's
   energy plus the servo's spring energy kp/2 |phi - target|^2 is conserved; its largest relative
@@ -70,31 +69,31 @@ def _step_text(row) -> str:
     return f"1/{1 / row['step_s']:.0f} s" + (f", start_halves={row['start_halves']}" if row.get("start_halves") else "")
 
 
+def _run(config: SimConfig, first: SimConfig, targets, duration: float):
+    """(states every env step, CPU s) of one robot's run, the first env step taken in ``first``'s steps."""
+    states = np.empty((round(duration / ENV_STEP) + 1, dynamics.STATE_SIZE))
+    states[0] = initial_state()
+    advance(first, states[0], 0.0, ENV_STEP, targets)  # compile or load the compiled stepper outside the clock
+    start = time.process_time()
+    for i in range(len(states) - 1):
+        states[i + 1] = advance(first if i == 0 else config, states[i], i * ENV_STEP, ENV_STEP, targets, check=False)
+    return states, time.process_time() - start
+
+
 def gait_case(job):
-    """(worst contact error over the path (m), CPU s) of one gait case in one setting."""
+    """(worst contact error over the path (m), CPU s on numpy, CPU s compiled or None) of one gait
+    case in one setting; the compiled run must give the numpy (float stepper's) states to the bit."""
     (integrator, n, fine_first, halves), (model, gait), duration = job
     config = _config(model, integrator, n, start_halves=halves)
     first = _config(model, integrator, FIRST_FACTOR * n) if fine_first else config
     targets = table2_gait(gait)
-    states = np.empty((round(duration / ENV_STEP) + 1, dynamics.STATE_SIZE))
-    states[0] = initial_state()
-    start = time.process_time()
-    for i in range(len(states) - 1):
-        states[i + 1] = advance(first if i == 0 else config, states[i], i * ENV_STEP, ENV_STEP, targets, check=False)
-    cpu = time.process_time() - start
-    return float(contact_error(states, reference(SimConfig(model=model), targets, duration, ENV_STEP)).max()), cpu
-
-
-def compiled_rk4_cpu(duration: float) -> float | None:
-    """CPU s of one robot's run of Gait 1 on the plane with the compiled RK4 (None without numba)."""
-    if not compiled.available():
-        return None
-    config, targets, state = SimConfig(backend="numba"), table2_gait(1), initial_state()
-    advance(config, state, 0.0, ENV_STEP, targets)  # compile or load outside the clock
-    start = time.process_time()
-    for i in range(round(duration / ENV_STEP)):
-        state = advance(config, state, i * ENV_STEP, ENV_STEP, targets, check=False)
-    return time.process_time() - start
+    states, cpu = _run(config, first, targets, duration)
+    compiled_cpu = None
+    if compiled.available():
+        fast, compiled_cpu = _run(replace(config, backend="numba"), replace(first, backend="numba"), targets, duration)
+        if not np.array_equal(fast, states):
+            raise AssertionError(f"the compiled {integrator} run differs from the float stepper's ({model} gait {gait})")
+    return float(contact_error(states, reference(SimConfig(model=model), targets, duration, ENV_STEP)).max()), cpu, compiled_cpu
 
 
 def gait_rows(duration: float, workers: int):
@@ -109,13 +108,15 @@ def gait_rows(duration: float, workers: int):
         rows.append({
             "integrator": integrator, "step_s": ENV_STEP / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
             "first_env_step_evals": 4 * n * FIRST_FACTOR if fine_first else 4 * (n + halves),
-            "contact_max_m": max(e for e, _ in per_case),
-            "per_case_max_m": {f"{m}_gait{g}": e for (m, g), (e, _) in zip(CASES, per_case)},
-            "cpu_s_per_run": sum(c for _, c in per_case) / len(per_case),
+            "contact_max_m": max(e for e, _, _ in per_case),
+            "per_case_max_m": {f"{m}_gait{g}": e for (m, g), (e, _, _) in zip(CASES, per_case)},
+            "cpu_s_per_run": sum(c for _, c, _ in per_case) / len(per_case),
+            "compiled_cpu_s_per_run": None if per_case[0][2] is None else sum(c for _, _, c in per_case) / len(per_case),
         })  # fmt: skip
         r = rows[-1]
         print(f"gaits: {_label(integrator, n, halves)}{' (fine first env step)' if fine_first else ''}: worst "
-              f"{r['contact_max_m'] * 1e3:.3g} mm, {r['cpu_s_per_run']:.2f} CPU s a run", flush=True)  # fmt: skip
+              f"{r['contact_max_m'] * 1e3:.3g} mm, {r['cpu_s_per_run']:.2f} CPU s a run (numpy), "
+              f"{r['compiled_cpu_s_per_run'] or float('nan'):.3f} (compiled)", flush=True)  # fmt: skip
     return rows
 
 
@@ -129,6 +130,9 @@ def batch_rows():
         configs = {"rk4 1/300 s, numpy": SimConfig(backend="numpy"), "etdrk4b 1/80 s, numpy": _config("plane", "etdrk4b", 4)}
         if compiled.available():
             configs["rk4 1/300 s, compiled"] = SimConfig(backend="numba")
+            configs["etdrk4b 1/80 s, compiled"] = replace(_config("plane", "etdrk4b", 4), backend="numba")
+            configs["etdrk4b 1/220 s, start_halves=4, compiled"] = replace(_config("plane", "etdrk4b", 11, start_halves=4),
+                                                                           backend="numba")  # fmt: skip
         times = {}
         for label, config in configs.items():
             advance(config, state, 0.0, ENV_STEP, ramp)  # warm: compile, caches, allocator
@@ -196,21 +200,24 @@ def main(argv=None):
     duration = 10.0 if args.quick else 50.0
     payload = {"machine": machine(), "duration_s": duration}
     payload["gaits"] = gaits = gait_rows(duration, args.workers)
-    payload["compiled_rk4_cpu_s_per_run"] = compiled_cpu = compiled_rk4_cpu(duration)
     payload["batches"] = batches = batch_rows()
     payload["energy"] = energy = energy_rows(duration)
-    base = gaits[0]["cpu_s_per_run"]
+    base, compiled_base = gaits[0]["cpu_s_per_run"], gaits[0]["compiled_cpu_s_per_run"]
+
+    def compiled_cpu(r):
+        if compiled_base is None:
+            return ["-", "-"]
+        return [fmt(r["compiled_cpu_s_per_run"]), f"{r['compiled_cpu_s_per_run'] / compiled_base:.2f}x"]
+
     command = f"python -m benchmarks.exponential_step{' --quick' if args.quick else ''}{' --policy' if args.policy else ''}"
-    text = f"`{command}`, {duration:g} s\n\nSix gait cases, one robot, numpy backend:\n\n" + markdown_table(
+    text = f"`{command}`, {duration:g} s\n\nSix gait cases, one robot (CPU time per run, mean of the six cases):\n\n" + markdown_table(
         ["integrator", "step", "first env step (evaluations)", "evaluations / env step", "worst max contact error (mm)",
-         "CPU s / run", "CPU vs RK4"] + [f"{m} gait {g}" for m, g in CASES],
+         "CPU s / run, numpy", "vs RK4", "CPU s / run, compiled", "vs RK4"] + [f"{m} gait {g}" for m, g in CASES],
         [[r["integrator"], _step_text(r), r["first_env_step_evals"], r["evals_per_env_step"],
-          fmt(r["contact_max_m"] * 1e3), fmt(r["cpu_s_per_run"]), f"{r['cpu_s_per_run'] / base:.2f}x"]
+          fmt(r["contact_max_m"] * 1e3), fmt(r["cpu_s_per_run"]), f"{r['cpu_s_per_run'] / base:.2f}x", *compiled_cpu(r)]
          + [fmt(v * 1e3) for v in r["per_case_max_m"].values()] for r in gaits],
     )  # fmt: skip
-    if compiled_cpu is not None:
-        text += f"\n\nThe compiled RK4 at 1/300 s: {compiled_cpu:.3g} CPU s for plane Gait 1's run.\n"
-    text += "\nOne env step of a batch (median of %d, wall time):\n\n" % REPEATS + markdown_table(
+    text += "\n\nOne env step of a batch (median of %d, wall time):\n\n" % REPEATS + markdown_table(
         ["N", "stepper", "env steps / s", "vs RK4 numpy"],
         [[r["num_robots"], r["stepper"], f"{r['env_steps_per_s']:,.0f}", f"{r['speed_vs_rk4_numpy']:.2f}x"] for r in batches],
     )  # fmt: skip
