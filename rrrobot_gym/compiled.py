@@ -1,4 +1,4 @@
-"""The compiled stepper: RK4 with the leg servo, JIT-compiled by numba (an optional extra).
+"""The compiled stepper: RK4 (and the exponential ETDRK4-B) with the leg servo, JIT-compiled by numba (an optional extra).
 
 Nothing here is a second implementation. The equations of motion are
 :func:`rrrobot_gym.dynamics.derivative_kernel` and its helpers, and the servo, the motor
@@ -17,7 +17,8 @@ instruction). The robots left over (fewer than LANES) take the one-robot stepper
 (:func:`_one_robot`). Both give the float stepper's numbers to the bit.
 
 Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the
-scene is one it covers: servo legs, ``integrator="rk4"``, and targets from
+scene is one it covers: servo legs, ``integrator="rk4"`` (lanes, as above) or ``"etdrk4b"`` (the
+exponential step, one robot at a time, compiling simulation's own servo algebra), and targets from
 :class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
 :class:`~rrrobot_gym.control.Gait` or ``gait_search.SinusoidGait`` (any source with a
 ``compiled_targets()`` method). Everything else takes the numpy path.
@@ -488,7 +489,7 @@ lane_derivative_kernel, lane_contact_kernel = dynamics.derivative_kernel, dynami
 
 def cache_dir(sources=None):
     """Where compiled code is cached: one directory per content of the compiled sources (this
-    module, dynamics, control), numba and Python. numba itself re-checks only a function's own
+    module, dynamics, control, simulation), numba and Python. numba itself re-checks only a function's own
     file, so an edit to the equations would otherwise meet a stale stepper; here any edit, or a
     new numba, makes a new directory. ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
     import hashlib

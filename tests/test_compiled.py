@@ -15,6 +15,7 @@ from conftest import random_states
 
 import rrrobot_gym  # noqa: F401
 import rrrobot_gym.control
+import rrrobot_gym.simulation
 from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.control import Gait, HeldTargets, RampTargets, table2_gait
 from rrrobot_gym.gait_search import SinusoidGait
@@ -227,7 +228,7 @@ def test_envs_step_alike_on_both_backends():
 
 def test_the_cache_directory_follows_every_compiled_source(tmp_path):
     # numba re-checks only a function's own file; the directory must change with any of them
-    sources = [compiled.__file__, dynamics.__file__, rrrobot_gym.control.__file__]
+    sources = [compiled.__file__, dynamics.__file__, rrrobot_gym.control.__file__, rrrobot_gym.simulation.__file__]
     copies = []
     for i, path in enumerate(sources):
         copy = tmp_path / f"{i}.py"
