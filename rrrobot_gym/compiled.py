@@ -143,18 +143,25 @@ def _one_robot(y, t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit,
         _summarise(rows, summary, i, 1)
 
 
-def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, stage, contact):
-    """One RK4 substep of _one_robot, in place; recorded into rows[row, :, i] unless row < 0."""
-    half, sixth = 0.5 * h, h / 6.0
-    tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+def _first_derivative(y, tau, k, mobility, contact, rows, i, row):
+    """A step's first derivative under the torques tau (with ``mobility``, the legs' columns of
+    M^-1 into it), and unless row < 0 (or rows is empty) the record of simulation._Recorder into
+    rows[row, :, i]: the torques, the contact values and the leg rates."""
     if rows.shape[0] and row >= 0:
-        k1 = derivative_kernel(y, tau, k, None, None, None, contact)
+        d = derivative_kernel(y, tau, k, None, None, mobility, contact)
         rows[row, 0, i], rows[row, 1, i] = tau[0], tau[1]
         for j in range(7):
             rows[row, 2 + j, i] = contact[j]
         rows[row, 9, i], rows[row, 10, i] = y[11], y[12]
-    else:
-        k1 = derivative_kernel(y, tau, k)
+        return d
+    return derivative_kernel(y, tau, k, None, None, mobility)
+
+
+def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, stage, contact):
+    """One RK4 substep of _one_robot, in place; recorded into rows[row, :, i] unless row < 0."""
+    half, sixth = 0.5 * h, h / 6.0
+    tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+    k1 = _first_derivative(y, tau, k, None, contact, rows, i, row)
     for j in range(13):
         stage[j] = y[j] + half * k1[j]
     k2 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
@@ -234,14 +241,7 @@ def _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p
     kp, kd = gains.kp, gains.kd
     terms, radius, levels = doublings
     tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
-    if rows.shape[0] and row >= 0:
-        fu = derivative_kernel(y, tau, k, None, None, mobility, contact)
-        rows[row, 0, i], rows[row, 1, i] = tau[0], tau[1]
-        for j in range(7):
-            rows[row, 2 + j, i] = contact[j]
-        rows[row, 9, i], rows[row, 10, i] = y[11], y[12]
-    else:
-        fu = derivative_kernel(y, tau, k, None, None, mobility)
+    fu = _first_derivative(y, tau, k, mobility, contact, rows, i, row)
     _, rates, accels = _leg_targets(kind, p, shared, t)
     g, pp, elements, column, forcing_half, forcing = _etd_setup(mobility, kp, kd, h, levels, terms, radius, rates, accels)
     p2h, p3h, p2, p3, b23, b4 = elements
@@ -473,7 +473,7 @@ _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summar
 _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block", "_doubled", "_servo_phi",
                 "_servo_rows", "_g_apply", "_leg_function", "_etd_correction", "_combine_rows", "_etd_setup")  # fmt: skip
 """simulation's functions of the exponential step that the compiled stepper compiles (copies sharing their code)."""
-_STEPPER_INLINED = ("_robot_substep",)  # into _one_robot's loops, as the loop body it was
+_STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
 
