@@ -206,7 +206,6 @@ def _servo_rows(*args):
     return rows(*args)
 
 
-
 def _one_robot_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit, kind, p,
                    shared, rows, summary, i):  # fmt: skip
     """_one_robot with ETDRK4-B: ``doublings`` (and ``lead_doublings`` for the lead's h0) = (terms,
@@ -470,8 +469,9 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
 
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
             "_etd_change", "_etd_substep", "_one_robot_etd")  # fmt: skip
-_ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block", "_doubled", "_servo_phi",
-                "_servo_rows", "_g_apply", "_leg_function", "_etd_correction", "_combine_rows", "_etd_setup")  # fmt: skip
+_ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block",
+                "_doubled", "_servo_phi", "_servo_rows", "_g_apply", "_leg_function", "_etd_correction", "_combine_rows",
+                "_etd_setup")  # fmt: skip
 """simulation's functions of the exponential step that the compiled stepper compiles (copies sharing their code)."""
 _STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
@@ -545,11 +545,14 @@ def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: 
 def _stepper(parallel: bool, integrator: str = "rk4"):
     """The compiled :func:`_batch` (RK4) or :func:`_batch_etd` (ETDRK4-B), threaded over robots if
     ``parallel``; cached on disk (:func:`cache_dir`) and in memory."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"the compiled stepper integrates with {' or '.join(INTEGRATORS)}, not {integrator!r}")
     return _compiled_stepper(bool(parallel), integrator)
 
 
 @functools.lru_cache(maxsize=None)
 def _compiled_stepper(parallel: bool, integrator: str):
+    """:func:`_stepper`'s work, once a process per (parallel, integrator)."""
     import os
 
     import numba
