@@ -28,7 +28,6 @@ Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
 from __future__ import annotations
 
 import math
-import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 
@@ -40,8 +39,8 @@ from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, median_time, parser, reference, write_json
+from .work_precision import ENV_STEP, run_steps
 
-ENV_STEP = 0.05
 CASES = [(model, gait) for model in ("plane", "pivot") for gait in (1, 2, 3)]
 FIRST_FACTOR = 3
 """The first env step is taken in FIRST_FACTOR times the method's steps (where marked)."""
@@ -70,14 +69,10 @@ def _step_text(row) -> str:
 
 
 def _run(config: SimConfig, first: SimConfig, targets, duration: float):
-    """(states every env step, CPU s) of one robot's run, the first env step taken in ``first``'s steps."""
-    states = np.empty((round(duration / ENV_STEP) + 1, dynamics.STATE_SIZE))
-    states[0] = initial_state()
-    advance(first, states[0], 0.0, ENV_STEP, targets)  # compile or load the compiled stepper outside the clock
-    start = time.process_time()
-    for i in range(len(states) - 1):
-        states[i + 1] = advance(first if i == 0 else config, states[i], i * ENV_STEP, ENV_STEP, targets, check=False)
-    return states, time.process_time() - start
+    """(states every env step, CPU s) of one robot's run (work_precision.run_steps), the first env
+    step taken in ``first``'s steps, after one untimed step that compiles or loads the compiled stepper."""
+    advance(first, initial_state(), 0.0, ENV_STEP, targets)
+    return run_steps(config, targets, initial_state(), round(duration / ENV_STEP), first=first)
 
 
 def gait_case(job):

@@ -482,8 +482,10 @@ def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
 
 
 def _normalize_quat_floats(y):
-    """Scale the quaternion (entries 2:6) of a list-of-floats state to unit length, in place."""
-    inv = 1.0 / math.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    """Scale the quaternion (entries 2:6) of a state as 13 rows (Python floats, or the (N,) arrays of
+    the exponential step's batch rows) to unit length, in place."""
+    norm2 = y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5]
+    inv = 1.0 / (math.sqrt(norm2) if isinstance(norm2, float) else np.sqrt(norm2))
     y[2] *= inv
     y[3] *= inv
     y[4] *= inv
@@ -923,14 +925,6 @@ def _doublings(config: SimConfig, h: float):
     return radius, max(1, math.ceil(math.log2(max(2.0 * radius, 1.0))))
 
 
-def _normalize_quat_rows(y):
-    """Scale the quaternion (rows 2:6) of 13 rows (floats or arrays) to unit length, in place."""
-    norm2 = y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5]
-    inv = 1.0 / (math.sqrt(norm2) if isinstance(norm2, float) else np.sqrt(norm2))
-    for r in (2, 3, 4, 5):
-        y[r] = y[r] * inv
-
-
 def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     """Krogstad's ETDRK4-B with A the servo's linear part (:func:`_etd_setup`), on y as 13 rows
     (floats, or the (N,) arrays of a batch). Stages at c = 0, 1/2, 1/2, 1; with
@@ -971,7 +965,7 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
         k23 = _etd_correction(g, p, kp, kd, h, b23, d2[6] + d3[6], d2[7] + d3[7], d2[11] + d3[11], d2[12] + d3[12])
         k4 = _etd_correction(g, p, kp, kd, h, b4, d4[6], d4[7], d4[11], d4[12])
         y = [a + h * (third * (p_ + q) + sixth * r + c + e) for a, p_, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
-        _normalize_quat_rows(y)
+        _normalize_quat_floats(y)
         t += h
     return y
 
