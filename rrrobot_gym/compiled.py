@@ -17,8 +17,8 @@ instruction). The robots left over (fewer than LANES) take the one-robot stepper
 (:func:`_one_robot`). Both give the float stepper's numbers to the bit.
 
 Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the
-scene is one it covers: servo legs, ``integrator="rk4"`` (lanes, as above) or ``"etdrk4b"`` (the
-exponential step, one robot at a time, compiling simulation's own servo algebra), and targets from
+scene is one it covers: servo legs, ``integrator="rk4"`` or ``"etdrk4b"`` (the exponential step,
+compiling simulation's own servo algebra; lanes too, :func:`_etd_lanes`), and targets from
 :class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
 :class:`~rrrobot_gym.control.Gait` or ``gait_search.SinusoidGait`` (any source with a
 ``compiled_targets()`` method). Everything else takes the numpy path.
@@ -40,7 +40,7 @@ import numpy as np
 from . import control, dynamics
 
 _DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
-             "tangential_force", "_contact_force", "derivative_kernel")  # fmt: skip
+             "tangential_force", "_contact_force", "derivative_and_mobility", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper
@@ -59,7 +59,7 @@ def available() -> bool:
 
 
 INTEGRATORS = ("rk4", "etdrk4b")
-"""The integrators compiled: RK4 (lanes of robots, SIMD) and the exponential ETDRK4-B (one robot at a time)."""
+"""The integrators compiled: RK4 and the exponential ETDRK4-B, both in lanes of robots (SIMD)."""
 
 
 def supports(config) -> bool:
@@ -182,28 +182,32 @@ def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared,
 
 # The exponential step (SimConfig(integrator="etdrk4b")): simulation._etdrk4b_rows on one robot,
 # operation for operation, with the servo algebra compiled from simulation's own functions
-# (_etd_setup, _etd_correction, _servo_rows: plain arithmetic on tuples).
+# (_etd_setup, _etd_correction, _servo_rows: plain arithmetic on tuples). Whole blocks of robots
+# take its lanes (_etd_lanes, below the RK4 lanes).
 
 
-def _etd_setup(*args):
-    """simulation._etd_setup (the compiled stepper's namespace binds its compiled copy instead)."""
-    from .simulation import _etd_setup as setup
+def _simulation_function(name):
+    """simulation's function ``name``, looked up when called (simulation imports this module); the
+    compiled stepper's namespace binds its compiled copy instead."""
 
-    return setup(*args)
+    def call(*args):
+        from . import simulation
+
+        return getattr(simulation, name)(*args)
+
+    call.__name__ = call.__qualname__ = name
+    return call
 
 
-def _etd_correction(*args):
-    """simulation._etd_correction (compiled copy in the compiled stepper)."""
-    from .simulation import _etd_correction as correction
-
-    return correction(*args)
-
-
-def _servo_rows(*args):
-    """simulation._servo_rows (compiled copy in the compiled stepper)."""
-    from .simulation import _servo_rows as rows
-
-    return rows(*args)
+_ETD_CALLED = ("_etd_setup", "_etd_correction", "_servo_rows", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling",
+               "_per_leg_block", "_etd_finish")  # fmt: skip
+"""simulation's servo algebra that the stepper below calls."""
+for _name in _ETD_CALLED:
+    globals()[_name] = _simulation_function(_name)
+del _name
+TAYLOR_TERMS = 13
+"""Terms of Taylor's series of phi_4 (simulation._ServoExponential.TERMS), a constant so that the
+lane stepper's loop over them unrolls: at ||X|| <= 1/2 the remainder is below 1e-15."""
 
 
 def _one_robot_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit, kind, p,
@@ -271,14 +275,21 @@ def _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p
     y[5] = y[5] * inv
 
 
-def _batch_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit, kind, params,
-               shared, rows, summary):  # fmt: skip
-    """_batch with ETDRK4-B: every robot by _one_robot_etd (threaded over robots when compiled parallel)."""
+def _batch_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, gains, torque_limit, rate_limit, kind,
+               params, shared, rows, summary):  # fmt: skip
+    """_batch with ETDRK4-B: whole blocks of LANES robots by _etd_lanes, the rest by _one_robot_etd
+    (threaded over blocks and robots when compiled parallel)."""
     shared_targets = params.shape[0] == 1
-    for i in prange(y.shape[0]):
-        p = params[0] if shared_targets else params[i]
-        _one_robot_etd(y[i], t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit,
-                       kind, p, shared, rows, summary, i)  # fmt: skip
+    blocks = y.shape[0] // LANES
+    for b in prange(blocks + y.shape[0] - blocks * LANES):
+        if b < blocks:
+            _etd_lanes(y, b * LANES, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, gains, torque_limit,
+                       rate_limit, kind, params, shared, rows, summary)  # fmt: skip
+        else:
+            i = blocks * LANES + (b - blocks)
+            p = params[0] if shared_targets else params[i]
+            _one_robot_etd(y[i], t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, gains, torque_limit, rate_limit,
+                           kind, p, shared, rows, summary, i)  # fmt: skip
 
 
 def _lesser(a, b):
@@ -467,24 +478,312 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
             _one_robot(y[i], t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
+# The exponential step's lanes: ETDRK4-B (_etd_substep) on LANES robots at once, laid out as the
+# lane stepper's (one row of LANES values per quantity). A step is a few loops over the robots, each
+# with a straight-line body the compiler can vectorise: the servo torques (one loop per kind of
+# target), the first evaluation with the legs' mobility, Taylor's series of phi_4, one loop per
+# doubling (the levels, and which of them are stiff, are the scene's, the same for every robot),
+# the step's setup, and the three later stages. Every number is the one _etd_substep computes, by
+# the same functions of simulation's servo algebra in the same order, so each robot's result is
+# the float stepper's to the bit.
+_EY, _EF, _EU, _ES, _EB, _ED2, _ED3 = 0, 13, 26, 39, 52, 65, 78  # state, f(u), stage points (2), base, D2, D3
+_EM = 91  # the legs' mobility (G's three, P's six)
+_EPHI, _EHALF = 100, 120  # phi_0 .. phi_4 (four numbers each) of the current doubling, and of h L / 2
+_EEL = 140  # the elements phi_3(hL/2), phi_3(hL), 2 phi_3 - 4 phi_4, 4 phi_4 - phi_3 (four numbers each)
+_ECOL = 156  # A's time column (13)
+_EP = 169  # per-robot target parameters (8)
+_ETGT = 177  # the targets' rates and accelerations at the step's start (4)
+_ETAU, _EC, _ERATES = 181, 183, 190  # the record's rows, in its order: torques, contact values (7), leg rates
+_EROWS = 192
+
+
+def _lane_phis(w, row, i):
+    """Lane i's five phi-elements ((a0, a1), (b0, b1)) from rows row .. row + 19."""
+    L = LANES
+    return (
+        ((w[row * L + i], w[(row + 1) * L + i]), (w[(row + 2) * L + i], w[(row + 3) * L + i])),
+        ((w[(row + 4) * L + i], w[(row + 5) * L + i]), (w[(row + 6) * L + i], w[(row + 7) * L + i])),
+        ((w[(row + 8) * L + i], w[(row + 9) * L + i]), (w[(row + 10) * L + i], w[(row + 11) * L + i])),
+        ((w[(row + 12) * L + i], w[(row + 13) * L + i]), (w[(row + 14) * L + i], w[(row + 15) * L + i])),
+        ((w[(row + 16) * L + i], w[(row + 17) * L + i]), (w[(row + 18) * L + i], w[(row + 19) * L + i])),
+    )  # fmt: skip
+
+
+def _lane_element(w, row, i):
+    """Lane i's phi-element ((a0, a1), (b0, b1)) from rows row .. row + 3."""
+    L = LANES
+    return (w[row * L + i], w[(row + 1) * L + i]), (w[(row + 2) * L + i], w[(row + 3) * L + i])
+
+
+def _put_element(w, row, i, element):
+    """Store a phi-element into rows row .. row + 3 of lane i."""
+    L = LANES
+    (a0, a1), (b0, b1) = element
+    w[row * L + i], w[(row + 1) * L + i], w[(row + 2) * L + i], w[(row + 3) * L + i] = a0, a1, b0, b1
+
+
+def _put_rows(w, row, i, v):
+    """Store 13 values into rows row .. row + 12 of lane i (written out: a loop indexing a tuple
+    would keep a switch in the lanes' loops and stop their vectorisation)."""
+    L = LANES
+    w[row * L + i], w[(row + 1) * L + i], w[(row + 2) * L + i], w[(row + 3) * L + i] = v[0], v[1], v[2], v[3]
+    w[(row + 4) * L + i], w[(row + 5) * L + i], w[(row + 6) * L + i], w[(row + 7) * L + i] = v[4], v[5], v[6], v[7]
+    w[(row + 8) * L + i], w[(row + 9) * L + i], w[(row + 10) * L + i], w[(row + 11) * L + i] = v[8], v[9], v[10], v[11]
+    w[(row + 12) * L + i] = v[12]
+
+
+def _sum(x, y):
+    """x + y for 13 rows."""
+    return (x[0] + y[0], x[1] + y[1], x[2] + y[2], x[3] + y[3], x[4] + y[4], x[5] + y[5], x[6] + y[6], x[7] + y[7],
+            x[8] + y[8], x[9] + y[9], x[10] + y[10], x[11] + y[11], x[12] + y[12])  # fmt: skip
+
+
+def _difference(x, y):
+    """x - y for 13 rows."""
+    return (x[0] - y[0], x[1] - y[1], x[2] - y[2], x[3] - y[3], x[4] - y[4], x[5] - y[5], x[6] - y[6], x[7] - y[7],
+            x[8] - y[8], x[9] - y[9], x[10] - y[10], x[11] - y[11], x[12] - y[12])  # fmt: skip
+
+
+def _scaled(a, x):
+    """a x for 13 rows."""
+    return (a * x[0], a * x[1], a * x[2], a * x[3], a * x[4], a * x[5], a * x[6], a * x[7], a * x[8], a * x[9], a * x[10],
+            a * x[11], a * x[12])  # fmt: skip
+
+
+def _lane_mobility(w, i):
+    """Lane i's G (three) and P (six), and G's trace and determinant as _etd_setup forms them."""
+    L = LANES
+    g = (w[_EM * L + i], w[(_EM + 1) * L + i], w[(_EM + 2) * L + i])
+    p = (w[(_EM + 3) * L + i], w[(_EM + 4) * L + i], w[(_EM + 5) * L + i], w[(_EM + 6) * L + i], w[(_EM + 7) * L + i],
+         w[(_EM + 8) * L + i])  # fmt: skip
+    g11, g12, g22 = g
+    return g, p, g11 + g22, g11 * g22 - g12 * g12
+
+
+def _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, start):
+    """The servo's torques on the state in rows row .., every lane, into _ETAU; with ``start``,
+    the targets' rates and accelerations into _ETGT (inlined where ``kind`` and ``start`` are constants)."""
+    L = LANES
+    targets = _leg_targets(kind, params[0], shared, t)
+    each = params.shape[0] > 1
+    for i in range(L):
+        if each:
+            p = (w[_EP * L + i], w[(_EP + 1) * L + i], w[(_EP + 2) * L + i], w[(_EP + 3) * L + i],
+                 w[(_EP + 4) * L + i], w[(_EP + 5) * L + i], w[(_EP + 6) * L + i], w[(_EP + 7) * L + i])  # fmt: skip
+            targets = _leg_targets(kind, p, shared, t)
+        tau = _servo(_lane_state(w, row, i), targets, gains, torque_limit, rate_limit)
+        w[_ETAU * L + i], w[(_ETAU + 1) * L + i] = tau[0], tau[1]
+        if start:
+            _, rates, accels = targets
+            w[_ETGT * L + i], w[(_ETGT + 1) * L + i] = rates[0], rates[1]
+            w[(_ETGT + 2) * L + i], w[(_ETGT + 3) * L + i] = accels[0], accels[1]
+
+
+def _etd_lane_targets(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, start):
+    """_etd_lane_torques with ``kind`` and ``start`` made constants of their own loops."""
+    if start:
+        if kind == _HELD:
+            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _HELD, params, shared, True)
+        elif kind == _RAMP:
+            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _RAMP, params, shared, True)
+        else:
+            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, True)
+    elif kind == _HELD:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _HELD, params, shared, False)
+    elif kind == _RAMP:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _RAMP, params, shared, False)
+    else:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, False)
+
+
+def _etd_lane_first(w, k, kc, xkp, xkd, record):
+    """The step's first evaluation (with the legs' mobility into _EM, and with ``record`` the
+    contact values), every lane, and phi_0 .. phi_4 of h L / 2^levels by Taylor's series into _EPHI."""
+    L = LANES
+    for i in range(L):
+        c = _lane_state(w, _EY, i)
+        d, mobility = lane_derivative_and_mobility(c, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k, True)
+        _put_rows(w, _EF, i, d)
+        w[_EM * L + i], w[(_EM + 1) * L + i], w[(_EM + 2) * L + i] = mobility[0], mobility[1], mobility[2]
+        w[(_EM + 3) * L + i], w[(_EM + 4) * L + i], w[(_EM + 5) * L + i] = mobility[3], mobility[4], mobility[5]
+        w[(_EM + 6) * L + i], w[(_EM + 7) * L + i], w[(_EM + 8) * L + i] = mobility[6], mobility[7], mobility[8]
+        if record:
+            f = lane_contact_kernel(c, d, kc)
+            w[_EC * L + i], w[(_EC + 1) * L + i], w[(_EC + 2) * L + i], w[(_EC + 3) * L + i] = f[0], f[1], f[2], f[3]
+            w[(_EC + 4) * L + i], w[(_EC + 5) * L + i], w[(_EC + 6) * L + i] = f[4], f[5], f[6]
+            w[_ERATES * L + i], w[(_ERATES + 1) * L + i] = c[11], c[12]
+        _, _, tg, dg = _lane_mobility(w, i)
+        phis = _phi_taylor(tg, dg, xkp, xkd, TAYLOR_TERMS)
+        for m in range(5):
+            _put_element(w, _EPHI + 4 * m, i, phis[m])
+
+
+def _etd_lane_doubling(w, xkp, xkd, stiff, last):
+    """One doubling of the phi-elements in _EPHI, every lane (the elements before the last one
+    kept in _EHALF: those of h L / 2)."""
+    L = LANES
+    for i in range(L):
+        _, _, tg, dg = _lane_mobility(w, i)
+        phis = _lane_phis(w, _EPHI, i)
+        if last:
+            for m in range(5):
+                _put_element(w, _EHALF + 4 * m, i, phis[m])
+        phis = _phi_doubling(phis, tg, dg, xkp, xkd, stiff)
+        for m in range(5):
+            _put_element(w, _EPHI + 4 * m, i, phis[m])
+
+
+def _etd_lane_setup(w, kp, kd, h):
+    """_etd_setup's rest (_etd_finish), the second stage's point into _EU and the base into _EB, every lane."""
+    L = LANES
+    half_h = 0.5 * h
+    for i in range(L):
+        g, pp, _, _ = _lane_mobility(w, i)
+        rates = (w[_ETGT * L + i], w[(_ETGT + 1) * L + i])
+        accels = (w[(_ETGT + 2) * L + i], w[(_ETGT + 3) * L + i])
+        half = _per_leg_block(_lane_phis(w, _EHALF, i), 0.5 * h)
+        whole = _per_leg_block(_lane_phis(w, _EPHI, i), h)
+        g, pp, elements, column, forcing_half, forcing = _etd_finish(g, pp, half, whole, kp, kd, h, rates, accels)
+        p2h, p3h, p2, p3, b23, b4 = elements
+        y = _lane_state(w, _EY, i)
+        fu = _lane_state(w, _EF, i)
+        # (each x + a (b + c + e) of _etd_substep, as x + (a ((b + c) + e)): the same roundings)
+        c = _etd_correction(g, pp, kp, kd, half_h, p2h, fu[6], fu[7], fu[11], fu[12])
+        _put_rows(w, _EU, i, _sum(y, _scaled(half_h, _sum(_sum(fu, c), forcing_half))))
+        c = _etd_correction(g, pp, kp, kd, h, p2, fu[6], fu[7], fu[11], fu[12])
+        _put_rows(w, _EB, i, _sum(y, _scaled(h, _sum(_sum(fu, c), forcing))))
+        _put_element(w, _EEL, i, p3h)
+        _put_element(w, _EEL + 4, i, p3)
+        _put_element(w, _EEL + 8, i, b23)
+        _put_element(w, _EEL + 12, i, b4)
+        _put_rows(w, _ECOL, i, column)
+
+
+def _etd_lane_change(w, row, out, i, dt, k, kp, kd):
+    """D = f(U) - f(u) - A (U - u) for lane i's point U in rows row .. into rows out .. (_etd_change);
+    returns the lane's G and P."""
+    L = LANES
+    point = _lane_state(w, row, i)
+    y = _lane_state(w, _EY, i)
+    g, pp, _, _ = _lane_mobility(w, i)
+    linear = _servo_rows(g, pp, kp, kd, point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12], 1.0)
+    d = lane_derivative_kernel(point, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k)
+    _put_rows(w, out, i, _difference(_difference(d, _sum(linear, _scaled(dt, _lane_state(w, _ECOL, i)))), _lane_state(w, _EF, i)))
+    return g, pp
+
+
+def _etd_lane_stage(w, stage, t, h, k, kp, kd):
+    """The later stages, every lane: D at the point of stage 2, 3 or 4 (its torques in _ETAU), and
+    the next point, or (stage 4) the step's result into _EY, the quaternion back to unit length."""
+    L = LANES
+    half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
+    dt = (t + (h if stage == 4 else half_h)) - t  # the stage's time less the step's, as _etd_change forms it
+    for i in range(L):
+        if stage == 2:
+            g, pp = _etd_lane_change(w, _EU, _ED2, i, dt, k, kp, kd)
+            d2 = _lane_state(w, _ED2, i)
+            c = _etd_correction(g, pp, kp, kd, half_h, _lane_element(w, _EEL, i), d2[6], d2[7], d2[11], d2[12])
+            _put_rows(w, _ES, i, _sum(_lane_state(w, _EU, i), _scaled(h, _sum(_scaled(0.5, d2), c))))
+        elif stage == 3:
+            g, pp = _etd_lane_change(w, _ES, _ED3, i, dt, k, kp, kd)
+            d3 = _lane_state(w, _ED3, i)
+            c = _etd_correction(g, pp, kp, kd, h, _lane_element(w, _EEL + 4, i), d3[6], d3[7], d3[11], d3[12])
+            _put_rows(w, _EU, i, _sum(_lane_state(w, _EB, i), _scaled(2.0 * h, _sum(_scaled(0.5, d3), c))))
+        else:
+            g, pp = _etd_lane_change(w, _EU, _ES, i, dt, k, kp, kd)  # D4 where the third stage's point was
+            d2, d3, d4 = _lane_state(w, _ED2, i), _lane_state(w, _ED3, i), _lane_state(w, _ES, i)
+            c23 = _etd_correction(g, pp, kp, kd, h, _lane_element(w, _EEL + 8, i), d2[6] + d3[6], d2[7] + d3[7],
+                                  d2[11] + d3[11], d2[12] + d3[12])  # fmt: skip
+            c4 = _etd_correction(g, pp, kp, kd, h, _lane_element(w, _EEL + 12, i), d4[6], d4[7], d4[11], d4[12])
+            step = _sum(_sum(_sum(_scaled(third, _sum(d2, d3)), _scaled(sixth, d4)), c23), c4)
+            _put_rows(w, _EY, i, _sum(_lane_state(w, _EB, i), _scaled(h, step)))
+            qw, qx, qy, qz = w[(_EY + 2) * L + i], w[(_EY + 3) * L + i], w[(_EY + 4) * L + i], w[(_EY + 5) * L + i]
+            inv = 1.0 / np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+            w[(_EY + 2) * L + i], w[(_EY + 3) * L + i], w[(_EY + 4) * L + i], w[(_EY + 5) * L + i] = qw * inv, qx * inv, qy * inv, qz * inv
+
+
+def _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, row):
+    """One ETDRK4-B step of the lanes in w (_etd_substep on each), recorded into rows[row] unless row < 0."""
+    L = LANES
+    kp, kd = gains.kp, gains.kd
+    _, radius, levels = doublings
+    record = rows.shape[0] > 0 and row >= 0
+    _etd_lane_targets(w, _EY, t, gains, torque_limit, rate_limit, kind, params, shared, True)
+    xkp, xkd = _phi_scale(kp, kd, h, levels)
+    if record:
+        _etd_lane_first(w, k, kc, xkp, xkd, True)
+        flat = rows.reshape(-1)
+        n = rows.shape[2]
+        for m in range(RECORD_ROWS * L):  # rows _ETAU .. _ERATES + 1 are the record's, in its order
+            j = m // L
+            flat[(row * RECORD_ROWS + j) * n + first + m - j * L] = w[_ETAU * L + m]
+    else:
+        _etd_lane_first(w, k, kc, xkp, xkd, False)
+    for level in range(levels):
+        if _phi_stiff(radius, levels, level):
+            _etd_lane_doubling(w, xkp, xkd, True, level == levels - 1)
+        else:
+            _etd_lane_doubling(w, xkp, xkd, False, level == levels - 1)
+        xkd, xkp = 2.0 * xkd, 4.0 * xkp
+    _etd_lane_setup(w, kp, kd, h)
+    half_h = 0.5 * h
+    _etd_lane_targets(w, _EU, t + half_h, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _etd_lane_stage(w, 2, t, h, k, kp, kd)
+    _etd_lane_targets(w, _ES, t + half_h, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _etd_lane_stage(w, 3, t, h, k, kp, kd)
+    _etd_lane_targets(w, _EU, t + h, gains, torque_limit, rate_limit, kind, params, shared, False)
+    _etd_lane_stage(w, 4, t, h, k, kp, kd)
+
+
+def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, gains, torque_limit, rate_limit,
+               kind, params, shared, rows, summary):  # fmt: skip
+    """_one_robot_etd for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
+    L = LANES
+    w = np.zeros(_EROWS * L)
+    for i in range(L):
+        for j in range(13):
+            w[(_EY + j) * L + i] = y[first + i, j]
+        if params.shape[0] > 1:
+            for j in range(params.shape[1]):
+                w[(_EP + j) * L + i] = params[first + i, j]
+    for step in range(n0):
+        _etd_lane_substep(w, first, t0, h0, lead_doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared,
+                          rows, step // 2 if step % 2 == 0 else -1)  # fmt: skip
+        t0 += h0
+    for step in range(n_steps):
+        _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows,
+                          n0 // 2 + step)  # fmt: skip
+        t += h
+    for i in range(L):
+        for j in range(13):
+            y[first + i, j] = w[(_EY + j) * L + i]
+    if rows.shape[0]:
+        _summarise(rows, summary, first, L)
+
+
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
-            "_etd_change", "_etd_substep", "_one_robot_etd")  # fmt: skip
+            "_etd_change", "_etd_substep", "_one_robot_etd", "_etd_lane_substep", "_etd_lanes")  # fmt: skip
 _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block",
-                "_doubled", "_servo_phi", "_servo_rows", "_g_apply", "_leg_function", "_etd_correction", "_combine_rows",
-                "_etd_setup")  # fmt: skip
+                "_doubled", "_servo_phi", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling", "_servo_rows", "_g_apply",
+                "_leg_function", "_etd_correction", "_combine_rows", "_etd_finish", "_etd_setup")  # fmt: skip
 """simulation's functions of the exponential step that the compiled stepper compiles (copies sharing their code)."""
 _STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
+_ETD_LANE_INLINED = ("_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled", "_lane_mobility", "_etd_lane_torques",
+                     "_etd_lane_targets", "_etd_lane_first", "_etd_lane_doubling", "_etd_lane_setup", "_etd_lane_change",
+                     "_etd_lane_stage")  # fmt: skip
+"""Inlined into the exponential step's lanes, so that each loop has a constant kind, stage or flag and a straight-line body."""
 
 
 def _lane_kernels(njit):
-    """derivative_kernel and contact_kernel compiled by ``njit`` (copies sharing their code)."""
+    """derivative_kernel, derivative_and_mobility and contact_kernel compiled by ``njit`` (copies sharing their code)."""
     namespace = _compiled_copies(dynamics, _DYNAMICS + ("contact_kernel",), njit)
-    return namespace["derivative_kernel"], namespace["contact_kernel"]
+    return namespace["derivative_kernel"], namespace["derivative_and_mobility"], namespace["contact_kernel"]
 
 
-lane_derivative_kernel, lane_contact_kernel = dynamics.derivative_kernel, dynamics.contact_kernel
+lane_derivative_kernel, lane_derivative_and_mobility = dynamics.derivative_kernel, dynamics.derivative_and_mobility
+lane_contact_kernel = dynamics.contact_kernel
 
 
 def cache_dir(sources=None):
@@ -577,14 +876,16 @@ def _compiled_stepper(parallel: bool, integrator: str):
         namespace["derivative_kernel"] = compiled_dynamics["derivative_kernel"]
         # the lane stepper's kernels are inlined into its loops, which is what lets them vectorise
         inline = functools.partial(njit, forceinline=True)
-        namespace["lane_derivative_kernel"], namespace["lane_contact_kernel"] = _lane_kernels(inline)
+        lane_kernels = _lane_kernels(inline)
+        namespace["lane_derivative_kernel"], namespace["lane_derivative_and_mobility"], namespace["lane_contact_kernel"] = lane_kernels
         _compiled_copies(sys.modules[__name__], _LANE_INLINED, inline, namespace)
         _compiled_copies(sys.modules[__name__], _LANE_CALLED, njit, namespace)
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
-        etd = _compiled_copies(simulation, _ETD_ALGEBRA, njit)
-        namespace.update((name, etd[name]) for name in ("_etd_setup", "_etd_correction", "_servo_rows"))
+        etd = _compiled_copies(simulation, _ETD_ALGEBRA, inline)  # inlined, so the lanes' loops vectorise
+        _compiled_copies(sys.modules[__name__], _ETD_LANE_INLINED, inline, namespace)
+        namespace.update((name, etd[name]) for name in _ETD_CALLED)
         _compiled_copies(sys.modules[__name__], _STEPPER_INLINED, inline, namespace)
         _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
         source = _batch_etd if integrator == "etdrk4b" else _batch
@@ -633,7 +934,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         def doublings(step_h):
             return (_ServoExponential.TERMS, *_doublings(config, step_h)) if step_h > 0.0 else (_ServoExponential.TERMS, 0.0, 1)
 
-        args = (y, t_lead, h_lead, n_lead, doublings(h_lead), float(t0), float(h), int(n_steps), doublings(float(h)), k, gains,
+        args = (y, t_lead, h_lead, n_lead, doublings(h_lead), float(t0), float(h), int(n_steps), doublings(float(h)), k, kc, gains,
                 config.torque_limit, config.leg_rate_limit, kind, params, shared, rows, summary)  # fmt: skip
     else:
         args = (y, t_lead, h_lead, n_lead, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit,

@@ -292,17 +292,30 @@ def derivative_kernel(
 ):
     """:func:`state_derivative` with the constants precomputed by :func:`constants`.
 
-    This is the implementation; the integrators call it directly to skip the
-    per-call parameter arithmetic. With ``leg_accel`` (kinematic legs), a list
-    ``torque_out`` receives the two leg torques that motion takes (from the legs' rows,
-    D phi'' + c_k . Omega' = f_leg + tau). With servo legs, a list ``mobility_out``
-    receives how the accelerations answer the leg torques, the legs' columns of M^-1:
-    (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j, 1/kg m^2, the body's recoil
-    included), then P_1 and P_2 (3 each), the body rows (d Omega' / d tau_k). The
-    linearly implicit integrator builds its servo Jacobian from them. A list
-    ``contact_out`` receives :func:`contact_kernel`'s seven values for this state and the
-    derivative returned, from the terms already computed here (the integrators' record).
+    This is the implementation (:func:`derivative_and_mobility`, which it calls, holds the
+    equations); the integrators call it directly to skip the per-call parameter arithmetic.
+    With ``leg_accel`` (kinematic legs), a list ``torque_out`` receives the two leg torques
+    that motion takes (from the legs' rows, D phi'' + c_k . Omega' = f_leg + tau). With servo
+    legs, a list ``mobility_out`` receives how the accelerations answer the leg torques, the
+    legs' columns of M^-1: (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j,
+    1/kg m^2, the body's recoil included), then P_1 and P_2 (3 each), the body rows
+    (d Omega' / d tau_k). The linearly implicit and exponential integrators build their servo
+    matrix from them. A list ``contact_out`` receives :func:`contact_kernel`'s seven values
+    for this state and the derivative returned, from the terms already computed here (the
+    integrators' record).
     """
+    derivative, mobility = derivative_and_mobility(c, leg_torque, k, mobility_out is not None, leg_accel, torque_out,
+                                                   contact_out)  # fmt: skip
+    if mobility_out is not None:
+        mobility_out[:] = mobility
+    return derivative
+
+
+def derivative_and_mobility(c, leg_torque, k: Constants, with_mobility, leg_accel=None, torque_out=None, contact_out=None):
+    """(:func:`derivative_kernel`'s derivative, the legs' mobility), both tuples: the mobility as
+    derivative_kernel's ``mobility_out`` receives it if ``with_mobility`` (servo legs), else
+    zeros. The compiled lane stepper takes the mobility so, as values its SIMD loops can keep
+    (an array written inside such a loop would stop their vectorisation)."""
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     ox, oy, oz = c[8], c[9], c[10]
     rate1, rate2 = c[11], c[12]
@@ -393,22 +406,22 @@ def derivative_kernel(
             m_omega[5] - (c1z * h1z + c2z * h2z),
         )
         rhs = (f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2))
-        if mobility_out is None:
-            od0, od1, od2 = _sym_solve(m_red, rhs[0], rhs[1], rhs[2])
-        else:
+        if with_mobility:
             m_red_inv = _sym_inverse(m_red)
             od0, od1, od2 = _sym_apply(m_red_inv, rhs[0], rhs[1], rhs[2])
-        acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
-        acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
-        if mobility_out is not None:
             # Legs' block of M^-1 = 1/D + H^T m_red^-1 H, H = C / D (block inverse by the Schur complement).
             g1x, g1y, g1z = _sym_apply(m_red_inv, h1x, h1y, h1z)
             g12 = h2x * g1x + h2y * g1y + h2z * g1z
             g2x, g2y, g2z = _sym_apply(m_red_inv, h2x, h2y, h2z)
-            mobility_out[:] = (
+            mobility = (
                 inv_d + h1x * g1x + h1y * g1y + h1z * g1z, g12, inv_d + h2x * g2x + h2y * g2y + h2z * g2z,
                 -g1x, -g1y, -g1z, -g2x, -g2y, -g2z,
             )  # fmt: skip
+        else:
+            od0, od1, od2 = _sym_solve(m_red, rhs[0], rhs[1], rhs[2])
+            mobility = _NO_MOBILITY
+        acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
+        acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
     else:
         acc1, acc2 = leg_accel[0], leg_accel[1]
         od0, od1, od2 = _sym_solve(
@@ -419,12 +432,16 @@ def derivative_kernel(
                 inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
                 inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
             )
+        mobility = _NO_MOBILITY
     if contact_out is not None:
         contact_out[:] = _contact_force(
             (nx, ny, nz), legs, (sx, sz), (ox, oy, oz), (rate1, rate2), (od0, od1, od2), (acc1, acc2),
             r, ml, total_h, weight,
         )  # fmt: skip
-    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
+    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2), mobility
+
+
+_NO_MOBILITY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r, ml, total_h, weight):

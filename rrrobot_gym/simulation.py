@@ -818,26 +818,48 @@ def _servo_phi(tg, dg, kp, kd, h, levels, terms, radius):
     modified squaring, accurate for stiff arguments, where phi_{k+1} = (phi_k - 1/k!) / X would
     cancel). ``radius`` bounds the spectral radius of h L: a doubling to an argument within
     _RECURRENCE_RADIUS doubles phi_4 only (one product instead of five). Plain arithmetic on
-    tuples, so floats, (N,) arrays and the compiled stepper (:mod:`rrrobot_gym.compiled`) share it."""
-    xkd, xkp = kd * h / 2.0**levels, kp * (h / 2.0**levels) ** 2  # X^2 = -xkd G X - xkp G
+    tuples, so floats, (N,) arrays and the compiled stepper (:mod:`rrrobot_gym.compiled`) share it;
+    the compiled lane stepper runs the same pieces (_phi_scale, _phi_taylor, _phi_stiff,
+    _phi_doubling) one loop over its robots each."""
+    xkp, xkd = _phi_scale(kp, kd, h, levels)
+    phis = _phi_taylor(tg, dg, xkp, xkd, terms)
+    half = phis
+    for level in range(levels):
+        if level == levels - 1:  # the last doubling starts from h L / 2
+            half = phis
+        phis = _phi_doubling(phis, tg, dg, xkp, xkd, _phi_stiff(radius, levels, level))
+        xkd, xkp = 2.0 * xkd, 4.0 * xkp
+    return _per_leg_block(half, 0.5 * h), _per_leg_block(phis, h)
+
+
+def _phi_scale(kp, kd, h, levels):
+    """(xkp, xkd) of X = h L / 2^levels, where the doublings start: X^2 = -xkd G X - xkp G."""
+    return kp * (h / 2.0**levels) ** 2, kd * h / 2.0**levels
+
+
+def _phi_taylor(tg, dg, xkp, xkd, terms):
+    """phi_0 .. phi_4 of X: phi_4 by ``terms`` terms of Taylor's series (Horner), the rest by recurrence."""
     zero = 0.0 * tg
     phi4 = ((1.0 / _FACTORIALS[terms + 3] + zero, zero), (zero, zero))
     for m in range(terms - 2, -1, -1):
         (a0, a1), b = _x_times(phi4, tg, dg, xkp, xkd)
         phi4 = ((a0 + 1.0 / _FACTORIALS[m + 4], a1), b)
-    phis = _phis_from_phi4(phi4, tg, dg, xkp, xkd)
-    half = phis
-    for level in range(levels):
-        if level == levels - 1:  # the last doubling starts from h L / 2
-            half = phis
-        if radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS:
-            phi4 = _doubled(phis, 4, tg, dg, xkp, xkd)
-            phis = _phis_from_phi4(phi4, tg, dg, 4.0 * xkp, 2.0 * xkd)
-        else:
-            phis = (_doubled(phis, 0, tg, dg, xkp, xkd), _doubled(phis, 1, tg, dg, xkp, xkd), _doubled(phis, 2, tg, dg, xkp, xkd),
-                    _doubled(phis, 3, tg, dg, xkp, xkd), _doubled(phis, 4, tg, dg, xkp, xkd))  # fmt: skip
-        xkd, xkp = 2.0 * xkd, 4.0 * xkp
-    return _per_leg_block(half, 0.5 * h), _per_leg_block(phis, h)
+    return _phis_from_phi4(phi4, tg, dg, xkp, xkd)
+
+
+def _phi_stiff(radius, levels, level):
+    """True if doubling ``level`` (of ``levels``) leads to an argument beyond _RECURRENCE_RADIUS."""
+    return not radius / 2.0 ** (levels - 1 - level) <= _RECURRENCE_RADIUS
+
+
+def _phi_doubling(phis, tg, dg, xkp, xkd, stiff):
+    """phi_0 .. phi_4 of 2X from those of X: all five doubled where ``stiff``, else phi_4 alone and
+    the others by recurrence."""
+    if stiff:
+        return (_doubled(phis, 0, tg, dg, xkp, xkd), _doubled(phis, 1, tg, dg, xkp, xkd), _doubled(phis, 2, tg, dg, xkp, xkd),
+                _doubled(phis, 3, tg, dg, xkp, xkd), _doubled(phis, 4, tg, dg, xkp, xkd))  # fmt: skip
+    phi4 = _doubled(phis, 4, tg, dg, xkp, xkd)
+    return _phis_from_phi4(phi4, tg, dg, 4.0 * xkp, 2.0 * xkd)
 
 
 def _servo_rows(g, p, kp, kd, w1, w2, w3, w4, scale):
@@ -892,6 +914,11 @@ def _etd_setup(mobility, kp, kd, h, levels, terms, radius, rates, accels):
     p = (mobility[3], mobility[4], mobility[5], mobility[6], mobility[7], mobility[8])
     g11, g12, g22 = g
     half, whole = _servo_phi(g11 + g22, g11 * g22 - g12 * g12, kp, kd, h, levels, terms, radius)
+    return _etd_finish(g, p, half, whole, kp, kd, h, rates, accels)
+
+
+def _etd_finish(g, p, half, whole, kp, kd, h, rates, accels):
+    """:func:`_etd_setup` from the phi-elements of h L / 2 and h L (:func:`_servo_phi`)."""
     (c0, c1), (d0, d1) = whole[3]
     (e0, e1), (f0, f1) = whole[4]
     b23 = ((2.0 * c0 - 4.0 * e0, 2.0 * c1 - 4.0 * e1), (2.0 * d0 - 4.0 * f0, 2.0 * d1 - 4.0 * f1))
@@ -911,7 +938,7 @@ class _ServoExponential:
     doublings of :func:`_servo_phi`, fixed by the servo's fastest pole over all configurations,
     not by the state, so no robot's result depends on the batch it is in."""
 
-    TERMS = 13  # of Taylor's series at ||X|| <= 1/2: a remainder below 1e-15
+    TERMS = compiled.TAYLOR_TERMS  # of Taylor's series at ||X|| <= 1/2: a remainder below 1e-15
 
     def __init__(self, config: SimConfig, h: float, targets):
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h

@@ -19,6 +19,7 @@ import rrrobot_gym.simulation
 from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.control import Gait, HeldTargets, RampTargets, table2_gait
 from rrrobot_gym.gait_search import SinusoidGait
+from rrrobot_gym.params import PDGains
 from rrrobot_gym.simulation import NumericalFailure, SimConfig, advance, initial_state
 
 pytestmark = pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
@@ -58,16 +59,19 @@ def _float_path(config, states, targets, t0, duration):
      SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto"),
      SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
      SimConfig(integrator="etdrk4b", timestep=1 / 80),
-     SimConfig(model="pivot", integrator="etdrk4b", torque_limit=0.5, leg_rate_limit=10.0, timestep=1 / 220, start_halves=4)],
+     SimConfig(model="pivot", integrator="etdrk4b", torque_limit=0.5, leg_rate_limit=10.0, timestep=1 / 220, start_halves=4),
+     SimConfig(integrator="etdrk4b", gains=PDGains(kp=200.0, kd=5.0), timestep=1 / 300)],
     ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded",
-         "plane-etdrk4b", "pivot-motor-etdrk4b-graded"],
+         "plane-etdrk4b", "pivot-motor-etdrk4b-graded", "plane-stiff-servo-etdrk4b"],
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
     # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
     # stepper and one robot on the one-robot stepper. With start_halves, the compiled stepper
     # takes the graded schedule in one call and summarises its record itself; the float stepper
-    # runs it as two uniform parts and StepRecord.summary summarises the joined record.
+    # runs it as two uniform parts and StepRecord.summary summarises the joined record. The
+    # exponential step's lanes have loops of their own; its stiff servo (h |lambda| ~ 140) takes
+    # the doublings of all five phi-functions, the default one (~5 at 1/80 s) those of phi_4 alone.
     assert compiled.LANES < 33 < 2 * compiled.LANES
     rng = np.random.default_rng(7)
     states = _states(33)
@@ -313,20 +317,22 @@ def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp
 
 def test_the_exponential_stepper_run_as_plain_python_gives_what_numba_compiled():
     # compiled._batch_etd uncompiled (simulation's servo algebra, plain Python) against its compiled
-    # copy: a graded start (two halves, the first recorded), then two whole steps
+    # copy, on a block of lanes and two robots of the one-robot stepper: a graded start (two halves,
+    # the first recorded), then two whole steps
     from rrrobot_gym.simulation import _doublings, _ServoExponential
 
     config = SimConfig(integrator="etdrk4b", timestep=1 / 80, torque_limit=0.4)
-    states = _states(2, seed=8)
-    targets = compiled.target_arrays(_targets("ramp", 2, np.random.default_rng(9)))
-    k, _, gains = compiled._scene(config.robot, config.depth, config.gains)
+    n = compiled.LANES + 2
+    states = _states(n, seed=8)
+    targets = compiled.target_arrays(_targets("ramp", n, np.random.default_rng(9)))
+    k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
     h = 1 / 80
     lead = (0.1, 0.5 * h, 2)
     y = states.copy()
-    rows = np.empty((3, compiled.RECORD_ROWS, 2))
-    summary = np.empty((compiled.SUMMARY_ROWS, 2))
+    rows = np.empty((3, compiled.RECORD_ROWS, n))
+    summary = np.empty((compiled.SUMMARY_ROWS, n))
     doublings = [(_ServoExponential.TERMS, *_doublings(config, step)) for step in (0.5 * h, h)]
-    compiled._batch_etd(y, *lead, doublings[0], 0.1 + h, h, 2, doublings[1], k, gains, 0.4, None, *targets, rows, summary)
+    compiled._batch_etd(y, *lead, doublings[0], 0.1 + h, h, 2, doublings[1], k, kc, gains, 0.4, None, *targets, rows, summary)
     fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1 + h, h, 2, True,
                                                        lead=lead)  # fmt: skip
     assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
