@@ -2,23 +2,27 @@
 
     python -m benchmarks.exponential_step [--quick] [--json FILE] [--markdown FILE] [--policy] [--workers W]
 
-Four parts, each the shipped steppers through :func:`rrrobot_gym.simulation.advance`:
+Five parts, each the shipped steppers through :func:`rrrobot_gym.simulation.advance`:
 
 - gaits: the six Table II cases (both models, gaits 1-3, 50 s from the paper's start; --quick:
   10 s), in env steps of 0.05 s, against ``simulate_reference`` (DOP853, rtol = atol = 1e-10):
   RK4 at the default 1/300 s, and ETDRK4-B at 1/60, 1/80 and 1/100 s, each with its first env
   step in three times as many steps (the legs start from rest onto moving targets, the one stiff
-  transient of a gait) and at 1/80 s without, and at 1/220 s with ``start_halves=4`` (the first
-  four steps of every env step in halves: 60 evaluations, the default's cost, graded as the
-  policy's rows below want). Worst contact error over the path, and CPU time of one robot's run
-  on the numpy backend and on the compiled one (which must give the same states to the bit);
+  transient of a gait) and at 1/80 s without, and graded: at 1/80 s with ``start_halves=1``, at
+  1/120 s with 2 and 3, and at 1/220 s with 4 (the first steps of every env step in halves, as the
+  policy's rows below want; the last at 60 evaluations, the default's count). Worst contact error
+  over the path, and CPU time of one robot's run on the numpy backend and on the compiled one
+  (which must give the same states to the bit);
 - batches: one env step (0.05 s of leg-target ramps) of N = 64 and 4096 robots, median wall time
-  of REPEATS, ETDRK4-B against RK4 at 1/300 s on numpy and compiled, side by side;
+  (REPEATS runs, ROUNDS rounds alternating the steppers), ETDRK4-B at several steps against RK4 at
+  1/300 s on numpy and compiled, side by side;
 - energy: a servo without damping (kd = 0) holding fixed targets on a robot without damping,
   started off its targets, tilted and spinning. Nothing drains or feeds energy, so the body's
   energy plus the servo's spring energy kp/2 |phi - target|^2 is conserved; its largest relative
   drift over the run, per method and step (the servo works all along, unlike
   ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B is RK4);
+- env: the env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64
+  and 4096), RK4 at the default and ETDRK4-B at about RK4's cost in batches, alternating;
 - ``--policy``: the shipped policy's leg-target ramps along four headings (50 s; --quick:
   10 s), replayed control step by control step (``benchmarks.policy_replay``): every new ramp
   kicks the servo, the path where the exponential step's order is not reached at 16 evaluations.
@@ -45,14 +49,22 @@ CASES = [(model, gait) for model in ("plane", "pivot") for gait in (1, 2, 3)]
 FIRST_FACTOR = 3
 """The first env step is taken in FIRST_FACTOR times the method's steps (where marked)."""
 GAIT_SETTINGS = [("rk4", 15, False, 0), ("etdrk4b", 3, True, 0), ("etdrk4b", 4, True, 0), ("etdrk4b", 5, True, 0),
-                 ("etdrk4b", 4, False, 0), ("etdrk4b", 11, False, 4)]  # fmt: skip
+                 ("etdrk4b", 4, False, 0), ("etdrk4b", 4, False, 1), ("etdrk4b", 6, False, 2), ("etdrk4b", 6, False, 3),
+                 ("etdrk4b", 11, False, 4)]  # fmt: skip
 """(integrator, steps an env step, fine first env step, ``start_halves``: the first steps of every
 env step in halves, which costs 4 evaluations more each)."""
 BATCHES = (64, 4096)
 REPEATS = 5
-ENERGY_SETTINGS = [("rk4", 15), ("rk4", 30), ("etdrk4b", 4), ("etdrk4b", 15)]
-POLICY_SETTINGS = [("rk4", 15, 0), ("rk4", 15, 2), ("etdrk4b", 4, 0), ("etdrk4b", 3, 1), ("etdrk4b", 8, 0), ("etdrk4b", 8, 2),
-                   ("etdrk4b", 15, 0), ("etdrk4b", 11, 4)]  # fmt: skip
+ROUNDS = 3
+"""Batches: each stepper timed REPEATS times (median) in each of ROUNDS rounds, the steppers
+alternating, and the median of the rounds kept."""
+BATCH_SETTINGS = [("rk4", 15, 0), ("etdrk4b", 4, 0), ("etdrk4b", 4, 1), ("etdrk4b", 6, 2), ("etdrk4b", 6, 3), ("etdrk4b", 11, 4)]
+"""(integrator, steps an env step, ``start_halves``) timed compiled; RK4 and ETDRK4-B at 1/80 s on numpy too."""
+ENERGY_SETTINGS = [("rk4", 15), ("rk4", 30), ("etdrk4b", 4), ("etdrk4b", 6), ("etdrk4b", 15)]
+ENV_SETTINGS = [("rk4", 15, 0), ("etdrk4b", 6, 2), ("etdrk4b", 6, 3)]
+"""(integrator, steps a control step, ``start_halves``) of the env rows: the default, and ETDRK4-B at about its cost in batches."""
+POLICY_SETTINGS = [("rk4", 15, 0), ("rk4", 15, 2), ("etdrk4b", 4, 0), ("etdrk4b", 4, 1), ("etdrk4b", 3, 1), ("etdrk4b", 6, 2),
+                   ("etdrk4b", 6, 3), ("etdrk4b", 8, 0), ("etdrk4b", 8, 2), ("etdrk4b", 15, 0), ("etdrk4b", 11, 4)]  # fmt: skip
 """(integrator, steps a control step, ``start_halves``)."""
 
 
@@ -116,7 +128,8 @@ def gait_rows(duration: float, workers: int):
 
 
 def batch_rows():
-    """Median wall time of one env step of N robots per stepper, and its ratio to RK4 on numpy."""
+    """Wall time of one env step of N robots per stepper (medians, side by side), and its ratio to
+    RK4 at the default step on numpy and compiled."""
     rng = np.random.default_rng(0)
     rows = []
     for n in BATCHES:
@@ -124,19 +137,48 @@ def batch_rows():
         ramp = RampTargets(state[:, 6:8], state[:, 6:8] + rng.uniform(-0.5, 0.5, (n, 2)), 0.0, ENV_STEP)
         configs = {"rk4 1/300 s, numpy": SimConfig(backend="numpy"), "etdrk4b 1/80 s, numpy": _config("plane", "etdrk4b", 4)}
         if compiled.available():
-            configs["rk4 1/300 s, compiled"] = SimConfig(backend="numba")
-            configs["etdrk4b 1/80 s, compiled"] = replace(_config("plane", "etdrk4b", 4), backend="numba")
-            configs["etdrk4b 1/220 s, start_halves=4, compiled"] = replace(_config("plane", "etdrk4b", 11, start_halves=4),
-                                                                           backend="numba")  # fmt: skip
-        times = {}
-        for label, config in configs.items():
+            for integrator, steps, halves in BATCH_SETTINGS:
+                config = replace(_config("plane", integrator, steps, start_halves=halves), backend="numba")
+                configs[_label(integrator, steps, halves) + ", compiled"] = config
+        for config in configs.values():
             advance(config, state, 0.0, ENV_STEP, ramp)  # warm: compile, caches, allocator
-            times[label] = median_time(lambda: advance(config, state, 0.0, ENV_STEP, ramp, check=False), REPEATS)
+        rounds = {label: [] for label in configs}
+        for _ in range(ROUNDS):
+            for label, config in configs.items():
+                rounds[label].append(median_time(lambda: advance(config, state, 0.0, ENV_STEP, ramp, check=False), REPEATS))
+        times = {label: float(np.median(values)) for label, values in rounds.items()}
         base = times["rk4 1/300 s, numpy"]
-        for label, seconds in times.items():
-            rows.append({"num_robots": n, "stepper": label, "median_s": seconds, "env_steps_per_s": n / seconds,
-                         "speed_vs_rk4_numpy": base / seconds})  # fmt: skip
-            print(f"batch N = {n}: {label}: {n / seconds:,.0f} env steps/s ({base / seconds:.2f}x RK4 numpy)", flush=True)
+        compiled_base = times.get("rk4 1/300 s, compiled")
+        for (label, seconds), config in zip(times.items(), configs.values()):
+            rows.append({"num_robots": n, "stepper": label, "evals_per_env_step": 4 * (round(ENV_STEP / config.timestep)
+                         + config.start_halves), "median_s": seconds, "env_steps_per_s": n / seconds,
+                         "speed_vs_rk4_numpy": base / seconds,
+                         "speed_vs_rk4_compiled": None if compiled_base is None else compiled_base / seconds})  # fmt: skip
+            print(f"batch N = {n}: {label}: {n / seconds:,.0f} env steps/s ({base / seconds:.2f}x RK4 numpy"
+                  + ("" if compiled_base is None else f", {compiled_base / seconds:.2f}x RK4 compiled") + ")", flush=True)
+    return rows
+
+
+def env_rows():
+    """The env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64 and
+    4096, compiled) per ENV_SETTINGS, ROUNDS rounds alternating the settings, medians; ratios to
+    the default (RK4) per env."""
+    from .throughput import single_env, vector_env
+
+    measures = (("single", lambda rng, kw: single_env(300, 3, rng, **kw)), ("N = 64", lambda rng, kw: vector_env(64, 100, 3, rng, **kw)),
+                ("N = 4096", lambda rng, kw: vector_env(4096, 10, 3, rng, **kw)))  # fmt: skip
+    rates = {}
+    for _ in range(ROUNDS):
+        for integrator, n, halves in ENV_SETTINGS:
+            kwargs = {"backend": "numba", "integrator": integrator, "timestep": ENV_STEP / n, "frame_skip": n, "start_halves": halves}
+            for name, measure in measures:
+                rates.setdefault((integrator, n, halves, name), []).append(measure(np.random.default_rng(0), kwargs)["env_steps_per_s"])
+    rows = []
+    for (integrator, n, halves, name), values in rates.items():
+        rate, base = float(np.median(values)), float(np.median(rates[("rk4", 15, 0, name)]))
+        rows.append({"integrator": integrator, "step_s": ENV_STEP / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
+                     "env": name, "env_steps_per_s": rate, "vs_default": rate / base})  # fmt: skip
+        print(f"env {name}: {_label(integrator, n, halves)}: {rate:,.0f} env steps/s ({rate / base:.2f}x the default)", flush=True)
     return rows
 
 
@@ -176,7 +218,8 @@ def policy_rows(duration: float):
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     rows = []
     for integrator, n, halves in POLICY_SETTINGS:
-        config = replace(sim, integrator=integrator, timestep=dt / n, start_halves=halves, backend="numpy")
+        config = replace(sim, integrator=integrator, timestep=dt / n, start_halves=halves,
+                         backend="numba" if compiled.available() else "numpy")  # (the same states to the bit)
         with np.errstate(all="ignore"):
             path, _ = replay(config, start, starts, ends, dt)
         rows.append({"integrator": integrator, "step_s": dt / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
@@ -197,6 +240,7 @@ def main(argv=None):
     payload["gaits"] = gaits = gait_rows(duration, args.workers)
     payload["batches"] = batches = batch_rows()
     payload["energy"] = energy = energy_rows(duration)
+    payload["env"] = envs = env_rows() if compiled.available() else []
     base, compiled_base = gaits[0]["cpu_s_per_run"], gaits[0]["compiled_cpu_s_per_run"]
 
     def compiled_cpu(r):
@@ -212,15 +256,22 @@ def main(argv=None):
           fmt(r["contact_max_m"] * 1e3), fmt(r["cpu_s_per_run"]), f"{r['cpu_s_per_run'] / base:.2f}x", *compiled_cpu(r)]
          + [fmt(v * 1e3) for v in r["per_case_max_m"].values()] for r in gaits],
     )  # fmt: skip
-    text += "\n\nOne env step of a batch (median of %d, wall time):\n\n" % REPEATS + markdown_table(
-        ["N", "stepper", "env steps / s", "vs RK4 numpy"],
-        [[r["num_robots"], r["stepper"], f"{r['env_steps_per_s']:,.0f}", f"{r['speed_vs_rk4_numpy']:.2f}x"] for r in batches],
+    text += "\n\nOne env step of a batch (wall time: median of %d runs, median of %d alternating rounds):\n\n" % (REPEATS, ROUNDS) + markdown_table(
+        ["N", "stepper", "evaluations / env step", "env steps / s", "vs RK4 numpy", "vs RK4 compiled"],
+        [[r["num_robots"], r["stepper"], r["evals_per_env_step"], f"{r['env_steps_per_s']:,.0f}", f"{r['speed_vs_rk4_numpy']:.2f}x",
+          "-" if r["speed_vs_rk4_compiled"] is None else f"{r['speed_vs_rk4_compiled']:.2f}x"] for r in batches],
     )  # fmt: skip
     text += "\n\nEnergy book with the servo working (kd = 0, no damping), max relative drift:\n\n" + markdown_table(
         ["model", "integrator", "step", "evaluations / env step", "energy drift"],
         [[r["model"], r["integrator"], f"1/{1 / r['step_s']:.0f} s", r["evals_per_env_step"], fmt(r["energy_drift"], 2)]
          for r in energy],
     )  # fmt: skip
+    if envs:
+        text += "\n\nThe env with its checks, compiled (env steps / s, median of %d alternating rounds):\n\n" % ROUNDS + markdown_table(
+            ["integrator", "step", "evaluations / env step", "env", "env steps / s", "vs the default"],
+            [[r["integrator"], _step_text(r), r["evals_per_env_step"], r["env"], f"{r['env_steps_per_s']:,.0f}",
+              f"{r['vs_default']:.2f}x"] for r in envs],
+        )  # fmt: skip
     if args.policy:
         payload["policy"] = policy = policy_rows(duration)
         text += f"\n\nThe shipped policy's ramps, {duration:g} s, four headings:\n\n" + markdown_table(
