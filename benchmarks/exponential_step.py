@@ -23,10 +23,14 @@ Five parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B is RK4);
 - env: the env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64
   and 4096), RK4 at the default and ETDRK4-B at about RK4's cost in batches, alternating;
-- ``--policy``: the shipped policy's leg-target ramps along four headings (50 s; --quick:
-  10 s), replayed control step by control step (``benchmarks.policy_replay``): every new ramp
-  kicks the servo, the path where the exponential step's order is not reached at 16 evaluations.
-  Uniform and graded (``start_halves``) steps of both methods.
+- ``--policy``: the env's slip measure (``info["slip_velocity"]``) on the shipped policy's first
+  2 s at several steps. It sums the record's samples, each standing for a whole step, and where a
+  new ramp kicks the servo the grip needed jumps past the floor's and falls back within a
+  millisecond, so the one sample at the kick makes the measure, in proportion to the step.
+  And the shipped policy's leg-target ramps along four headings (50 s; --quick: 10 s), replayed
+  control step by control step (``benchmarks.policy_replay``): every new ramp kicks the servo,
+  the path where the exponential step's order is not reached at 16 evaluations. Uniform and
+  graded (``start_halves``) steps of both methods.
 """
 
 from __future__ import annotations
@@ -229,6 +233,41 @@ def policy_rows(duration: float):
     return rows
 
 
+ENVELOPE_SETTINGS = [("rk4", 15, 0), ("rk4", 30, 0), ("rk4", 60, 0), ("etdrk4b", 15, 0), ("etdrk4b", 6, 3)]
+"""(integrator, steps a control step, ``start_halves``) of the envelope rows."""
+
+
+def envelope_rows(seconds: float = 2.0):
+    """The env's slip measure (``info["slip_velocity"]``, the missing impulse over a step per unit
+    mass) on the shipped policy's first ``seconds`` along 0 deg, per ENVELOPE_SETTINGS, the
+    episode kept running past the model's limits: its largest value, and the steps past the
+    policy's ``max_slip_velocity``."""
+    import gymnasium
+
+    from agents.ppo import load_ppo_agent
+
+    from .policy_replay import MODEL
+
+    agent = load_ppo_agent(MODEL)
+    rows = []
+    for integrator, n, halves in ENVELOPE_SETTINGS:
+        kwargs = {**agent.env_config, "integrator": integrator, "timestep": ENV_STEP / n, "frame_skip": n,
+                  "start_halves": halves, "terminate_outside_model": False}  # fmt: skip
+        env = gymnasium.make("RRRobot-v0", **kwargs)
+        obs, _ = env.reset(seed=0, options={"target_direction": 0.0})
+        slips = []
+        for _ in range(round(seconds / ENV_STEP)):
+            obs, _, _, _, info = env.step(agent.predict(obs, deterministic=True)[0])
+            slips.append(float(info["slip_velocity"]))
+        limit = env.unwrapped.config.max_slip_velocity
+        rows.append({"integrator": integrator, "step_s": ENV_STEP / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
+                     "max_slip_velocity_m_s": max(slips), "worst_env_step": int(np.argmax(slips)),
+                     "steps_past_limit": sum(v > limit for v in slips), "limit_m_s": limit})  # fmt: skip
+        print(f"envelope: {_label(integrator, n, halves)}: largest slip measure {max(slips):.4f} m/s, "
+              f"{rows[-1]['steps_past_limit']} env steps past {limit} m/s", flush=True)  # fmt: skip
+    return rows
+
+
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
@@ -273,6 +312,12 @@ def main(argv=None):
               f"{r['vs_default']:.2f}x"] for r in envs],
         )  # fmt: skip
     if args.policy:
+        payload["envelope"] = envelope = envelope_rows()
+        text += "\n\nThe env's slip measure on the shipped policy's first 2 s along 0 deg (not terminated):\n\n" + markdown_table(
+            ["integrator", "step", "evaluations / env step", "largest slip_velocity (m/s)", "at env step", "env steps past the limit"],
+            [[r["integrator"], _step_text(r), r["evals_per_env_step"], f"{r['max_slip_velocity_m_s']:.4f}", r["worst_env_step"],
+              f"{r['steps_past_limit']} (limit {r['limit_m_s']:g})"] for r in envelope],
+        )  # fmt: skip
         payload["policy"] = policy = policy_rows(duration)
         text += f"\n\nThe shipped policy's ramps, {duration:g} s, four headings:\n\n" + markdown_table(
             ["integrator", "step", "evaluations / env step", "worst max contact error (mm)"],
