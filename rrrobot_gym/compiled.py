@@ -420,24 +420,37 @@ def _lanes(y, first, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate
     """_one_robot for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
     L = LANES
     w = np.zeros(_ROWS * L)
-    for i in range(L):
-        for j in range(13):
-            w[(_Y + j) * L + i] = y[first + i, j]
-            w[(_S + j) * L + i] = y[first + i, j]
-        if params.shape[0] > 1:
-            for j in range(params.shape[1]):
-                w[(_P + j) * L + i] = params[first + i, j]
+    _load_lanes(w, y, first, _Y, params, _P)
+    w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n0):
         _lane_substep(w, first, t0, h0, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step // 2 if step % 2 == 0 else -1)
         t0 += h0
     for step in range(n_steps):
         _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, n0 // 2 + step)
         t += h
-    for i in range(L):
-        for j in range(13):
-            y[first + i, j] = w[(_Y + j) * L + i]
+    _store_lanes(y, w, first, _Y)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
+
+
+def _load_lanes(w, y, first, row, params, param_row):
+    """Robots first .. first + LANES - 1 of y into rows row .. row + 12 of w, and their target
+    parameters (when each has its own) into rows param_row .."""
+    L = LANES
+    for i in range(L):
+        for j in range(13):
+            w[(row + j) * L + i] = y[first + i, j]
+        if params.shape[0] > 1:
+            for j in range(params.shape[1]):
+                w[(param_row + j) * L + i] = params[first + i, j]
+
+
+def _store_lanes(y, w, first, row):
+    """Rows row .. row + 12 of w back into robots first .. first + LANES - 1 of y."""
+    L = LANES
+    for i in range(L):
+        for j in range(13):
+            y[first + i, j] = w[(row + j) * L + i]
 
 
 def _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, row):
@@ -580,20 +593,21 @@ def _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, 
 
 
 def _etd_lane_targets(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, start):
-    """_etd_lane_torques with ``kind`` and ``start`` made constants of their own loops."""
+    """_etd_lane_torques with ``start`` and ``kind`` made constants of their own loops."""
     if start:
-        if kind == _HELD:
-            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _HELD, params, shared, True)
-        elif kind == _RAMP:
-            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _RAMP, params, shared, True)
-        else:
-            _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, True)
-    elif kind == _HELD:
-        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _HELD, params, shared, False)
-    elif kind == _RAMP:
-        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _RAMP, params, shared, False)
+        _etd_lane_kinds(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, True)
     else:
-        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, False)
+        _etd_lane_kinds(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, False)
+
+
+def _etd_lane_kinds(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, start):
+    """_etd_lane_torques with ``kind`` a constant of its own loop (``start`` one already)."""
+    if kind == _HELD:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _HELD, params, shared, start)
+    elif kind == _RAMP:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, _RAMP, params, shared, start)
+    else:
+        _etd_lane_torques(w, row, t, gains, torque_limit, rate_limit, kind, params, shared, start)
 
 
 def _etd_lane_first(w, k, kc, xkp, xkd, record):
@@ -740,12 +754,7 @@ def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k
     """_one_robot_etd for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
     L = LANES
     w = np.zeros(_EROWS * L)
-    for i in range(L):
-        for j in range(13):
-            w[(_EY + j) * L + i] = y[first + i, j]
-        if params.shape[0] > 1:
-            for j in range(params.shape[1]):
-                w[(_EP + j) * L + i] = params[first + i, j]
+    _load_lanes(w, y, first, _EY, params, _EP)
     for step in range(n0):
         _etd_lane_substep(w, first, t0, h0, lead_doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared,
                           rows, step // 2 if step % 2 == 0 else -1)  # fmt: skip
@@ -754,15 +763,14 @@ def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k
         _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows,
                           n0 // 2 + step)  # fmt: skip
         t += h
-    for i in range(L):
-        for j in range(13):
-            y[first + i, j] = w[(_EY + j) * L + i]
+    _store_lanes(y, w, first, _EY)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
 
 
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
-            "_etd_change", "_etd_substep", "_one_robot_etd", "_etd_lane_substep", "_etd_lanes")  # fmt: skip
+            "_load_lanes", "_store_lanes", "_etd_change", "_etd_substep", "_one_robot_etd", "_etd_lane_substep",
+            "_etd_lanes")  # fmt: skip
 _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block",
                 "_doubled", "_servo_phi", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling", "_servo_rows", "_g_apply",
                 "_leg_function", "_etd_correction", "_combine_rows", "_etd_finish", "_etd_setup")  # fmt: skip
@@ -770,10 +778,11 @@ _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phi
 _STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
-_ETD_LANE_INLINED = ("_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled", "_lane_mobility", "_etd_lane_torques",
-                     "_etd_lane_targets", "_etd_lane_first", "_etd_lane_doubling", "_etd_lane_setup", "_etd_lane_change",
-                     "_etd_lane_stage")  # fmt: skip
-"""Inlined into the exponential step's lanes, so that each loop has a constant kind, stage or flag and a straight-line body."""
+_ETD_LANE_INLINED = ("_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled",
+                     "_lane_mobility", "_etd_lane_torques", "_etd_lane_targets", "_etd_lane_kinds", "_etd_lane_first",
+                     "_etd_lane_doubling", "_etd_lane_setup", "_etd_lane_change", "_etd_lane_stage")  # fmt: skip
+"""Inlined into the exponential step's lanes, so that each loop has a constant kind, stage or flag and a
+straight-line body."""
 
 
 def _lane_kernels(njit):
