@@ -91,6 +91,31 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
             assert peak == config.torque_limit
 
 
+@pytest.mark.parametrize("n", [compiled.PADDED_MIN + 4, compiled.LANES + compiled.PADDED_MIN])
+@pytest.mark.parametrize("kind", ["ramp", "gait"])
+@pytest.mark.parametrize(
+    "config",
+    [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
+     SimConfig(integrator="etdrk4b", timestep=1 / 80)],
+    ids=["plane", "pivot-motor-graded", "plane-etdrk4b"],
+)  # fmt: skip
+def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
+    # fewer robots than a block (alone, or after a whole block), but at least PADDED_MIN: a lane
+    # block padded with copies of the last; each robot, its record and summary are its own run's
+    assert compiled.PADDED_MIN <= n % compiled.LANES
+    rng = np.random.default_rng(3)
+    states = _states(n, seed=5)
+    targets = _targets(kind, n, rng)
+    fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
+    slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
+    assert np.array_equal(fast, slow)
+    summaries = slow_fields.pop("summary")
+    for field, values in slow_fields.items():
+        assert np.array_equal(getattr(record, field), values), field
+    for key, values in record.summary().items():
+        assert np.array_equal(values, summaries[key]), key
+
+
 @pytest.mark.parametrize("config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80)], ids=["rk4", "etdrk4b"])
 def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit(config):
     # 4 s of Gait 2 from the paper's start, the hardest start transient, in env-sized steps.
@@ -116,8 +141,9 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
 
 @pytest.mark.parametrize("integrator", ["rk4", "etdrk4b"])
 @pytest.mark.parametrize("workers", [2, 3])
-def test_threads_give_the_one_thread_result(workers, integrator):
-    n = 3 * compiled.LANES + 5  # lane blocks and single robots, shared among the threads
+@pytest.mark.parametrize("rest", [5, compiled.PADDED_MIN + 3])
+def test_threads_give_the_one_thread_result(workers, integrator, rest):
+    n = 3 * compiled.LANES + rest  # lane blocks and single robots or a padded block, shared among the threads
     states = _states(n, seed=4)
     targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (n, 2)), 0.0, 0.05)
     config = SimConfig(backend="numba", integrator=integrator, timestep=1 / 300 if integrator == "rk4" else 1 / 80)
@@ -255,11 +281,17 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
     import sys
     import time
 
+    # (a threaded stepper whose loop numba could not parallelise would compile with a warning and
+    # run on one thread: an error here)
     script = (
+        "import warnings, numba\n"
+        "warnings.simplefilter('error', numba.NumbaPerformanceWarning)\n"
         "from rrrobot_gym import compiled, simulation as sim\n"
         "from rrrobot_gym.control import table2_gait\n"
         "for workers in (1, 2):\n"
         "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
+        "sim.advance(sim.SimConfig(backend='numba', integrator='etdrk4b', timestep=1 / 80), sim.initial_state(3), 0.0, 0.05,\n"
+        "            table2_gait(1), workers=2)\n"
         "stats = [compiled._stepper(parallel).stats for parallel in (False, True)]\n"
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
         "      compiled.cache_dir())\n"
