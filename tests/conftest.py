@@ -1,8 +1,17 @@
 import numpy as np
 import pytest
 
-from rrrobot_gym import dynamics
+from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.simulation import initial_state
+
+
+def pytest_configure(config):
+    # A compiled stepper numba could not parallelise (parallel=True, but its prange loop not
+    # transformed) or vectorise as asked warns once, when it compiles, and then runs correctly,
+    # on one thread: bit-identity tests cannot see it. Fail the test that compiles it instead
+    # (every run from an empty numba cache, as CI's, compiles every stepper it uses).
+    if compiled.available():
+        config.addinivalue_line("filterwarnings", "error::numba.NumbaPerformanceWarning")
 
 
 def random_states(rng, n, max_tilt=0.6, max_rate=1.5):

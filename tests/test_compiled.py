@@ -282,7 +282,7 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
     import time
 
     # (a threaded stepper whose loop numba could not parallelise would compile with a warning and
-    # run on one thread: an error here)
+    # run on one thread: an error here, as in every test, conftest.pytest_configure)
     script = (
         "import warnings, numba\n"
         "warnings.simplefilter('error', numba.NumbaPerformanceWarning)\n"
@@ -290,8 +290,6 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
         "from rrrobot_gym.control import table2_gait\n"
         "for workers in (1, 2):\n"
         "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
-        "sim.advance(sim.SimConfig(backend='numba', integrator='etdrk4b', timestep=1 / 80), sim.initial_state(3), 0.0, 0.05,\n"
-        "            table2_gait(1), workers=2)\n"
         "stats = [compiled._stepper(parallel).stats for parallel in (False, True)]\n"
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
         "      compiled.cache_dir())\n"
