@@ -52,6 +52,20 @@ def _float_path(config, states, targets, t0, duration):
     return np.stack([s for s, _ in runs]), fields
 
 
+def _assert_compiled_is_the_float_stepper(config, states, targets):
+    """One env step of a batch on the compiled stepper equals each robot's own float run to the
+    bit: states, every record field and the summary. Returns the compiled record."""
+    fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
+    slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
+    assert np.array_equal(fast, slow)
+    summaries = slow_fields.pop("summary")
+    for field, values in slow_fields.items():
+        assert np.array_equal(getattr(record, field), values), field
+    for key, values in record.summary().items():
+        assert np.array_equal(values, summaries[key]), key
+    return record
+
+
 @pytest.mark.parametrize("kind", ["ramp", "held", "gait", "sinusoid"])
 @pytest.mark.parametrize(
     "config",
@@ -73,17 +87,7 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # exponential step's lanes have loops of their own; its stiff servo (h |lambda| ~ 140) takes
     # the doublings of all five phi-functions, the default one (~5 at 1/80 s) those of phi_4 alone.
     assert compiled.LANES < 33 < 2 * compiled.LANES
-    rng = np.random.default_rng(7)
-    states = _states(33)
-    targets = _targets(kind, 33, rng)
-    fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
-    slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
-    assert np.array_equal(fast, slow)
-    summaries = slow_fields.pop("summary")
-    for field, values in slow_fields.items():
-        assert np.array_equal(getattr(record, field), values), field
-    for key, values in record.summary().items():
-        assert np.array_equal(values, summaries[key]), key
+    record = _assert_compiled_is_the_float_stepper(config, _states(33), _targets(kind, 33, np.random.default_rng(7)))
     if config.torque_limit is not None:
         peak = np.max(np.abs(record.torque))
         assert peak <= config.torque_limit
@@ -103,17 +107,7 @@ def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
     # fewer robots than a block (alone, or after a whole block), but at least PADDED_MIN: a lane
     # block padded with copies of the last; each robot, its record and summary are its own run's
     assert compiled.PADDED_MIN <= n % compiled.LANES
-    rng = np.random.default_rng(3)
-    states = _states(n, seed=5)
-    targets = _targets(kind, n, rng)
-    fast, record = advance(replace(config, backend="numba"), states, 0.1, 0.05, targets, record=True)
-    slow, slow_fields = _float_path(config, states, targets, 0.1, 0.05)
-    assert np.array_equal(fast, slow)
-    summaries = slow_fields.pop("summary")
-    for field, values in slow_fields.items():
-        assert np.array_equal(getattr(record, field), values), field
-    for key, values in record.summary().items():
-        assert np.array_equal(values, summaries[key]), key
+    _assert_compiled_is_the_float_stepper(config, _states(n, seed=5), _targets(kind, n, np.random.default_rng(3)))
 
 
 @pytest.mark.parametrize("config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80)], ids=["rk4", "etdrk4b"])
