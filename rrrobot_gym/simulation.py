@@ -459,8 +459,10 @@ def _stage_fns(config: SimConfig, targets, blend=None):
             rates = (c[11], c[12])
             return limit_torque(pd_torque(gains, (c[6], c[7]), rates, leg_targets(t)), rates, torque_limit, rate_limit)
 
+    body = dynamics.derivative_and_mobility  # (derivative_kernel's own body: one Python call less an evaluation)
+
     def f(t, c):
-        return kernel(c, torque(t, c), k)
+        return body(c, torque(t, c), k, False)[0]
 
     def first(t, c, mobility_out=None, contact_out=None):
         applied = torque(t, c)
