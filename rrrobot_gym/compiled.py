@@ -281,9 +281,7 @@ def _batch_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, g
     """_batch with ETDRK4-B: whole blocks of LANES robots by _etd_lanes, the rest in a padded block
     or by _one_robot_etd as _batch does (threaded over blocks and robots when compiled parallel)."""
     shared_targets = params.shape[0] == 1
-    blocks, rest = y.shape[0] // LANES, y.shape[0] % LANES
-    padded = rest >= PADDED_MIN
-    tasks = blocks + 1 if padded else blocks + rest
+    blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
             _etd_lanes(y, b * LANES, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, gains, torque_limit,
@@ -490,9 +488,7 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
     PADDED_MIN, a block of their own padded with copies of the last (_padded), else one by one.
     The schedule (n0 substeps of h0 from t0, then n_steps of h from t) is _one_robot's."""
     shared_targets = params.shape[0] == 1
-    blocks, rest = y.shape[0] // LANES, y.shape[0] % LANES
-    padded = rest >= PADDED_MIN
-    tasks = blocks + 1 if padded else blocks + rest
+    blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
             _lanes(y, b * LANES, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary)
@@ -504,6 +500,16 @@ def _batch(y, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit,
             i = blocks * LANES + (b - blocks)
             p = params[0] if shared_targets else params[i]
             _one_robot(y[i], t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
+
+
+def _partition(n):
+    """How _batch and _batch_etd share n robots among tasks: (whole blocks of LANES, robots left
+    over, whether those take a padded block, the number of tasks: the blocks, then the padded
+    block or each robot left over). The task count is a plain value, computed before the loop:
+    numba does not parallelise a prange whose bound is a conditional expression."""
+    blocks, rest = n // LANES, n % LANES
+    padded = rest >= PADDED_MIN
+    return blocks, rest, padded, blocks + 1 if padded else blocks + rest
 
 
 PADDED_MIN = 8
@@ -822,8 +828,8 @@ def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k
 
 
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
-            "_load_lanes", "_store_lanes", "_padded", "_unpadded", "_etd_change", "_etd_substep", "_one_robot_etd", "_etd_lane_substep",
-            "_etd_lanes")  # fmt: skip
+            "_load_lanes", "_store_lanes", "_partition", "_padded", "_unpadded", "_etd_change", "_etd_substep",
+            "_one_robot_etd", "_etd_lane_substep", "_etd_lanes")  # fmt: skip
 _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block",
                 "_doubled", "_servo_phi", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling", "_servo_rows", "_g_apply",
                 "_leg_function", "_etd_correction", "_combine_rows", "_etd_finish", "_etd_setup")  # fmt: skip
