@@ -515,8 +515,9 @@ def _partition(n):
 PADDED_MIN = 8
 """Fewer robots than a block, but at least this many, take a lane block padded with copies of the
 last of them (whose results are dropped) instead of the one-robot stepper: from 8 on the padded
-block is the faster (physics alone, side by side: RK4 equal at 8, 1.3x at 12, 1.7x at 16;
-ETDRK4-B 1.2x at 8, 1.8x at 16; one robot at a time is faster below)."""
+block was no slower in a scratch run (physics alone, side by side with the one-robot stepper: RK4
+equal at 8, 1.3x at 12, 1.7x at 16; ETDRK4-B 1.2x at 8, 1.8x at 16; one at a time faster below;
+`benchmarks.versus 00368c0` gives the env's side)."""
 
 
 def _padded(y, first, count, params, rows, summary):
