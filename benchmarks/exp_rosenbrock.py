@@ -126,16 +126,25 @@ def phi_functions(a, count):
 class Problem:
     """u' = F(u) for u = (state, t) of one robot under ``targets``, and its Jacobians."""
 
-    def __init__(self, config: SimConfig, targets):
+    def __init__(self, config: SimConfig, targets, locked: bool = False):
         self.config = config
         self.targets = targets
-        self.f, self.first = _stage_fns(config, targets)
+        self.locked = locked  # rows 8-10 the locked rate, as the shipped etdrk4b integrates (dynamics.locked_share)
+        self.f, self.first = _stage_fns(config, targets, locked=locked)
         self.servo = _ServoJacobian(config.gains, 1.0)
         self.evaluations = 0
 
     def __call__(self, u):
         self.evaluations += 1
         return np.append(self.f(u[-1], u[:-1].tolist()), 1.0)
+
+    def to_locked(self, u, sign):
+        """u with rows 8-10 from the body rate to the locked rate (sign 1) or back (-1), if ``locked``."""
+        if not self.locked:
+            return u
+        u = u.copy()
+        u[8:11] += sign * np.array(dynamics.locked_share(u, dynamics.constants(self.config.robot, self.config.depth)))
+        return u
 
     def full_jacobian(self, u, fu):
         jac = np.zeros((SIZE, SIZE))
@@ -228,10 +237,11 @@ def env_step(problem: Problem, u, setting: Setting, duration: float = ENV_STEP):
     method = METHODS[setting.method]
     jacobian = problem.full_jacobian if setting.jacobian == "full" else problem.servo_jacobian
     total = sum(setting.weights)
+    u = problem.to_locked(u, 1.0)
     for weight in setting.weights:
         u = method(problem, u, duration * weight / total, jacobian)
         u[dynamics.QUAT] /= np.linalg.norm(u[dynamics.QUAT])
-    return u
+    return problem.to_locked(u, -1.0)
 
 
 def run_case(job):

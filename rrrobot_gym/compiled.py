@@ -40,7 +40,7 @@ import numpy as np
 
 from . import control, dynamics
 
-_DYNAMICS = ("_sincos", "_leg_trig", "_configuration", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
+_DYNAMICS = ("_sincos", "_leg_trig", "_rotation_products", "_configuration", "_configuration_rate", "_legs_share", "locked_share", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
              "tangential_force", "_contact_force", "derivative_and_mobility", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
@@ -102,7 +102,7 @@ def _compiled_copies(module, names, njit, namespace=None):
 # The stepper. Plain Python here (it runs uncompiled too, slowly: ``prange`` is ``range``);
 # :func:`_stepper` compiles copies whose globals are the compiled kernel, servo and targets.
 prange = range
-derivative_kernel = dynamics.derivative_kernel
+derivative_kernel, locked_share = dynamics.derivative_kernel, dynamics.locked_share
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
@@ -144,18 +144,19 @@ def _one_robot(y, t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit,
         _summarise(rows, summary, i, 1)
 
 
-def _first_derivative(y, tau, k, mobility, contact, rows, i, row):
+def _first_derivative(y, tau, k, mobility, contact, rows, i, row, locked=False):
     """A step's first derivative under the torques tau (with ``mobility``, the legs' columns of
     M^-1 into it), and unless row < 0 (or rows is empty) the record of simulation._Recorder into
-    rows[row, :, i]: the torques, the contact values and the leg rates."""
+    rows[row, :, i]: the torques, the contact values and the leg rates. ``locked``: y's rows 8-10
+    are the locked rate (derivative_kernel's ``locked``)."""
     if rows.shape[0] and row >= 0:
-        d = derivative_kernel(y, tau, k, None, None, mobility, contact)
+        d = derivative_kernel(y, tau, k, None, None, mobility, contact, locked)
         rows[row, 0, i], rows[row, 1, i] = tau[0], tau[1]
         for j in range(7):
             rows[row, 2 + j, i] = contact[j]
         rows[row, 9, i], rows[row, 10, i] = y[11], y[12]
         return d
-    return derivative_kernel(y, tau, k, None, None, mobility)
+    return derivative_kernel(y, tau, k, None, None, mobility, None, locked)
 
 
 def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, stage, contact):
@@ -218,14 +219,19 @@ def _one_robot_etd(y, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, g
     work = np.empty((6, 13))
     mobility = np.empty(9)
     contact = np.empty(7)
+    _to_locked(y, k, 1.0)
     for step in range(n0):
         _etd_substep(y, t0, h0, lead_doublings, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i,
                      step // 2 if step % 2 == 0 else -1, work, mobility, contact)  # fmt: skip
         t0 += h0
+    if n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
+        _to_locked(y, k, -1.0)
+        _to_locked(y, k, 1.0)
     for step in range(n_steps):
         _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, n0 // 2 + step,
                      work, mobility, contact)  # fmt: skip
         t += h
+    _to_locked(y, k, -1.0)
     if rows.shape[0]:
         _summarise(rows, summary, i, 1)
 
@@ -234,7 +240,8 @@ def _etd_change(point, time, y, t, fu, g, pp, kp, kd, column, k, gains, torque_l
     """D = f(U) - f(u) - A (U - u) into ``out`` (simulation._etdrk4b_rows' change)."""
     linear = _servo_rows(g, pp, kp, kd, point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12], 1.0)
     dt = time - t
-    d = derivative_kernel(point, _torque(point, time, gains, torque_limit, rate_limit, kind, p, shared), k)
+    d = derivative_kernel(point, _torque(point, time, gains, torque_limit, rate_limit, kind, p, shared), k, None, None, None,
+                          None, True)  # fmt: skip
     for j in range(13):
         out[j] = d[j] - (linear[j] + dt * column[j]) - fu[j]
 
@@ -245,7 +252,7 @@ def _etd_substep(y, t, h, doublings, k, gains, torque_limit, rate_limit, kind, p
     kp, kd = gains.kp, gains.kd
     terms, radius, levels = doublings
     tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
-    fu = _first_derivative(y, tau, k, mobility, contact, rows, i, row)
+    fu = _first_derivative(y, tau, k, mobility, contact, rows, i, row, True)
     _, rates, accels = _leg_targets(kind, p, shared, t)
     g, pp, elements, column, forcing_half, forcing = _etd_setup(mobility, kp, kd, h, levels, terms, radius, rates, accels)
     p2h, p3h, p2, p3, b23, b4 = elements
@@ -676,13 +683,14 @@ def _etd_lane_first(w, k, kc, xkp, xkd, record):
     L = LANES
     for i in range(L):
         c = _lane_state(w, _EY, i)
-        d, mobility = lane_derivative_and_mobility(c, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k, True)
+        d, mobility, body = lane_derivative_and_mobility(c, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k, True, None, None,
+                                                         None, True)  # fmt: skip
         _put_rows(w, _EF, i, d)
         w[_EM * L + i], w[(_EM + 1) * L + i], w[(_EM + 2) * L + i] = mobility[0], mobility[1], mobility[2]
         w[(_EM + 3) * L + i], w[(_EM + 4) * L + i], w[(_EM + 5) * L + i] = mobility[3], mobility[4], mobility[5]
         w[(_EM + 6) * L + i], w[(_EM + 7) * L + i], w[(_EM + 8) * L + i] = mobility[6], mobility[7], mobility[8]
         if record:
-            f = lane_contact_kernel(c, d, kc)
+            f = lane_contact_kernel(_with_body(c, body[0], body[1], body[2]), _with_body(d, body[3], body[4], body[5]), kc)
             w[_EC * L + i], w[(_EC + 1) * L + i], w[(_EC + 2) * L + i], w[(_EC + 3) * L + i] = f[0], f[1], f[2], f[3]
             w[(_EC + 4) * L + i], w[(_EC + 5) * L + i], w[(_EC + 6) * L + i] = f[4], f[5], f[6]
             w[_ERATES * L + i], w[(_ERATES + 1) * L + i] = c[11], c[12]
@@ -741,7 +749,7 @@ def _etd_lane_change(w, row, out, i, dt, k, kp, kd):
     y = _lane_state(w, _EY, i)
     g, pp, _, _ = _lane_mobility(w, i)
     linear = _servo_rows(g, pp, kp, kd, point[6] - y[6], point[7] - y[7], point[11] - y[11], point[12] - y[12], 1.0)
-    d = lane_derivative_kernel(point, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k)
+    d = lane_derivative_kernel(point, (w[_ETAU * L + i], w[(_ETAU + 1) * L + i]), k, None, None, None, None, True)
     _put_rows(w, out, i, _difference(_difference(d, _sum(linear, _scaled(dt, _lane_state(w, _ECOL, i)))), _lane_state(w, _EF, i)))
     return g, pp
 
@@ -809,20 +817,45 @@ def _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rat
     _etd_lane_stage(w, 4, t, h, k, kp, kd)
 
 
+def _to_locked(y, k, sign):
+    """simulation._to_locked on one robot's row y, in place."""
+    s = locked_share(y, k)
+    y[8], y[9], y[10] = y[8] + sign * s[0], y[9] + sign * s[1], y[10] + sign * s[2]
+
+
+def _lanes_locked(w, k, sign):
+    """_to_locked for every lane of the state rows _EY .."""
+    L = LANES
+    for i in range(L):
+        s = locked_share(_lane_state(w, _EY, i), k)
+        for j in range(3):
+            w[(_EY + 8 + j) * L + i] += sign * s[j]
+
+
+def _with_body(c, a, b, d):
+    """13 rows c with rows 8-10 replaced by (a, b, d)."""
+    return (c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], a, b, d, c[11], c[12])
+
+
 def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k, kc, gains, torque_limit, rate_limit,
                kind, params, shared, rows, summary):  # fmt: skip
     """_one_robot_etd for robots first .. first + LANES - 1 of y together (in place), with the record and its summary."""
     L = LANES
     w = np.zeros(_EROWS * L)
     _load_lanes(w, y, first, _EY, params, _EP)
+    _lanes_locked(w, k, 1.0)
     for step in range(n0):
         _etd_lane_substep(w, first, t0, h0, lead_doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared,
                           rows, step // 2 if step % 2 == 0 else -1)  # fmt: skip
         t0 += h0
+    if n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
+        _lanes_locked(w, k, -1.0)
+        _lanes_locked(w, k, 1.0)
     for step in range(n_steps):
         _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows,
                           n0 // 2 + step)  # fmt: skip
         t += h
+    _lanes_locked(w, k, -1.0)
     _store_lanes(y, w, first, _EY)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
@@ -830,7 +863,7 @@ def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k
 
 _STEPPER = ("_leg_targets", "_servo", "_torque", "_lesser", "_greater", "_summarise", "_one_robot", "_lanes",
             "_load_lanes", "_store_lanes", "_partition", "_padded", "_unpadded", "_etd_change", "_etd_substep",
-            "_one_robot_etd", "_etd_lane_substep", "_etd_lanes")  # fmt: skip
+            "_one_robot_etd", "_etd_lane_substep", "_etd_lanes", "_to_locked", "_lanes_locked")  # fmt: skip
 _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phis_from_phi4", "_per_l", "_per_leg_block",
                 "_doubled", "_servo_phi", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling", "_servo_rows", "_g_apply",
                 "_leg_function", "_etd_correction", "_combine_rows", "_etd_finish", "_etd_setup")  # fmt: skip
@@ -838,7 +871,7 @@ _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phi
 _STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
-_ETD_LANE_INLINED = ("_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled",
+_ETD_LANE_INLINED = ("_with_body", "_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled",
                      "_lane_mobility", "_etd_lane_torques", "_etd_lane_targets", "_etd_lane_kinds", "_etd_lane_first",
                      "_etd_lane_doubling", "_etd_lane_setup", "_etd_lane_change", "_etd_lane_stage")  # fmt: skip
 """Inlined into the exponential step's lanes, so that each loop has a constant kind, stage or flag and a
@@ -943,6 +976,7 @@ def _compiled_stepper(parallel: bool, integrator: str):
         namespace = dict(globals())
         compiled_dynamics = _compiled_copies(dynamics, _DYNAMICS, njit)
         namespace["derivative_kernel"] = compiled_dynamics["derivative_kernel"]
+        namespace["locked_share"] = compiled_dynamics["locked_share"]
         # the lane stepper's kernels are inlined into its loops, which is what lets them vectorise
         inline = functools.partial(njit, forceinline=True)
         lane_kernels = _lane_kernels(inline)

@@ -411,7 +411,7 @@ def _mallopt():
         return None
 
 
-def _stage_fns(config: SimConfig, targets, blend=None):
+def _stage_fns(config: SimConfig, targets, blend=None, locked=False):
     """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
     components; first(t, c, mobility_out=None, contact_out=None) -> (the same, the two leg
     torques applied), filling ``mobility_out`` (servo legs) and ``contact_out`` when asked
@@ -462,11 +462,11 @@ def _stage_fns(config: SimConfig, targets, blend=None):
     body = dynamics.derivative_and_mobility  # (derivative_kernel's own body: one Python call less an evaluation)
 
     def f(t, c):
-        return body(c, torque(t, c), k, False)[0]
+        return body(c, torque(t, c), k, False, None, None, None, locked)[0]
 
     def first(t, c, mobility_out=None, contact_out=None):
         applied = torque(t, c)
-        return kernel(c, applied, k, mobility_out=mobility_out, contact_out=contact_out), applied
+        return kernel(c, applied, k, mobility_out=mobility_out, contact_out=contact_out, locked=locked), applied
 
     return f, first
 
@@ -945,6 +945,7 @@ class _ServoExponential:
     def __init__(self, config: SimConfig, h: float, targets):
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h
         self.leg_targets = targets.leg_targets
+        self.k = dynamics.constants(config.robot, config.depth)
         self.radius, self.levels = _doublings(config, h)
 
 
@@ -966,6 +967,7 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     kp, kd = servo.kp, servo.kd
     mobility = [0.0] * 9
+    _to_locked(y, servo.k, 1.0)
     for _ in range(n_steps):
         fu = list(first(t, y, mobility))
         _, rates, accels = servo.leg_targets(t)
@@ -996,7 +998,15 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
         y = [a + h * (third * (p_ + q) + sixth * r + c + e) for a, p_, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
         _normalize_quat_floats(y)
         t += h
+    _to_locked(y, servo.k, -1.0)
     return y
+
+
+def _to_locked(y, k, sign):
+    """Rows 8-10 of y (13 rows) from the body rate Omega to the locked rate (sign 1) or back (-1),
+    in place (:func:`rrrobot_gym.dynamics.locked_share`)."""
+    s0, s1, s2 = dynamics.locked_share(y, k)
+    y[8], y[9], y[10] = y[8] + sign * s0, y[9] + sign * s1, y[10] + sign * s2
 
 
 def _etdrk4b_floats(f, t, y, h, n_steps, first, servo):
@@ -1379,7 +1389,7 @@ def _compiled_targets(config: SimConfig, targets):
 def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool):
     """Run the configured stepper on components y (13 floats, or a (13, n) array, in place):
     (y after n_steps steps of h, the recorder or None)."""
-    f, first = _stage_fns(config, targets, blend)
+    f, first = _stage_fns(config, targets, blend, locked=config.integrator == "etdrk4b")
     recorder = _Recorder(first, config, n_steps, None if isinstance(y, list) else y.shape[1]) if record else None
     step_floats, step_arrays = _STEPPERS[config.integrator]
     stepper = step_floats if isinstance(y, list) else step_arrays

@@ -221,3 +221,56 @@ def test_mobility_is_the_legs_columns_of_the_inverse_mass_matrix(model, rng):
         servo = dynamics.derivative_kernel(c, tuple(torque), k)
         assert np.allclose(servo[11:13], leg_accel, rtol=1e-10, atol=1e-10)
         assert np.allclose(servo[8:11], kinematic[8:11], rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_the_locked_rate_carries_the_body_rows_of_the_momentum(model, rng):
+    """dynamics.locked_share: M_omega Lambda is the body rows of M qdot (M from mass_matrix, checked
+    against the point masses' kinetic energy above), so Lambda is the rate the shell keeps when
+    the legs stop relative to it; and the leg torques do not change it: derivative_kernel(locked=True)
+    gives Lambda' whatever the torque, where Omega' moves with it."""
+    params = RobotParams()
+    k = dynamics.constants(params, rotation_point_depth(model, params))
+    for state in random_states(rng, 10):
+        c = state.tolist()
+        locked = state[8:11] + np.array(dynamics.locked_share(c, k))
+        mass = dynamics.mass_matrix(state, params, model)
+        np.testing.assert_allclose(mass[0:3, 0:3] @ locked, (mass @ state[8:13])[0:3], rtol=1e-12, atol=1e-12)
+        c_locked = c[:8] + locked.tolist() + c[11:]
+        a = dynamics.derivative_kernel(c_locked, (0.3, -0.2), k, locked=True)
+        b = dynamics.derivative_kernel(c_locked, (-0.5, 0.4), k, locked=True)
+        np.testing.assert_allclose(a[8:11], b[8:11], rtol=1e-10, atol=1e-10)
+        assert np.abs(np.subtract(a[11:13], b[11:13])).min() > 1.0  # the legs do answer the torque
+        plain = dynamics.derivative_kernel(c, (0.3, -0.2), k)
+        assert np.abs(np.subtract(plain[8:11], dynamics.derivative_kernel(c, (-0.5, 0.4), k)[8:11])).max() > 0.1
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_the_locked_derivative_is_the_chain_rule_of_the_plain_one(model, rng):
+    """derivative_kernel(locked=True) on (.., Lambda, ..): the other rows as the plain derivative's at
+    Omega = Lambda - share, and Lambda' = Omega' + d(share)/dt, the share's rate by central
+    differences along the state's own motion (a check that shares no algebra with the kernel's
+    M_omega^-1 (f - M_omega' s + C' phidot)); M_omega' and C' also against differences of _configuration."""
+    params = RobotParams()
+    k = dynamics.constants(params, rotation_point_depth(model, params))
+    for state in random_states(rng, 10):
+        c = state.tolist()
+        torque = (0.2, -0.1)
+        plain = np.array(dynamics.derivative_kernel(c, torque, k))
+        share = np.array(dynamics.locked_share(c, k))
+        locked = np.array(dynamics.derivative_kernel(c[:8] + (state[8:11] + share).tolist() + c[11:], torque, k, locked=True))
+        np.testing.assert_allclose(np.delete(locked, [8, 9, 10]), np.delete(plain, [8, 9, 10]), rtol=1e-12, atol=1e-13)
+        eps = 1e-6
+        ahead, behind = (dynamics.locked_share((state + sign * eps * plain).tolist(), k) for sign in (1.0, -1.0))
+        share_rate = (np.array(ahead) - np.array(behind)) / (2.0 * eps)
+        np.testing.assert_allclose(locked[8:11], plain[8:11] + share_rate, rtol=1e-7, atol=1e-7 * np.abs(plain[8:11]).max())
+
+        n = np.array(dynamics.rotation_matrix(state[dynamics.QUAT]))[2]
+        n_rate = np.cross(n, state[8:11])
+        configuration = [dynamics._configuration(state[6] + s * state[11], state[7] + s * state[12], tuple(n + s * n_rate), k)
+                         for s in (eps, -eps)]  # fmt: skip
+        m_rate, c_rate = dynamics._configuration_rate(dynamics._configuration(state[6], state[7], tuple(n), k)[0],
+                                                      state[11], state[12], tuple(n), tuple(n_rate), k)  # fmt: skip
+        for index, ours in ((3, m_rate), (4, c_rate)):
+            theirs = (np.array(configuration[0][index]) - np.array(configuration[1][index])) / (2.0 * eps)
+            np.testing.assert_allclose(np.array(ours), theirs, rtol=1e-6, atol=1e-9)
