@@ -11,7 +11,13 @@ rtol = atol = 1e-10) sampled at the same instants:
 - attitude error: the angle of R_ref^T R, maximum over the path;
 - energy drift: a separate run with no damping and no leg torque (servo: the legs
   swing freely; kinematic: the legs are locked), started tilted and spinning, with
-  the same integrator and step; the maximum of |E - E0| / E0 over the run.
+  the same integrator and step; the maximum of |E - E0| / E0 over the run. With no servo,
+  ``etdrk4b``'s A is zero and its step is RK4's tableau on the variables it follows (the body's
+  locked rate, ``dynamics.locked_share``, in place of its rate): its drift is that of the
+  change of variable. ``benchmarks.exponential_step`` has a book with the servo working.
+
+``etdrk4b`` rows are equal steps from the paper's start (its graded settings, ``start_halves``,
+are in ``benchmarks.exponential_step``).
 
 Kinematic legs are a different model of the legs (they follow their path exactly,
 see ``SimConfig.legs``): their error is taken against the kinematic reference, and
@@ -33,7 +39,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rrrobot_gym import dynamics
+from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.control import HeldTargets, table2_gait
 from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import _STEPPERS, SimConfig, _kinematic_path, _ServoJacobian, advance, initial_state
@@ -51,7 +57,7 @@ from ._common import (
 
 ENV_STEP = 0.05
 """s, the control step of the environment; the integration step is ENV_STEP / n."""
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4}
+EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4, "etdrk4b": 4}
 BUDGET_M = 1e-3
 
 
@@ -66,13 +72,14 @@ def settings(quick: bool, gains=None):
             ("servo", "rosw", n) for n in STIFF_ROSW_N
         ]
     if quick:
-        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8)}
+        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8), "etdrk4b": (4,)}
         kinematic = {"rk4": (1, 3)}
     else:
         servo = {
             "rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30),
             "rk3": (6, 7, 8, 12, 15, 16, 17, 20, 25, 30),
             "rosw": (4, 6, 8, 10, 15, 20, 30),
+            "etdrk4b": (3, 4, 5, 6, 8, 15),
         }
         kinematic = {"rk4": (1, 2, 3, 5), "rk3": (1, 2, 3, 5)}
     out = [("servo", integ, n) for integ, ns in servo.items() for n in ns]
@@ -135,6 +142,19 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
 
         extra = (first, _ServoJacobian(SimpleNamespace(kp=0.0, kd=0.0), ENV_STEP / steps_per_env))
+    elif integrator == "etdrk4b":
+        # No servo acts, so A = 0 and the step is RK4's tableau on the equations it integrates,
+        # the locked rate (dynamics.locked_share) in place of the body rate: not RK4's path.
+
+        def f(t, c):
+            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
+
+        def first(t, c, mobility_out=None):
+            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out, locked=True)
+
+        no_servo = SimpleNamespace(kp=0.0, kd=0.0, h=step, leg_targets=lambda t: ((0.0, 0.0),) * 3, k=consts, radius=0.0,
+                                   levels=1, TERMS=compiled.TAYLOR_TERMS)  # fmt: skip
+        extra = (first, no_servo)
     y = state.tolist()
     energies = [float(dynamics.total_energy(state, robot, model))]
     for i in range(round(duration / ENV_STEP)):
@@ -265,8 +285,8 @@ def plot(rows, path: str, duration: float):
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, model in zip(axes, ("plane", "pivot")):
-        for legs, integ, style in (("servo", "rk4", "o-"), ("servo", "rk3", "s-"), ("kinematic", "rk4", "^--"),
-                                   ("kinematic", "rk3", "v--")):  # fmt: skip
+        for legs, integ, style in (("servo", "rk4", "o-"), ("servo", "rk3", "s-"), ("servo", "etdrk4b", "d-"),
+                                   ("kinematic", "rk4", "^--"), ("kinematic", "rk3", "v--")):  # fmt: skip
             sel = [r for r in rows if (r["model"], r["legs"], r["integrator"]) == (model, legs, integ) and r["n"] != "auto"]
             sel = [r for r in sel if math.isfinite(r["contact_max_m"]) and r["contact_max_m"] < 10.0]
             if not sel:
