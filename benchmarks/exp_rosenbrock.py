@@ -37,6 +37,9 @@ control step from t = 0 as the envs step it, with the steps in a control step eq
 (shorter first, where a new ramp kicks the servo), beside RK4 at the default step.
 The phi-functions come from scipy's expm of a block matrix, so CPU time says nothing here:
 only evaluations and errors are reported. Every run calls the one ``derivative_kernel``.
+The probe integrates the body rate Omega, as the shipped step did when these rows were measured;
+``Problem(locked=True)`` follows the locked rate instead, as the shipped ``etdrk4b`` now does
+(``dynamics.locked_share``; ``tests/test_integrators.py`` checks the shipped step against it so).
 """
 
 from __future__ import annotations

@@ -40,8 +40,9 @@ import numpy as np
 
 from . import control, dynamics
 
-_DYNAMICS = ("_sincos", "_leg_trig", "_rotation_products", "_configuration", "_configuration_rate", "_legs_share", "locked_share", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve",
-             "tangential_force", "_contact_force", "derivative_and_mobility", "derivative_kernel")  # fmt: skip
+_DYNAMICS = ("_sincos", "_leg_trig", "_rotation_products", "_configuration", "_configuration_rate", "_legs_share",
+             "locked_share", "_sym_cofactors", "_sym_inverse", "_sym_apply", "_sym_solve", "tangential_force",
+             "_contact_force", "derivative_and_mobility", "derivative_kernel")  # fmt: skip
 _CONTROL = ("pd_torque", "motor_torque", "ramp_targets", "sinusoid_targets")
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper

@@ -519,7 +519,8 @@ def derivative_and_mobility(
     if locked:
         # Lambda' = M_omega^-1 (f - M_omega' s + C' phidot), s the legs' share (the body rows of
         # M q'' = f + B tau, with B acting on the legs alone, hold no torque: nor does Lambda').
-        m_rate, (e1, e2) = _configuration_rate(legs, rate1, rate2, (nx, ny, nz), (ny * oz - nz * oy, nz * ox - nx * oz, nx * oy - ny * ox), k)
+        n_rate = (ny * oz - nz * oy, nz * ox - nx * oz, nx * oy - ny * ox)  # n' = n x Omega
+        m_rate, (e1, e2) = _configuration_rate(legs, rate1, rate2, (nx, ny, nz), n_rate, k)
         ms0, ms1, ms2 = _sym_apply(m_rate, share[0], share[1], share[2])
         od0, od1, od2 = _sym_apply(
             m_inv,

@@ -418,7 +418,9 @@ def _stage_fns(config: SimConfig, targets, blend=None, locked=False):
     (:func:`rrrobot_gym.dynamics.derivative_kernel`).
 
     The steppers call ``first`` at the start of every substep and ``f`` at the other stages,
-    so the torques the integrator applied come from the evaluation it makes anyway.
+    so the torques the integrator applied come from the evaluation it makes anyway. ``locked``
+    (servo legs; the exponential step): rows 8-10 are the locked rate, not the body rate
+    (``derivative_kernel(locked=True)``).
     ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets (kinematic legs).
     """
     k = dynamics.constants(config.robot, config.depth)
@@ -963,6 +965,9 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     u + = B + h ((2 phi_2 - 4 phi_3)(D(U2) + D(U3)) + (4 phi_3 - phi_2) D(U4)), phi_j of hA unless
     said. It integrates u' = A u + (f(u) - A u) with the second part explicit, so its order (4)
     needs that part smooth, not A exact. Classical RK4 when A = 0. Four evaluations a step.
+    It follows the body's locked rate (:func:`rrrobot_gym.dynamics.locked_share`) in rows 8-10,
+    converting y to it and back here: the leg torques do not act on it, so A's body rows are zero
+    and a new ramp's torque step is in the legs' rows alone, where A has it exactly.
     :mod:`rrrobot_gym.compiled` repeats it operation for operation."""
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     kp, kd = servo.kp, servo.kd
