@@ -53,7 +53,7 @@ from scipy.linalg import expm
 
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import RampTargets, table2_gait
-from rrrobot_gym.simulation import SimConfig, _ServoJacobian, _stage_fns, advance, initial_state
+from rrrobot_gym.simulation import SimConfig, _ServoJacobian, _stage_fns, _to_locked, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
 
@@ -146,7 +146,7 @@ class Problem:
         if not self.locked:
             return u
         u = u.copy()
-        u[8:11] += sign * np.array(dynamics.locked_share(u, dynamics.constants(self.config.robot, self.config.depth)))
+        _to_locked(u, dynamics.constants(self.config.robot, self.config.depth), sign)
         return u
 
     def full_jacobian(self, u, fu):

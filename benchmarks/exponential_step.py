@@ -8,8 +8,8 @@ Five parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   10 s), in env steps of 0.05 s, against ``simulate_reference`` (DOP853, rtol = atol = 1e-10):
   RK4 at the default 1/300 s, and ETDRK4-B at 1/60, 1/80 and 1/100 s, each with its first env
   step in three times as many steps (the legs start from rest onto moving targets, the one stiff
-  transient of a gait) and at 1/80 s without, and graded: at 1/80 s with ``start_halves=1``, at
-  1/120 s with 2 and 3, and at 1/220 s with 4 (the first steps of every env step in halves, as the
+  transient of a gait) and at 1/80 s without, and graded: at 1/60 and 1/80 s with
+  ``start_halves=1`` (16 and 20 evaluations), at 1/120 s with 2 and 3, and at 1/220 s with 4 (the first steps of every env step in halves, as the
   policy's rows below want; the last at 60 evaluations, the default's count). Worst contact error
   over the path, and CPU time of one robot's run on the numpy backend and on the compiled one
   (which must give the same states to the bit);

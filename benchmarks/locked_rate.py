@@ -25,6 +25,7 @@ locked rate's terms, ``benchmarks.exponential_step``).
 from __future__ import annotations
 
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def gait_case(job):
     """Worst contact error (m) of one case at n steps an env step, body rate or locked rate."""
     (model, gait), n, locked, duration = job
     config = SimConfig(model=model, timestep=ENV_STEP / n, backend="numpy")
-    problem = probe.Problem(SimConfig(model=model), table2_gait(gait), locked=True)
+    problem = probe.Problem(SimConfig(model=model), table2_gait(gait), locked=True) if locked else None
     states = [initial_state()]
     for i in range(round(duration / ENV_STEP)):
         t0 = i * ENV_STEP
@@ -71,8 +72,7 @@ def policy_episode(job):
     """Contact points (n + 1, 2) of one policy episode's ramps at n steps a control step."""
     config, start, starts, ends, n, locked = job
     state, out = start.copy(), [start[:2].copy()]
-    step_config = SimConfig(model=config.model, robot=config.robot, gains=config.gains, timestep=ENV_STEP / n,
-                            backend="numpy")  # fmt: skip
+    step_config = replace(config, timestep=ENV_STEP / n, backend="numpy")
     for a, b in zip(starts, ends):
         targets = RampTargets(a, b, 0.0, ENV_STEP)
         if locked:

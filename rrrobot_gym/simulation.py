@@ -964,7 +964,8 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     B = u + h phi_1(hA) f(u), U4 = B + 2 h phi_2(hA) D(U3), and the step
     u + = B + h ((2 phi_2 - 4 phi_3)(D(U2) + D(U3)) + (4 phi_3 - phi_2) D(U4)), phi_j of hA unless
     said. It integrates u' = A u + (f(u) - A u) with the second part explicit, so its order (4)
-    needs that part smooth, not A exact. Classical RK4 when A = 0. Four evaluations a step.
+    needs that part smooth, not A exact. Classical RK4 (on the locked rate) when A = 0. Four
+    evaluations a step.
     It follows the body's locked rate (:func:`rrrobot_gym.dynamics.locked_share`) in rows 8-10,
     converting y to it and back here: the leg torques do not act on it, so A's body rows are zero
     and a new ramp's torque step is in the legs' rows alone, where A has it exactly.
