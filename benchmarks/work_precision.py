@@ -152,6 +152,8 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
         def first(t, c, mobility_out=None):
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out, locked=True)
 
+        f.locked = True  # (what the stepper checks: these rows 8-10 are the locked rate)
+
         no_servo = SimpleNamespace(kp=0.0, kd=0.0, h=step, leg_targets=lambda t: ((0.0, 0.0),) * 3, k=consts, radius=0.0,
                                    levels=1, TERMS=compiled.TAYLOR_TERMS)  # fmt: skip
         extra = (first, no_servo)

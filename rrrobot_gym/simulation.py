@@ -470,6 +470,7 @@ def _stage_fns(config: SimConfig, targets, blend=None, locked=False):
         applied = torque(t, c)
         return kernel(c, applied, k, mobility_out=mobility_out, contact_out=contact_out, locked=locked), applied
 
+    f.locked = first.locked = locked  # the variable of rows 8-10, which the exponential step checks
     return f, first
 
 
@@ -970,6 +971,11 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     converting y to it and back here: the leg torques do not act on it, so A's body rows are zero
     and a new ramp's torque step is in the legs' rows alone, where A has it exactly.
     :mod:`rrrobot_gym.compiled` repeats it operation for operation."""
+    if not getattr(f, "locked", False):
+        raise ValueError(
+            "the exponential step integrates the locked rate in rows 8-10: its stage functions must be "
+            "_stage_fns(..., locked=True) or derivative_kernel(locked=True) marked with f.locked = True"
+        )
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     kp, kd = servo.kp, servo.kd
     mobility = [0.0] * 9

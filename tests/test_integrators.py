@@ -384,6 +384,12 @@ def test_the_exponential_step_one_robot_and_a_batch_agree_and_refuse_what_they_c
         SimConfig(legs="kinematic", integrator="etdrk4b")
     with pytest.raises(ValueError, match="give integrator 'etdrk4b' a fixed step"):
         SimConfig(integrator="etdrk4b", timestep="auto")
+    # Its rows 8-10 are the locked rate: stage functions in the body rate are refused, not
+    # integrated into a wrong path (the stepper converts y, so they would be silently inconsistent).
+    body_rate, first = simulation._stage_fns(config, table2_gait(2))
+    servo = simulation._ServoExponential(config, 1.0 / 80.0, table2_gait(2))
+    with pytest.raises(ValueError, match="integrates the locked rate"):
+        simulation._etdrk4b_floats(body_rate, 0.0, states[0].tolist(), 1.0 / 80.0, 4, lambda t, c, m: first(t, c, m)[0], servo)
 
 
 @pytest.mark.parametrize("targets", [table2_gait(2), "ramp"], ids=["gait", "ramp"])
