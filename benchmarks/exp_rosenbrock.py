@@ -232,7 +232,13 @@ def ho5(problem: Problem, u, h, jacobian):
     return base + h * ((4.0 * p3 - p2) @ d4 + (4.0 * p2 - 8.0 * p3) @ d5)
 
 
-METHODS = {"exprb43": exprb43, "etdrk4b": etdrk4b, "ho5": ho5}
+def rk4(problem: Problem, u, h, jacobian):
+    """One step of RK4's tableau: ETDRK4-B with A = 0 (``jacobian`` unused). On a locked problem it is
+    RK4 in the locked rate (``benchmarks.locked_rate``)."""
+    return etdrk4b(problem, u, h, lambda u, fu: np.zeros((u.size, u.size)))
+
+
+METHODS = {"exprb43": exprb43, "etdrk4b": etdrk4b, "ho5": ho5, "rk4": rk4}
 
 
 def env_step(problem: Problem, u, setting: Setting, duration: float = ENV_STEP):

@@ -41,14 +41,6 @@ STEPS = (15, 12, 10)
 HEADINGS = (0.0, 90.0, 180.0, 270.0)
 
 
-def _rk4(problem, u, h, jacobian):
-    """RK4's tableau: the probe's ETDRK4-B with A = 0."""
-    return probe.etdrk4b(problem, u, h, lambda u, fu: np.zeros((u.size, u.size)))
-
-
-probe.METHODS.setdefault("rk4", _rk4)
-
-
 def _locked_step(problem, state, t0, n):
     """``state`` after one env step of n RK4 steps in the locked rate (time as the 14th row)."""
     u = probe.env_step(problem, np.append(state, t0), probe.Setting("rk4", "servo", (1,) * n), ENV_STEP)
