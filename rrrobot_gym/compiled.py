@@ -18,7 +18,8 @@ copies of the last of them if they are at least PADDED_MIN, else the one-robot s
 (:func:`_one_robot`). All give the float stepper's numbers to the bit.
 
 Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the
-scene is one it covers: servo legs, ``integrator="rk4"`` or ``"etdrk4b"`` (the exponential step,
+scene is one it covers: servo legs, ``integrator="rk4"``, ``"rk4_locked"`` (RK4's stepper compiled
+again with _LOCKED_RATE true: the locked rate in rows 8-10 while it steps) or ``"etdrk4b"`` (the exponential step,
 compiling simulation's own servo algebra; lanes too, :func:`_etd_lanes`), and targets from
 :class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
 :class:`~rrrobot_gym.control.Gait` or ``gait_search.SinusoidGait`` (any source with a
@@ -60,8 +61,9 @@ def available() -> bool:
     return True
 
 
-INTEGRATORS = ("rk4", "etdrk4b")
-"""The integrators compiled: RK4 and the exponential ETDRK4-B, both in lanes of robots (SIMD)."""
+INTEGRATORS = ("rk4", "etdrk4b", "rk4_locked")
+"""The integrators compiled: RK4, the exponential ETDRK4-B and RK4 in the body's locked rate, all
+in lanes of robots (SIMD)."""
 
 
 def supports(config) -> bool:
@@ -90,19 +92,27 @@ def target_arrays(targets):
     return kind, params, np.asarray(shared, dtype=float)
 
 
-def _compiled_copies(module, names, njit, namespace=None):
+def _compiled_copies(module, names, njit, namespace=None, suffix=""):
     """The functions ``names`` of ``module`` compiled, in a copy of its namespace (or in ``namespace``)
-    in which each refers to the compiled others (numba resolves a function's globals when it compiles it)."""
+    in which each refers to the compiled others (numba resolves a function's globals when it compiles it).
+    ``suffix`` is added to their qualified names, which numba's disk cache keys them by: copies
+    compiled with other globals need names of their own, else one is loaded for the other."""
     namespace = dict(vars(module)) if namespace is None else namespace
     for name in names:
         fn = getattr(module, name)
-        namespace[name] = njit(types.FunctionType(fn.__code__, namespace, name, fn.__defaults__, fn.__closure__))
+        copy = types.FunctionType(fn.__code__, namespace, name, fn.__defaults__, fn.__closure__)
+        copy.__qualname__ = fn.__qualname__ + suffix
+        namespace[name] = njit(copy)
     return namespace
 
 
 # The stepper. Plain Python here (it runs uncompiled too, slowly: ``prange`` is ``range``);
 # :func:`_stepper` compiles copies whose globals are the compiled kernel, servo and targets.
 prange = range
+_LOCKED_RATE = False
+"""True in the copy of the RK4 stepper compiled for ``integrator="rk4_locked"``: rows 8-10 hold the
+body's locked rate while it steps (converted at the ends of a call, as simulation's stepper
+does). A global, so each copy is compiled with the branches it takes and no other."""
 derivative_kernel, locked_share = dynamics.derivative_kernel, dynamics.locked_share
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
@@ -135,12 +145,19 @@ def _one_robot(y, t0, h0, n0, t, h, n_steps, k, gains, torque_limit, rate_limit,
     h0 from t0, recorded every other one (a graded start's halves), then n_steps of h from t."""
     stage = np.empty(13)
     contact = np.empty(7)
+    if _LOCKED_RATE:
+        _to_locked(y, k, 1.0)
     for step in range(n0):
         _robot_substep(y, t0, h0, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, step // 2 if step % 2 == 0 else -1, stage, contact)
         t0 += h0
+    if _LOCKED_RATE and n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
+        _to_locked(y, k, -1.0)
+        _to_locked(y, k, 1.0)
     for step in range(n_steps):
         _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, n0 // 2 + step, stage, contact)
         t += h
+    if _LOCKED_RATE:
+        _to_locked(y, k, -1.0)
     if rows.shape[0]:
         _summarise(rows, summary, i, 1)
 
@@ -160,20 +177,27 @@ def _first_derivative(y, tau, k, mobility, contact, rows, i, row, locked=False):
     return derivative_kernel(y, tau, k, None, None, mobility, None, locked)
 
 
+def _stage_derivative(c, tau, k):
+    """derivative_kernel at a later RK4 stage, in the locked rate in the "rk4_locked" copy."""
+    if _LOCKED_RATE:
+        return derivative_kernel(c, tau, k, None, None, None, None, True)
+    return derivative_kernel(c, tau, k)
+
+
 def _robot_substep(y, t, h, k, gains, torque_limit, rate_limit, kind, p, shared, rows, i, row, stage, contact):
     """One RK4 substep of _one_robot, in place; recorded into rows[row, :, i] unless row < 0."""
     half, sixth = 0.5 * h, h / 6.0
     tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
-    k1 = _first_derivative(y, tau, k, None, contact, rows, i, row)
+    k1 = _first_derivative(y, tau, k, None, contact, rows, i, row, _LOCKED_RATE)
     for j in range(13):
         stage[j] = y[j] + half * k1[j]
-    k2 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+    k2 = _stage_derivative(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
     for j in range(13):
         stage[j] = y[j] + half * k2[j]
-    k3 = derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+    k3 = _stage_derivative(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
     for j in range(13):
         stage[j] = y[j] + h * k3[j]
-    k4 = derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
+    k4 = _stage_derivative(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
     for j in range(13):
         y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
     inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
@@ -377,18 +401,27 @@ def _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared):
             w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
 
 
-def _lane_derivatives(w, k, kc, record):
+def _lane_derivatives(w, k, kc, record, locked):
     """The stage state's derivative into _D, every lane, and with ``record`` its contact values
     (contact_kernel of the state and that derivative) into _C: one loop, so the compiler shares
-    their common terms (inlined where ``record`` is a constant)."""
+    their common terms (inlined where ``record`` and ``locked`` are constants: a flag read inside
+    the loop would keep it scalar). ``locked``: rows 8-10 are the locked rate."""
     L = LANES
     for i in range(L):
         c = _lane_state(w, _S, i)
-        d = lane_derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), k)
+        if locked:
+            # (rows 8-10 the locked rate: the contact values need the body rate, as simulation's recorder reads it)
+            d, _, body = lane_derivative_and_mobility(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), k, False, None, None,
+                                                      None, True)  # fmt: skip
+        else:
+            d = lane_derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), k)
         for j in range(13):
             w[(_D + j) * L + i] = d[j]
         if record:
-            f = lane_contact_kernel(c, d, kc)
+            if locked:
+                f = lane_contact_kernel(_with_body(c, body[0], body[1], body[2]), _with_body(d, body[3], body[4], body[5]), kc)
+            else:
+                f = lane_contact_kernel(c, d, kc)
             for j in range(7):
                 w[(_C + j) * L + i] = f[j]
 
@@ -402,10 +435,15 @@ def _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shar
         _lane_torques(w, t, gains, torque_limit, rate_limit, _RAMP, params, shared)
     else:
         _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared)
-    if record:
-        _lane_derivatives(w, k, kc, True)
+    if _LOCKED_RATE:
+        if record:
+            _lane_derivatives(w, k, kc, True, True)
+        else:
+            _lane_derivatives(w, k, kc, False, True)
+    elif record:
+        _lane_derivatives(w, k, kc, True, False)
     else:
-        _lane_derivatives(w, k, kc, False)
+        _lane_derivatives(w, k, kc, False, False)
 
 
 def _lane_combine(w, keep, scale):
@@ -435,13 +473,21 @@ def _lanes(y, first, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate
     L = LANES
     w = np.zeros(_ROWS * L)
     _load_lanes(w, y, first, _Y, params, _P)
+    if _LOCKED_RATE:
+        _lanes_locked(w, k, 1.0)  # (the state rows _Y are _EY's)
     w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n0):
         _lane_substep(w, first, t0, h0, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step // 2 if step % 2 == 0 else -1)
         t0 += h0
+    if _LOCKED_RATE and n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
+        _lanes_locked(w, k, -1.0)
+        _lanes_locked(w, k, 1.0)
+        w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n_steps):
         _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, n0 // 2 + step)
         t += h
+    if _LOCKED_RATE:
+        _lanes_locked(w, k, -1.0)
     _store_lanes(y, w, first, _Y)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
@@ -869,7 +915,7 @@ _ETD_ALGEBRA = ("_servo_response", "_g_product", "_l_product", "_x_times", "_phi
                 "_doubled", "_servo_phi", "_phi_scale", "_phi_taylor", "_phi_stiff", "_phi_doubling", "_servo_rows", "_g_apply",
                 "_leg_function", "_etd_correction", "_combine_rows", "_etd_finish", "_etd_setup")  # fmt: skip
 """simulation's functions of the exponential step that the compiled stepper compiles (copies sharing their code)."""
-_STEPPER_INLINED = ("_first_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
+_STEPPER_INLINED = ("_first_derivative", "_stage_derivative", "_robot_substep")  # into _one_robot's loops, as the loop body it was
 _LANE_INLINED = ("_lane_state", "_lane_torques", "_lane_derivatives", "_lane_combine")  # into their callers' loops
 _LANE_CALLED = ("_lane_stage", "_lane_update", "_lane_substep")
 _ETD_LANE_INLINED = ("_with_body", "_lane_phis", "_lane_element", "_put_element", "_put_rows", "_sum", "_difference", "_scaled",
@@ -975,6 +1021,9 @@ def _compiled_stepper(parallel: bool, integrator: str):
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
         namespace = dict(globals())
+        locked = integrator == "rk4_locked"
+        namespace["_LOCKED_RATE"] = locked
+        own = "_locked" if locked else ""  # this module's copies, compiled with _LOCKED_RATE true, are named apart
         compiled_dynamics = _compiled_copies(dynamics, _DYNAMICS, njit)
         namespace["derivative_kernel"] = compiled_dynamics["derivative_kernel"]
         namespace["locked_share"] = compiled_dynamics["locked_share"]
@@ -982,22 +1031,22 @@ def _compiled_stepper(parallel: bool, integrator: str):
         inline = functools.partial(njit, forceinline=True)
         lane_kernels = _lane_kernels(inline)
         namespace["lane_derivative_kernel"], namespace["lane_derivative_and_mobility"], namespace["lane_contact_kernel"] = lane_kernels
-        _compiled_copies(sys.modules[__name__], _LANE_INLINED, inline, namespace)
-        _compiled_copies(sys.modules[__name__], _LANE_CALLED, njit, namespace)
+        _compiled_copies(sys.modules[__name__], _LANE_INLINED, inline, namespace, own)
+        _compiled_copies(sys.modules[__name__], _LANE_CALLED, njit, namespace, own)
         compiled_control = _compiled_copies(control, _CONTROL, njit)
         namespace.update((name, compiled_control[name]) for name in _CONTROL)
         namespace["prange"] = numba.prange
         etd = _compiled_copies(simulation, _ETD_ALGEBRA, inline)  # inlined, so the lanes' loops vectorise
-        _compiled_copies(sys.modules[__name__], _ETD_LANE_INLINED, inline, namespace)
+        _compiled_copies(sys.modules[__name__], _ETD_LANE_INLINED, inline, namespace, own)
         namespace.update((name, etd[name]) for name in _ETD_CALLED)
-        _compiled_copies(sys.modules[__name__], _STEPPER_INLINED, inline, namespace)
-        _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace)
+        _compiled_copies(sys.modules[__name__], _STEPPER_INLINED, inline, namespace, own)
+        _compiled_copies(sys.modules[__name__], _STEPPER, njit, namespace, own)
         source = _batch_etd if integrator == "etdrk4b" else _batch
         batch = types.FunctionType(source.__code__, namespace, source.__name__)
         # numba's cache files are named by the function's qualified name and keyed by its
-        # signature, not by parallel=: the threaded copy needs a name of its own, else one
-        # version is loaded for the other
-        batch.__qualname__ = source.__name__ + ("_threaded" if parallel else "")
+        # signature, not by parallel= or globals: the threaded and the locked copies need names
+        # of their own, else one version is loaded for another
+        batch.__qualname__ = source.__name__ + own + ("_threaded" if parallel else "")
         return njit(batch, parallel=parallel)
     finally:
         numba.config.CACHE_DIR = previous

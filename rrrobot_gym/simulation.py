@@ -29,7 +29,7 @@ from . import compiled, dynamics
 from .control import limit_torque, pd_torque
 from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth, whole_number
 
-INTEGRATORS = ("rk4", "rk3", "rosw", "etdrk4b")
+INTEGRATORS = ("rk4", "rk3", "rosw", "etdrk4b", "rk4_locked")
 """Fixed-step integrators for stepping (``SimConfig.integrator``): "rk4", classical
 Runge-Kutta (4 derivative evaluations a step); "rk3", Kutta's third-order method
 (3 evaluations; a step ~12 % shorter gives the same error here, see the benchmark);
@@ -41,7 +41,17 @@ where accuracy, not stability, sets the step (``python -m benchmarks.work_precis
 integrates the servo's linear part exactly (its phi-functions in closed form) and the rest
 explicitly: no servo stability limit, and order 4 where the rest is smooth, as on a scripted
 gait (within 0.4 mm after 50 s at 1/80 s, 16 evaluations an env step, from a fine first env
-step); not on a policy's path, whose every new ramp kicks the servo (see the README)."""
+step); not on a policy's path, whose every new ramp kicks the servo (see the README);
+"rk4_locked", RK4's tableau on the body's locked rate (:func:`rrrobot_gym.dynamics.locked_share`)
+in place of its rate: the same steps and stability limit as "rk4", and the leg torques act on
+the legs' rows alone, so a new ramp's kick is followed far more closely (at 1/300 s ~100x closer
+on the gaits and ~25x on a policy's path; ``python -m benchmarks.locked_rate``). Servo legs, a
+fixed step."""
+
+LOCKED_INTEGRATORS = ("etdrk4b", "rk4_locked")
+"""The integrators that step the body's locked rate in rows 8-10 (:func:`rrrobot_gym.dynamics.locked_share`,
+the body rows of the momentum, which the leg torques do not change): each advance converts the
+state to it and back."""
 
 SERVO_INTEGRATORS = {"rosw": "implicitly", "etdrk4b": "exactly"}
 """The integrators that treat the leg servo's stiff linear part implicitly or exactly: servo legs
@@ -93,7 +103,7 @@ class SimConfig:
                 raise ImportError("SimConfig.backend='numba' needs numba: pip install 'rrrobot_gym[fast]' (or numba)")
             if not compiled.supports(self):
                 raise ValueError(
-                    f"SimConfig.backend='numba' compiles servo legs with integrator 'rk4' or 'etdrk4b' only, got legs "
+                    f"SimConfig.backend='numba' compiles servo legs with integrator {', '.join(map(repr, compiled.INTEGRATORS))} only, got legs "
                     f"{self.legs!r} and integrator {self.integrator!r}: use backend 'auto' or 'numpy'"
                 )
         for name in ("torque_limit", "leg_rate_limit"):
@@ -129,10 +139,15 @@ class SimConfig:
                 f"integrator {self.integrator!r} treats the leg servo {SERVO_INTEGRATORS[self.integrator]}; "
                 f"kinematic legs have no servo: use 'rk4'"
             )
+        if self.integrator == "rk4_locked" and self.legs != "servo":
+            raise ValueError(
+                "integrator 'rk4_locked' steps the body's locked rate, the share of the momentum the leg servo's "
+                "torques do not reach; kinematic legs have no servo: use 'rk4'"
+            )
         if isinstance(self.timestep, str):
             if self.timestep != "auto":
                 raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
-            if self.integrator in SERVO_INTEGRATORS:
+            if self.integrator in SERVO_INTEGRATORS or self.integrator == "rk4_locked":
                 raise ValueError(
                     "SimConfig.timestep='auto' is calibrated for the explicit integrators (rk4, rk3); "
                     f"give integrator {self.integrator!r} a fixed step (see benchmarks.work_precision)"
@@ -155,7 +170,8 @@ class SimConfig:
                     f"{self.integrator} for the leg servo (kp={self.gains.kp}, kd={self.gains.kd}, tip mass "
                     f"{self.robot.mass_tip} kg, model {self.model!r}; fastest servo pole "
                     f"{servo_fastest_rate(self.model, self.robot, self.gains):.4g} 1/s): the run would blow up. "
-                    f"Use a smaller timestep, timestep='auto', or legs='kinematic'"
+                    + ("Use a smaller timestep" if self.integrator == "rk4_locked" else
+                       "Use a smaller timestep, timestep='auto', or legs='kinematic'")
                 )
 
     @property
@@ -264,7 +280,7 @@ def servo_fastest_rate(model: str, robot: RobotParams, gains: PDGains) -> float:
 def _amplification(integrator: str, z: complex) -> float:
     """|R(z)|, the integrator's growth factor per step on y' = lambda y, z = h lambda."""
     poly = 1.0 + z + z * z / 2.0 + z**3 / 6.0
-    if integrator == "rk4":
+    if integrator in ("rk4", "rk4_locked"):  # (the locked rate changes variables, not the servo's poles)
         poly += z**4 / 24.0
     return abs(poly)
 
@@ -470,7 +486,8 @@ def _stage_fns(config: SimConfig, targets, blend=None, locked=False):
         applied = torque(t, c)
         return kernel(c, applied, k, mobility_out=mobility_out, contact_out=contact_out, locked=locked), applied
 
-    f.locked = first.locked = locked  # the variable of rows 8-10, which the exponential step checks
+    f.locked = first.locked = locked  # the variable of rows 8-10, which the locked steppers check
+    f.constants = k  # (what they convert with)
     return f, first
 
 
@@ -971,11 +988,7 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     converting y to it and back here: the leg torques do not act on it, so A's body rows are zero
     and a new ramp's torque step is in the legs' rows alone, where A has it exactly.
     :mod:`rrrobot_gym.compiled` repeats it operation for operation."""
-    if not getattr(f, "locked", False):
-        raise ValueError(
-            "the exponential step integrates the locked rate in rows 8-10: its stage functions must be "
-            "_stage_fns(..., locked=True) or derivative_kernel(locked=True) marked with f.locked = True"
-        )
+    _check_locked(f, "etdrk4b")
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     kp, kd = servo.kp, servo.kd
     mobility = [0.0] * 9
@@ -1014,6 +1027,35 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     return y
 
 
+def _check_locked(f, integrator):
+    """Refuse stage functions in the body rate for a stepper of LOCKED_INTEGRATORS (it converts y
+    to the locked rate, so they would give a wrong path without a word)."""
+    if not getattr(f, "locked", False):
+        raise ValueError(
+            f"integrator {integrator!r} integrates the locked rate in rows 8-10: its stage functions must be "
+            "_stage_fns(..., locked=True) or derivative_kernel(locked=True) marked with f.locked = True"
+        )
+
+
+def _rk4_locked_floats(f, t, y, h, n_steps, first=None):
+    """RK4 on one robot (13 floats) in the body's locked rate: y converted to it, stepped by
+    :func:`_rk4_floats` on the locked stage functions, converted back."""
+    _check_locked(f, "rk4_locked")
+    _to_locked(y, f.constants, 1.0)
+    y = _rk4_floats(f, t, y, h, n_steps, first)
+    _to_locked(y, f.constants, -1.0)
+    return y
+
+
+def _rk4_locked_arrays(f, t, y, h, n_steps, first=None):
+    """:func:`_rk4_locked_floats` on a component-first batch y (13, N), in place."""
+    _check_locked(f, "rk4_locked")
+    _to_locked(y, f.constants, 1.0)
+    _rk4_arrays(f, t, y, h, n_steps, first)
+    _to_locked(y, f.constants, -1.0)
+    return y
+
+
 def _to_locked(y, k, sign):
     """Rows 8-10 of y (13 rows) from the body rate Omega to the locked rate (sign 1) or back (-1),
     in place (:func:`rrrobot_gym.dynamics.locked_share`)."""
@@ -1035,7 +1077,7 @@ def _etdrk4b_arrays(f, t, y, h, n_steps, first, servo):
 
 
 _STEPPERS = {"rk4": (_rk4_floats, _rk4_arrays), "rk3": (_rk3_floats, _rk3_arrays), "rosw": (_rosw_floats, _rosw_arrays),
-             "etdrk4b": (_etdrk4b_floats, _etdrk4b_arrays)}  # fmt: skip
+             "etdrk4b": (_etdrk4b_floats, _etdrk4b_arrays), "rk4_locked": (_rk4_locked_floats, _rk4_locked_arrays)}  # fmt: skip
 
 
 def _leg_path_end(targets, blend, t_end):
@@ -1401,7 +1443,7 @@ def _compiled_targets(config: SimConfig, targets):
 def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool):
     """Run the configured stepper on components y (13 floats, or a (13, n) array, in place):
     (y after n_steps steps of h, the recorder or None)."""
-    f, first = _stage_fns(config, targets, blend, locked=config.integrator == "etdrk4b")
+    f, first = _stage_fns(config, targets, blend, locked=config.integrator in LOCKED_INTEGRATORS)
     recorder = _Recorder(first, config, n_steps, None if isinstance(y, list) else y.shape[1]) if record else None
     step_floats, step_arrays = _STEPPERS[config.integrator]
     stepper = step_floats if isinstance(y, list) else step_arrays

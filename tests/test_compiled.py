@@ -74,9 +74,12 @@ def _assert_compiled_is_the_float_stepper(config, states, targets):
      SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
      SimConfig(integrator="etdrk4b", timestep=1 / 80),
      SimConfig(model="pivot", integrator="etdrk4b", torque_limit=0.5, leg_rate_limit=10.0, timestep=1 / 220, start_halves=4),
-     SimConfig(integrator="etdrk4b", gains=PDGains(kp=200.0, kd=5.0), timestep=1 / 300)],
+     SimConfig(integrator="etdrk4b", gains=PDGains(kp=200.0, kd=5.0), timestep=1 / 300),
+     SimConfig(integrator="rk4_locked"), SimConfig(model="pivot", integrator="rk4_locked", torque_limit=0.5, leg_rate_limit=10.0,
+                                                   start_halves=2)],
     ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded",
-         "plane-etdrk4b", "pivot-motor-etdrk4b-graded", "plane-stiff-servo-etdrk4b"],
+         "plane-etdrk4b", "pivot-motor-etdrk4b-graded", "plane-stiff-servo-etdrk4b", "plane-rk4-locked",
+         "pivot-motor-rk4-locked-graded"],
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
@@ -100,8 +103,8 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
 @pytest.mark.parametrize(
     "config",
     [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
-     SimConfig(integrator="etdrk4b", timestep=1 / 80)],
-    ids=["plane", "pivot-motor-graded", "plane-etdrk4b"],
+     SimConfig(integrator="etdrk4b", timestep=1 / 80), SimConfig(integrator="rk4_locked", start_halves=1)],
+    ids=["plane", "pivot-motor-graded", "plane-etdrk4b", "plane-rk4-locked-graded"],
 )  # fmt: skip
 def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
     # fewer robots than a block (alone, or after a whole block), but at least PADDED_MIN: a lane
@@ -110,7 +113,10 @@ def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
     _assert_compiled_is_the_float_stepper(config, _states(n, seed=5), _targets(kind, n, np.random.default_rng(3)))
 
 
-@pytest.mark.parametrize("config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80)], ids=["rk4", "etdrk4b"])
+@pytest.mark.parametrize(
+    "config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80), SimConfig(integrator="rk4_locked")],
+    ids=["rk4", "etdrk4b", "rk4-locked"],
+)
 def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit(config):
     # 4 s of Gait 2 from the paper's start, the hardest start transient, in env-sized steps.
     fast = slow = initial_state()
@@ -133,14 +139,14 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
     np.testing.assert_allclose(fast, numpy, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "etdrk4b"])
+@pytest.mark.parametrize("integrator", ["rk4", "etdrk4b", "rk4_locked"])
 @pytest.mark.parametrize("workers", [2, 3])
 @pytest.mark.parametrize("rest", [5, compiled.PADDED_MIN + 3])
 def test_threads_give_the_one_thread_result(workers, integrator, rest):
     n = 3 * compiled.LANES + rest  # lane blocks and single robots or a padded block, shared among the threads
     states = _states(n, seed=4)
     targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (n, 2)), 0.0, 0.05)
-    config = SimConfig(backend="numba", integrator=integrator, timestep=1 / 300 if integrator == "rk4" else 1 / 80)
+    config = SimConfig(backend="numba", integrator=integrator, timestep=1 / 80 if integrator == "etdrk4b" else 1 / 300)
     one, one_record = advance(config, states, 0.0, 0.05, targets, record=True)
     many, many_record = advance(config, states, 0.0, 0.05, targets, record=True, workers=workers)
     assert np.array_equal(one, many)

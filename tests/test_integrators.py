@@ -384,6 +384,14 @@ def test_the_exponential_step_one_robot_and_a_batch_agree_and_refuse_what_they_c
         SimConfig(legs="kinematic", integrator="etdrk4b")
     with pytest.raises(ValueError, match="give integrator 'etdrk4b' a fixed step"):
         SimConfig(integrator="etdrk4b", timestep="auto")
+    # RK4 in the locked rate is RK4's tableau: its stability limit, servo legs and a fixed step
+    with pytest.raises(ValueError, match="beyond the stability limit .* of rk4_locked"):
+        SimConfig(integrator="rk4_locked", timestep=1.01 * simulation.stable_step_limit("plane", config.robot, config.gains))
+    SimConfig(integrator="rk4_locked", timestep=0.99 * simulation.stable_step_limit("plane", config.robot, config.gains))
+    with pytest.raises(ValueError, match="'rk4_locked' steps the body's locked rate.*kinematic legs have no servo"):
+        SimConfig(integrator="rk4_locked", legs="kinematic")
+    with pytest.raises(ValueError, match="give integrator 'rk4_locked' a fixed step"):
+        SimConfig(integrator="rk4_locked", timestep="auto")
     # Its rows 8-10 are the locked rate: stage functions in the body rate are refused, not
     # integrated into a wrong path (the stepper converts y, so they would be silently inconsistent).
     body_rate, first = simulation._stage_fns(config, table2_gait(2))
@@ -464,11 +472,12 @@ def test_the_exponential_step_follows_new_targets_far_more_closely_at_the_defaul
 
 def test_rk4_in_the_locked_rate_follows_new_targets_far_more_closely():
     """benchmarks.locked_rate's claim on 2 s of random ramps (as above): RK4 at the default step,
-    its tableau run on derivative_kernel(locked=True) (converting to the locked rate and back
-    each control step, as advance does for etdrk4b), is 8x closer to the reference than the
+    its tableau run on derivative_kernel(locked=True) (the probe's, converting to the locked rate
+    and back each control step, as advance does for etdrk4b), is 8x closer to the reference than the
     shipped RK4 in the body rate (0.076 against 0.61 mm), with nothing else changed: the ramps'
-    torque steps are no longer in the body's rows."""
-    from benchmarks import locked_rate
+    torque steps are no longer in the body's rows. The shipped ``integrator="rk4_locked"`` is that
+    method: its run is the probe's (matrices, an implementation sharing only the equations) to rounding."""
+    from benchmarks import exp_rosenbrock as probe
     from rrrobot_gym.control import RampTargets
 
     targets = _random_ramps(np.random.default_rng(7), 6, 40)
@@ -477,10 +486,14 @@ def test_rk4_in_the_locked_rate_follows_new_targets_far_more_closely():
     locked = simulation.initial_state(targets.shape[1])
     for i in range(len(targets) - 1):
         for j in range(len(locked)):
-            problem = locked_rate.probe.Problem(SimConfig(), RampTargets(targets[i, j], targets[i + 1, j], 0.0, 0.05), locked=True)
-            locked[j] = locked_rate._locked_step(problem, locked[j], 0.0, 15)
+            problem = probe.Problem(SimConfig(), RampTargets(targets[i, j], targets[i + 1, j], 0.0, 0.05), locked=True)
+            u = probe.env_step(problem, np.append(locked[j], 0.0), probe.Setting("rk4", "servo", (1,) * 15), 0.05)
+            locked[j] = u[:-1]
 
     def error(states):
         return np.hypot(*(states[:, :2] - exact[:, :2]).T).max()
 
     assert error(locked) < error(body) / 5.0, (error(locked), error(body))
+    for backend in ("numba", "numpy"):
+        shipped = _ramps_run(SimConfig(integrator="rk4_locked", backend=backend), targets)
+        np.testing.assert_allclose(shipped, locked, rtol=0, atol=1e-10)
