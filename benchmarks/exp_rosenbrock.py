@@ -234,7 +234,7 @@ def ho5(problem: Problem, u, h, jacobian):
 
 def rk4(problem: Problem, u, h, jacobian):
     """One step of RK4's tableau: ETDRK4-B with A = 0 (``jacobian`` unused). On a locked problem it is
-    RK4 in the locked rate (``benchmarks.locked_rate``)."""
+    RK4 in the locked rate, as ``integrator="rk4_locked"`` steps (``tests/test_integrators.py``)."""
     return etdrk4b(problem, u, h, lambda u, fu: np.zeros((u.size, u.size)))
 
 

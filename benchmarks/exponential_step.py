@@ -109,14 +109,14 @@ def gait_case(job):
     return float(contact_error(states, reference(SimConfig(model=model), targets, duration, ENV_STEP)).max()), cpu, compiled_cpu
 
 
-def gait_rows(duration: float, workers: int):
+def gait_rows(duration: float, workers: int, settings=GAIT_SETTINGS):
     for model, gait in CASES:  # fill the reference cache before the workers read it
         reference(SimConfig(model=model), table2_gait(gait), duration, ENV_STEP)
-    jobs = [(setting, case, duration) for setting in GAIT_SETTINGS for case in CASES]
+    jobs = [(setting, case, duration) for setting in settings for case in CASES]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         results = list(pool.map(gait_case, jobs))
     rows = []
-    for i, (integrator, n, fine_first, halves) in enumerate(GAIT_SETTINGS):
+    for i, (integrator, n, fine_first, halves) in enumerate(settings):
         per_case = results[i * len(CASES) : (i + 1) * len(CASES)]
         rows.append({
             "integrator": integrator, "step_s": ENV_STEP / n, "start_halves": halves, "evals_per_env_step": 4 * (n + halves),
@@ -133,17 +133,19 @@ def gait_rows(duration: float, workers: int):
     return rows
 
 
-def batch_rows():
+def batch_rows(settings=BATCH_SETTINGS, numpy_other=("etdrk4b", 4)):
     """Wall time of one env step of N robots per stepper (medians, side by side), and its ratio to
-    RK4 at the default step on numpy and compiled."""
+    RK4 at the default step on numpy and compiled: compiled per ``settings``, on numpy RK4 and
+    ``numpy_other`` (integrator, steps an env step)."""
     rng = np.random.default_rng(0)
     rows = []
     for n in BATCHES:
         state = initial_state(n)
         ramp = RampTargets(state[:, 6:8], state[:, 6:8] + rng.uniform(-0.5, 0.5, (n, 2)), 0.0, ENV_STEP)
-        configs = {"rk4 1/300 s, numpy": SimConfig(backend="numpy"), "etdrk4b 1/80 s, numpy": _config("plane", "etdrk4b", 4)}
+        configs = {"rk4 1/300 s, numpy": SimConfig(backend="numpy"),
+                   _label(*numpy_other, 0) + ", numpy": _config("plane", *numpy_other)}  # fmt: skip
         if compiled.available():
-            for integrator, steps, halves in BATCH_SETTINGS:
+            for integrator, steps, halves in settings:
                 config = replace(_config("plane", integrator, steps, start_halves=halves), backend="numba")
                 configs[_label(integrator, steps, halves) + ", compiled"] = config
         for config in configs.values():
@@ -165,7 +167,7 @@ def batch_rows():
     return rows
 
 
-def env_rows():
+def env_rows(settings=ENV_SETTINGS):
     """The env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64 and
     4096, compiled) per ENV_SETTINGS, ROUNDS rounds alternating the settings, medians; ratios to
     the default (RK4) per env."""
@@ -175,7 +177,7 @@ def env_rows():
                 ("N = 4096", lambda rng, kw: vector_env(4096, 10, 3, rng, **kw)))  # fmt: skip
     rates = {}
     for _ in range(ROUNDS):
-        for integrator, n, halves in ENV_SETTINGS:
+        for integrator, n, halves in settings:
             kwargs = {"backend": "numba", "integrator": integrator, "timestep": ENV_STEP / n, "frame_skip": n, "start_halves": halves}
             for name, measure in measures:
                 rates.setdefault((integrator, n, halves, name), []).append(measure(np.random.default_rng(0), kwargs)["env_steps_per_s"])
@@ -194,7 +196,7 @@ def spring_energy(config: SimConfig, state, targets) -> np.ndarray:
     return dynamics.total_energy(state, config.robot, config.model) + spring
 
 
-def energy_rows(duration: float):
+def energy_rows(duration: float, settings=ENERGY_SETTINGS):
     rows = []
     targets = (0.5 * math.pi, 0.5 * math.pi)
     start = initial_state(leg_angles=(1.2, 2.0))
@@ -202,7 +204,7 @@ def energy_rows(duration: float):
     start[dynamics.QUAT] = (math.cos(tilt / 2), math.sin(tilt / 2) * 0.8, math.sin(tilt / 2) * 0.6, 0.0)
     start[dynamics.BODY_RATE] = (0.3, -0.2, 1.0)
     for model in ("plane", "pivot"):
-        for integrator, n in ENERGY_SETTINGS:
+        for integrator, n in settings:
             config = _config(model, integrator, n, robot=RobotParams(damping=0.0), gains=PDGains(kp=2.0, kd=0.0))
             state, energy0, drift = start.copy(), float(spring_energy(config, start, targets)), 0.0
             for i in range(round(duration / ENV_STEP)):
@@ -214,7 +216,7 @@ def energy_rows(duration: float):
     return rows
 
 
-def policy_rows(duration: float):
+def policy_rows(duration: float, settings=POLICY_SETTINGS):
     from agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, error_fields, replay, rollouts
@@ -223,7 +225,7 @@ def policy_rows(duration: float):
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), headings, round(duration / ENV_STEP))
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     rows = []
-    for integrator, n, halves in POLICY_SETTINGS:
+    for integrator, n, halves in settings:
         config = replace(sim, integrator=integrator, timestep=dt / n, start_halves=halves,
                          backend="numba" if compiled.available() else "numpy")  # (the same states to the bit)
         with np.errstate(all="ignore"):
@@ -239,7 +241,7 @@ ENVELOPE_SETTINGS = [("rk4", 15, 0), ("rk4", 30, 0), ("rk4", 60, 0), ("etdrk4b",
 """(integrator, steps a control step, ``start_halves``) of the envelope rows."""
 
 
-def envelope_rows(seconds: float = 2.0):
+def envelope_rows(seconds: float = 2.0, settings=ENVELOPE_SETTINGS):
     """The env's slip measure (``info["slip_velocity"]``, the missing impulse over a step per unit
     mass) on the shipped policy's first ``seconds`` along 0 deg, per ENVELOPE_SETTINGS, the
     episode kept running past the model's limits: its largest value, and the steps past the
@@ -252,7 +254,7 @@ def envelope_rows(seconds: float = 2.0):
 
     agent = load_ppo_agent(MODEL)
     rows = []
-    for integrator, n, halves in ENVELOPE_SETTINGS:
+    for integrator, n, halves in settings:
         kwargs = {**agent.env_config, "integrator": integrator, "timestep": ENV_STEP / n, "frame_skip": n,
                   "start_halves": halves, "terminate_outside_model": False}  # fmt: skip
         env = gymnasium.make("RRRobot-v0", **kwargs)
@@ -271,17 +273,25 @@ def envelope_rows(seconds: float = 2.0):
 
 
 def main(argv=None):
-    p = parser(__doc__.splitlines()[0])
+    report(__doc__.splitlines()[0], "benchmarks.exponential_step", argv)
+
+
+def report(title: str, module: str, argv=None, gait_settings=GAIT_SETTINGS, batch_settings=BATCH_SETTINGS,
+           numpy_other=("etdrk4b", 4), energy_settings=ENERGY_SETTINGS, env_settings=ENV_SETTINGS,
+           policy_settings=POLICY_SETTINGS, envelope_settings=ENVELOPE_SETTINGS):
+    """Parse the command line, run the parts with these settings (as the module constants), print and
+    write the tables: the work of this module's main, shared with ``benchmarks.locked_rate``."""
+    p = parser(title)
     p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
     p.add_argument("--workers", type=int, default=2, help="processes for the gait cases (errors do not depend on it)")
     p.add_argument("--policy", action="store_true", help="also the shipped policy's replay (needs the train extra)")
     args = p.parse_args(argv)
     duration = 10.0 if args.quick else 50.0
     payload = {"machine": machine(), "duration_s": duration}
-    payload["gaits"] = gaits = gait_rows(duration, args.workers)
-    payload["batches"] = batches = batch_rows()
-    payload["energy"] = energy = energy_rows(duration)
-    payload["env"] = envs = env_rows() if compiled.available() else []
+    payload["gaits"] = gaits = gait_rows(duration, args.workers, gait_settings)
+    payload["batches"] = batches = batch_rows(batch_settings, numpy_other)
+    payload["energy"] = energy = energy_rows(duration, energy_settings)
+    payload["env"] = envs = env_rows(env_settings) if compiled.available() else []
     base, compiled_base = gaits[0]["cpu_s_per_run"], gaits[0]["compiled_cpu_s_per_run"]
 
     def compiled_cpu(r):
@@ -289,7 +299,7 @@ def main(argv=None):
             return ["-", "-"]
         return [fmt(r["compiled_cpu_s_per_run"]), f"{r['compiled_cpu_s_per_run'] / compiled_base:.2f}x"]
 
-    command = f"python -m benchmarks.exponential_step{' --quick' if args.quick else ''}{' --policy' if args.policy else ''}"
+    command = f"python -m {module}{' --quick' if args.quick else ''}{' --policy' if args.policy else ''}"
     text = f"`{command}`, {duration:g} s\n\nSix gait cases, one robot (CPU time per run, mean of the six cases):\n\n" + markdown_table(
         ["integrator", "step", "first env step (evaluations)", "evaluations / env step", "worst max contact error (mm)",
          "CPU s / run, numpy", "vs RK4", "CPU s / run, compiled", "vs RK4"] + [f"{m} gait {g}" for m, g in CASES],
@@ -314,13 +324,13 @@ def main(argv=None):
               f"{r['vs_default']:.2f}x"] for r in envs],
         )  # fmt: skip
     if args.policy:
-        payload["envelope"] = envelope = envelope_rows()
+        payload["envelope"] = envelope = envelope_rows(settings=envelope_settings)
         text += "\n\nThe env's slip measure on the shipped policy's first 2 s along 0 deg (not terminated):\n\n" + markdown_table(
             ["integrator", "step", "evaluations / env step", "largest slip_velocity (m/s)", "at env step", "env steps past the limit"],
             [[r["integrator"], _step_text(r), r["evals_per_env_step"], f"{r['max_slip_velocity_m_s']:.4f}", r["worst_env_step"],
               f"{r['steps_past_limit']} (limit {r['limit_m_s']:g})"] for r in envelope],
         )  # fmt: skip
-        payload["policy"] = policy = policy_rows(duration)
+        payload["policy"] = policy = policy_rows(duration, policy_settings)
         text += f"\n\nThe shipped policy's ramps, {duration:g} s, four headings:\n\n" + markdown_table(
             ["integrator", "step", "evaluations / env step", "worst max contact error (mm)"],
             [[r["integrator"], _step_text(r), r["evals_per_env_step"], fmt(r["contact_max_m"] * 1e3)]
