@@ -20,7 +20,7 @@ Five parts, each the shipped steppers through :func:`rrrobot_gym.simulation.adva
   started off its targets, tilted and spinning. Nothing drains or feeds energy, so the body's
   energy plus the servo's spring energy kp/2 |phi - target|^2 is conserved; its largest relative
   drift over the run, per method and step (the servo works all along, unlike
-  ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B is RK4);
+  ``benchmarks.work_precision``'s book with the servo off, where ETDRK4-B's A is the legs' phi' = phidot alone);
 - env: the env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64
   and 4096), RK4 at the default and ETDRK4-B at about RK4's cost in batches, alternating;
 - ``--policy``: the env's slip measure (``info["slip_velocity"]``) on the shipped policy's first

@@ -12,9 +12,10 @@ rtol = atol = 1e-10) sampled at the same instants:
 - energy drift: a separate run with no damping and no leg torque (servo: the legs
   swing freely; kinematic: the legs are locked), started tilted and spinning, with
   the same integrator and step; the maximum of |E - E0| / E0 over the run. With no servo,
-  ``etdrk4b``'s A is zero and its step is RK4's tableau on the variables it follows (the body's
-  locked rate, ``dynamics.locked_share``, in place of its rate): its drift is that of the
-  change of variable. ``benchmarks.exponential_step`` has a book with the servo working.
+  ``etdrk4b``'s A is the legs' phi' = phidot alone (zero gains), on the body's locked rate
+  (``dynamics.locked_share``) in place of its rate; ``rk4_locked`` is RK4's tableau on that
+  locked rate, so its drift against RK4's is that of the change of variable.
+  ``benchmarks.exponential_step`` has a book with the servo working.
 
 ``etdrk4b`` rows are equal steps from the paper's start (its graded settings, ``start_halves``,
 are in ``benchmarks.exponential_step``).
@@ -57,7 +58,7 @@ from ._common import (
 
 ENV_STEP = 0.05
 """s, the control step of the environment; the integration step is ENV_STEP / n."""
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4, "etdrk4b": 4}
+EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4, "etdrk4b": 4, "rk4_locked": 4}
 BUDGET_M = 1e-3
 
 
@@ -72,7 +73,7 @@ def settings(quick: bool, gains=None):
             ("servo", "rosw", n) for n in STIFF_ROSW_N
         ]
     if quick:
-        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8), "etdrk4b": (4,)}
+        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8), "etdrk4b": (4,), "rk4_locked": (8,)}
         kinematic = {"rk4": (1, 3)}
     else:
         servo = {
@@ -80,6 +81,7 @@ def settings(quick: bool, gains=None):
             "rk3": (6, 7, 8, 12, 15, 16, 17, 20, 25, 30),
             "rosw": (4, 6, 8, 10, 15, 20, 30),
             "etdrk4b": (3, 4, 5, 6, 8, 15),
+            "rk4_locked": (3, 4, 5, 7, 8, 10, 12, 15),  # (beyond RK4's stability limit on the plane below 7: refused)
         }
         kinematic = {"rk4": (1, 2, 3, 5), "rk3": (1, 2, 3, 5)}
     out = [("servo", integ, n) for integ, ns in servo.items() for n in ns]
@@ -142,9 +144,15 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
 
         extra = (first, _ServoJacobian(SimpleNamespace(kp=0.0, kd=0.0), ENV_STEP / steps_per_env))
+    elif integrator == "rk4_locked":  # RK4's tableau on the locked rate: the etdrk4b book's method, as a stepper of its own
+
+        def f(t, c):
+            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
+
+        f.locked, f.constants = True, consts  # (what the stepper checks and converts with)
     elif integrator == "etdrk4b":
-        # No servo acts, so A = 0 and the step is RK4's tableau on the equations it integrates,
-        # the locked rate (dynamics.locked_share) in place of the body rate: not RK4's path.
+        # No servo acts: A is the legs' phi' = phidot alone (zero gains), on the equations it
+        # integrates, the locked rate (dynamics.locked_share) in place of the body rate.
 
         def f(t, c):
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
@@ -288,7 +296,7 @@ def plot(rows, path: str, duration: float):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, model in zip(axes, ("plane", "pivot")):
         for legs, integ, style in (("servo", "rk4", "o-"), ("servo", "rk3", "s-"), ("servo", "etdrk4b", "d-"),
-                                   ("kinematic", "rk4", "^--"), ("kinematic", "rk3", "v--")):  # fmt: skip
+                                   ("servo", "rk4_locked", "x-"), ("kinematic", "rk4", "^--"), ("kinematic", "rk3", "v--")):  # fmt: skip
             sel = [r for r in rows if (r["model"], r["legs"], r["integrator"]) == (model, legs, integ) and r["n"] != "auto"]
             sel = [r for r in sel if math.isfinite(r["contact_max_m"]) and r["contact_max_m"] < 10.0]
             if not sel:
