@@ -470,6 +470,27 @@ def test_the_exponential_step_follows_new_targets_far_more_closely_at_the_defaul
     assert error(SimConfig(integrator="etdrk4b", timestep=0.05 / 6)) > rk4 / 5.0
 
 
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+def test_rk4_locked_records_the_same_forces_as_rk4_where_both_converge(model):
+    """The step record of rk4_locked comes from evaluations in the locked rate. Its torques, ground
+    force, normal and tangential parts and leg clearance must still be those of the body's motion:
+    at 1/3000 s both integrators have converged, and from states off their targets, spinning and
+    tilted, the records agree to 1e-6 N (the forces are ~10 N) and the states to 1e-7."""
+    from rrrobot_gym.control import RampTargets
+
+    states = simulation.initial_state(3)
+    states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
+    states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
+    ramp = RampTargets(states[:, 6:8], states[:, 6:8] + 0.4, 0.0, 0.05)
+    runs = [simulation.advance(SimConfig(model=model, integrator=name, timestep=1 / 3000), states, 0.0, 0.05, ramp, record=True)
+            for name in ("rk4", "rk4_locked")]  # fmt: skip
+    (body, body_record), (locked, locked_record) = runs
+    np.testing.assert_allclose(locked, body, rtol=0, atol=1e-7)
+    assert np.abs(body_record.force).max() > 5.0 and np.abs(body_record.tangential).max() > 5.0
+    for field in ("torque", "force", "normal", "tangential", "leg_clearance", "leg_rates"):
+        np.testing.assert_allclose(getattr(locked_record, field), getattr(body_record, field), rtol=0, atol=1e-6, err_msg=field)
+
+
 def test_rk4_in_the_locked_rate_follows_new_targets_far_more_closely():
     """benchmarks.locked_rate's claim on 2 s of random ramps (as above): RK4 at the default step,
     its tableau run on derivative_kernel(locked=True) (the probe's, converting to the locked rate
