@@ -43,7 +43,15 @@ import numpy as np
 from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.control import HeldTargets, table2_gait
 from rrrobot_gym.params import PDGains, RobotParams
-from rrrobot_gym.simulation import _STEPPERS, SimConfig, _kinematic_path, _ServoJacobian, advance, initial_state
+from rrrobot_gym.simulation import (
+    _STEPPERS,
+    LOCKED_INTEGRATORS,
+    SimConfig,
+    _kinematic_path,
+    _ServoJacobian,
+    advance,
+    initial_state,
+)
 
 from ._common import (
     attitude_error,
@@ -144,27 +152,22 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
 
         extra = (first, _ServoJacobian(SimpleNamespace(kp=0.0, kd=0.0), ENV_STEP / steps_per_env))
-    elif integrator == "rk4_locked":  # RK4's tableau on the locked rate: the etdrk4b book's method, as a stepper of its own
+    elif integrator in LOCKED_INTEGRATORS:
+        # rows 8-10 the locked rate (dynamics.locked_share) in place of the body rate: rk4_locked is
+        # RK4's tableau on it; etdrk4b's A is the legs' phi' = phidot alone here (zero gains)
 
         def f(t, c):
             return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
 
-        f.locked, f.constants = True, consts  # (what the stepper checks and converts with)
-    elif integrator == "etdrk4b":
-        # No servo acts: A is the legs' phi' = phidot alone (zero gains), on the equations it
-        # integrates, the locked rate (dynamics.locked_share) in place of the body rate.
+        f.locked, f.constants = True, consts  # (what the locked steppers check and convert with)
+        if integrator == "etdrk4b":
 
-        def f(t, c):
-            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
+            def first(t, c, mobility_out=None):
+                return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out, locked=True)
 
-        def first(t, c, mobility_out=None):
-            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out, locked=True)
-
-        f.locked = True  # (what the stepper checks: these rows 8-10 are the locked rate)
-
-        no_servo = SimpleNamespace(kp=0.0, kd=0.0, h=step, leg_targets=lambda t: ((0.0, 0.0),) * 3, k=consts, radius=0.0,
-                                   levels=1, TERMS=compiled.TAYLOR_TERMS)  # fmt: skip
-        extra = (first, no_servo)
+            no_servo = SimpleNamespace(kp=0.0, kd=0.0, h=step, leg_targets=lambda t: ((0.0, 0.0),) * 3, radius=0.0, levels=1,
+                                       TERMS=compiled.TAYLOR_TERMS)  # fmt: skip
+            extra = (first, no_servo)
     y = state.tolist()
     energies = [float(dynamics.total_energy(state, robot, model))]
     for i in range(round(duration / ENV_STEP)):

@@ -965,7 +965,6 @@ class _ServoExponential:
     def __init__(self, config: SimConfig, h: float, targets):
         self.kp, self.kd, self.h = config.gains.kp, config.gains.kd, h
         self.leg_targets = targets.leg_targets
-        self.k = dynamics.constants(config.robot, config.depth)
         self.radius, self.levels = _doublings(config, h)
 
 
@@ -992,7 +991,7 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
     half_h, third, sixth = 0.5 * h, 1.0 / 3.0, 1.0 / 6.0
     kp, kd = servo.kp, servo.kd
     mobility = [0.0] * 9
-    _to_locked(y, servo.k, 1.0)
+    _to_locked(y, f.constants, 1.0)
     for _ in range(n_steps):
         fu = list(first(t, y, mobility))
         _, rates, accels = servo.leg_targets(t)
@@ -1023,7 +1022,7 @@ def _etdrk4b_rows(f, t, y, h, n_steps, first, servo):
         y = [a + h * (third * (p_ + q) + sixth * r + c + e) for a, p_, q, r, c, e in zip(base, d2, d3, d4, k23, k4)]
         _normalize_quat_floats(y)
         t += h
-    _to_locked(y, servo.k, -1.0)
+    _to_locked(y, f.constants, -1.0)
     return y
 
 
