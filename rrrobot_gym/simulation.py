@@ -139,17 +139,17 @@ class SimConfig:
                 f"integrator {self.integrator!r} treats the leg servo {SERVO_INTEGRATORS[self.integrator]}; "
                 f"kinematic legs have no servo: use 'rk4'"
             )
-        if self.integrator == "rk4_locked" and self.legs != "servo":
+        if self.integrator in LOCKED_INTEGRATORS and self.legs != "servo":
             raise ValueError(
-                "integrator 'rk4_locked' steps the body's locked rate, the share of the momentum the leg servo's "
-                "torques do not reach; kinematic legs have no servo: use 'rk4'"
+                f"integrator {self.integrator!r} steps the body's locked rate, the share of the momentum the leg "
+                "servo's torques do not reach; kinematic legs have no servo: use 'rk4'"
             )
         if isinstance(self.timestep, str):
             if self.timestep != "auto":
                 raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
-            if self.integrator in SERVO_INTEGRATORS or self.integrator == "rk4_locked":
+            if self.integrator not in AUTO_INTEGRATORS:
                 raise ValueError(
-                    "SimConfig.timestep='auto' is calibrated for the explicit integrators (rk4, rk3); "
+                    f"SimConfig.timestep='auto' is calibrated for the explicit integrators ({', '.join(AUTO_INTEGRATORS)}); "
                     f"give integrator {self.integrator!r} a fixed step (see benchmarks.work_precision)"
                 )
             object.__setattr__(self, "_step", scene_timestep(self.model, self.robot, self.gains, self.legs, self.integrator))
@@ -170,8 +170,8 @@ class SimConfig:
                     f"{self.integrator} for the leg servo (kp={self.gains.kp}, kd={self.gains.kd}, tip mass "
                     f"{self.robot.mass_tip} kg, model {self.model!r}; fastest servo pole "
                     f"{servo_fastest_rate(self.model, self.robot, self.gains):.4g} 1/s): the run would blow up. "
-                    + ("Use a smaller timestep" if self.integrator == "rk4_locked" else
-                       "Use a smaller timestep, timestep='auto', or legs='kinematic'")
+                    + ("Use a smaller timestep, timestep='auto', or legs='kinematic'" if self.integrator in AUTO_INTEGRATORS
+                       else "Use a smaller timestep")
                 )
 
     @property
@@ -305,6 +305,9 @@ stable up to 2.785 on the real axis, RK3 up to 2.513). Calibrated by
 50 s on every gait: plane RK4 1/300 s, pivot RK4 1/140 s, plane RK3 1/340 s (pivot
 RK3 is scaled from pivot RK4, not swept). The models differ: the same h |lambda|
 costs the pivot model more contact error than the plane model."""
+
+AUTO_INTEGRATORS = tuple(dict.fromkeys(integrator for integrator, _ in SERVO_STEP_FACTOR))
+"""The integrators ``timestep="auto"`` is calibrated for (SERVO_STEP_FACTOR's); others take a fixed step."""
 
 KINEMATIC_STEP = 1.0 / 40.0
 """s, the auto step with kinematic legs: the fastest remaining motion is the body
