@@ -169,7 +169,7 @@ def batch_rows(settings=BATCH_SETTINGS, numpy_other=("etdrk4b", 4)):
 
 def env_rows(settings=ENV_SETTINGS):
     """The env with its checks (``benchmarks.throughput``'s single env and vector env at N = 64 and
-    4096, compiled) per ENV_SETTINGS, ROUNDS rounds alternating the settings, medians; ratios to
+    4096, compiled) per ``settings`` (ENV_SETTINGS by default), ROUNDS rounds alternating the settings, medians; ratios to
     the default (RK4) per env."""
     from .throughput import single_env, vector_env
 
@@ -243,7 +243,7 @@ ENVELOPE_SETTINGS = [("rk4", 15, 0), ("rk4", 30, 0), ("rk4", 60, 0), ("etdrk4b",
 
 def envelope_rows(seconds: float = 2.0, settings=ENVELOPE_SETTINGS):
     """The env's slip measure (``info["slip_velocity"]``, the missing impulse over a step per unit
-    mass) on the shipped policy's first ``seconds`` along 0 deg, per ENVELOPE_SETTINGS, the
+    mass) on the shipped policy's first ``seconds`` along 0 deg, per ``settings`` (ENVELOPE_SETTINGS by default), the
     episode kept running past the model's limits: its largest value, and the steps past the
     policy's ``max_slip_velocity``."""
     import gymnasium

@@ -474,20 +474,20 @@ def _lanes(y, first, t0, h0, n0, t, h, n_steps, k, kc, gains, torque_limit, rate
     w = np.zeros(_ROWS * L)
     _load_lanes(w, y, first, _Y, params, _P)
     if _LOCKED_RATE:
-        _lanes_locked(w, k, 1.0)  # (the state rows _Y are _EY's)
+        _lanes_locked(w, _Y, k, 1.0)
     w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n0):
         _lane_substep(w, first, t0, h0, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step // 2 if step % 2 == 0 else -1)
         t0 += h0
     if _LOCKED_RATE and n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
-        _lanes_locked(w, k, -1.0)
-        _lanes_locked(w, k, 1.0)
+        _lanes_locked(w, _Y, k, -1.0)
+        _lanes_locked(w, _Y, k, 1.0)
         w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n_steps):
         _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, n0 // 2 + step)
         t += h
     if _LOCKED_RATE:
-        _lanes_locked(w, k, -1.0)
+        _lanes_locked(w, _Y, k, -1.0)
     _store_lanes(y, w, first, _Y)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
@@ -870,13 +870,13 @@ def _to_locked(y, k, sign):
     y[8], y[9], y[10] = y[8] + sign * s[0], y[9] + sign * s[1], y[10] + sign * s[2]
 
 
-def _lanes_locked(w, k, sign):
-    """_to_locked for every lane of the state rows _EY .."""
+def _lanes_locked(w, row, k, sign):
+    """_to_locked for every lane of the state rows row .. row + 12."""
     L = LANES
     for i in range(L):
-        s = locked_share(_lane_state(w, _EY, i), k)
+        s = locked_share(_lane_state(w, row, i), k)
         for j in range(3):
-            w[(_EY + 8 + j) * L + i] += sign * s[j]
+            w[(row + 8 + j) * L + i] += sign * s[j]
 
 
 def _with_body(c, a, b, d):
@@ -890,19 +890,19 @@ def _etd_lanes(y, first, t0, h0, n0, lead_doublings, t, h, n_steps, doublings, k
     L = LANES
     w = np.zeros(_EROWS * L)
     _load_lanes(w, y, first, _EY, params, _EP)
-    _lanes_locked(w, k, 1.0)
+    _lanes_locked(w, _EY, k, 1.0)
     for step in range(n0):
         _etd_lane_substep(w, first, t0, h0, lead_doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared,
                           rows, step // 2 if step % 2 == 0 else -1)  # fmt: skip
         t0 += h0
     if n0 and n_steps:  # back to Omega and again, as simulation's graded advance between its two parts
-        _lanes_locked(w, k, -1.0)
-        _lanes_locked(w, k, 1.0)
+        _lanes_locked(w, _EY, k, -1.0)
+        _lanes_locked(w, _EY, k, 1.0)
     for step in range(n_steps):
         _etd_lane_substep(w, first, t, h, doublings, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows,
                           n0 // 2 + step)  # fmt: skip
         t += h
-    _lanes_locked(w, k, -1.0)
+    _lanes_locked(w, _EY, k, -1.0)
     _store_lanes(y, w, first, _EY)
     if rows.shape[0]:
         _summarise(rows, summary, first, L)
