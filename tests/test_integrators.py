@@ -273,13 +273,19 @@ def test_the_exponential_steps_phi_functions_match_a_40_digit_matrix_exponential
             np.testing.assert_allclose(ours, exact[k], rtol=0, atol=1e-13 * np.abs(exact[k]).max(), err_msg=f"phi_{k}")
 
 
+def _off_target_states():
+    """Three robots with their legs off any gait's targets, the body spinning and the legs moving."""
+    states = simulation.initial_state(3)
+    states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
+    states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
+    return states
+
+
 def test_the_exponential_step_is_classical_rk4_without_its_linear_part(monkeypatch):
     """With A = 0 ETDRK4-B's weights reduce to RK4's: RK4 on the equations it integrates (the
     locked rate in place of the body rate, dynamics.locked_share), to rounding. With the servo's A
     (which includes the legs' phi' = phidot) it is another method, differing far beyond rounding."""
-    states = simulation.initial_state(3)
-    states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
-    states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
+    states = _off_target_states()
     config = SimConfig(backend="numpy", timestep=1 / 300)
     k = dynamics.constants(config.robot, config.depth)
     f, _ = simulation._stage_fns(config, table2_gait(2), locked=True)
@@ -474,13 +480,11 @@ def test_the_exponential_step_follows_new_targets_far_more_closely_at_the_defaul
 def test_rk4_locked_records_the_same_forces_as_rk4_where_both_converge(model):
     """The step record of rk4_locked comes from evaluations in the locked rate. Its torques, ground
     force, normal and tangential parts and leg clearance must still be those of the body's motion:
-    at 1/3000 s both integrators have converged, and from states off their targets, spinning and
-    tilted, the records agree to 1e-6 N (the forces are ~10 N) and the states to 1e-7."""
+    at 1/3000 s both integrators have converged, and from states with the legs off their targets
+    and the body spinning, the records agree to 1e-6 N (the forces are ~10 N) and the states to 1e-7."""
     from rrrobot_gym.control import RampTargets
 
-    states = simulation.initial_state(3)
-    states[:, 6:8] = ((0.3, 2.0), (1.0, 1.5), (2.5, 0.4))
-    states[:, 8:13] = ((0.2, -0.1, 0.3, 2.0, -3.0), (0.0, 0.4, -0.2, 0.5, 0.1), (-0.3, 0.1, 0.0, -1.0, 1.0))
+    states = _off_target_states()
     ramp = RampTargets(states[:, 6:8], states[:, 6:8] + 0.4, 0.0, 0.05)
     runs = [simulation.advance(SimConfig(model=model, integrator=name, timestep=1 / 3000), states, 0.0, 0.05, ramp, record=True)
             for name in ("rk4", "rk4_locked")]  # fmt: skip
