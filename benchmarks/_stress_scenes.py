@@ -17,7 +17,7 @@ import numpy as np
 
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import HeldTargets, pd_torque
-from rrrobot_gym.simulation import _STEPPERS, SERVO_INTEGRATORS, SimConfig, advance, initial_state
+from rrrobot_gym.simulation import _STEPPERS, LOCKED_INTEGRATORS, SERVO_INTEGRATORS, SimConfig, advance, initial_state
 
 CONTROL_STEP = 0.05
 
@@ -86,7 +86,7 @@ def run_scene(config: SimConfig, state, policy, n_control_steps: int, energy_ref
     power's integral only to a factor ~2 after a target jump.
     """
     energy = energy_refinement > 0 and config.legs == "servo"
-    if energy and config.integrator in SERVO_INTEGRATORS:
+    if energy and (config.integrator in SERVO_INTEGRATORS or config.integrator in LOCKED_INTEGRATORS):
         raise ValueError(f"the energy books step the work with an explicit integrator, not {config.integrator!r}")
     e0 = dynamics.total_energy(state, config.robot, config.model)
     work = np.zeros(len(state))

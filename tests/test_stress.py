@@ -68,9 +68,10 @@ def test_energy_changes_only_by_the_work_of_servo_and_damping(model, policy, rng
 
 
 def test_the_energy_books_refuse_a_servo_integrator_by_name(rng):
-    """The books step the work beside the state with an explicit stepper; rosw and etdrk4b take
-    other stage functions (and etdrk4b another variable), so they are refused, not misapplied."""
-    for integrator in ("rosw", "etdrk4b"):
+    """The books step the work beside the state with an explicit stepper in the body rate; rosw and
+    etdrk4b take other stage functions, etdrk4b and rk4_locked another variable, so they are
+    refused, not misapplied."""
+    for integrator in ("rosw", "etdrk4b", "rk4_locked"):
         config = SimConfig(integrator=integrator, timestep=1 / 300)
         with pytest.raises(ValueError, match=f"explicit integrator, not '{integrator}'"):
             run_scene(config, start_states(rng, 2), random_targets(rng, 2), 1, energy_refinement=2)
