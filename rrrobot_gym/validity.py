@@ -61,12 +61,24 @@ def friction_ratio(force, normal, tangential=None):
     return np.where(pushed, tangential / np.where(pushed, normal, 1.0), np.inf)
 
 
-def step_measures(record, config, friction_coefficient, contact_lost=None):
+QUADRATURES = ("rectangle", "trapezoid")
+"""How :func:`step_measures` turns the record's samples into the plane's lift-off and slip
+measures. ``"rectangle"``: each sample stands for its whole substep. ``"trapezoid"``: the
+normal force and the grip and pull the floor would have to give vary linearly between
+samples, so a sample's excess counts only until the line through the next one crosses
+zero (the last substep, whose end the record does not sample, holds its start). The
+second converges with the step, the first does not where the force spikes for less than a
+step: at a new ramp's kick, or a gait's brief peaks of grip (README, "Episode end")."""
+
+
+def step_measures(record, config, friction_coefficient, contact_lost=None, quadrature="rectangle"):
     """Per robot, what a :class:`rrrobot_gym.simulation.StepRecord` says about the model's validity.
 
     ``config`` is the :class:`rrrobot_gym.simulation.SimConfig` the record was made with;
     ``friction_coefficient`` the floor's grip (None: unlimited); ``contact_lost`` (N,) s, how
-    long the contact had been lost (normal force <= 0) at the record's start (0 if None).
+    long the contact had been lost (normal force <= 0) at the record's start (0 if None);
+    ``quadrature`` one of :data:`QUADRATURES`, how the lift-off and slip measures integrate
+    the samples over time.
 
     Returns ``(measures, contact_lost_after)``: measures is a dict of (N,) arrays,
     ``normal_force`` (N, the least), ``friction_ratio`` (the largest grip the no-slip contact
@@ -79,6 +91,8 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
     holds any force: its lift-off and slip measures are 0 (its force is still reported).
     ``contact_lost_after`` (N,) s is the spell without contact still going at the end.
     """
+    if quadrature not in QUADRATURES:
+        raise ValueError(f"unknown quadrature {quadrature!r}: expected one of {', '.join(QUADRATURES)}")
     samples = record.normal.shape[0]
     normal = record.normal.reshape(samples, -1)
     num_robots = normal.shape[1]
@@ -101,22 +115,84 @@ def step_measures(record, config, friction_coefficient, contact_lost=None):
         zero = np.zeros(num_robots)
         measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
         return measures, zero.copy()
+    trapezoid = quadrature == "trapezoid"
     if in_contact:  # any spell carried in ended at the first sample
-        longest, lost = lost, np.zeros(num_robots)
+        longest, lost, fraction = lost, np.zeros(num_robots), np.zeros(num_robots)
+    elif trapezoid:  # on the robots that lost contact (the rest as in the branch above)
+        lifted = ~(summary["least_normal"] > 0.0)
+        longest, after, fraction = lost.copy(), np.zeros(num_robots), np.zeros(num_robots)
+        spells = _interpolated_spells(normal[:, lifted], lost[lifted], record.step)
+        longest[lifted], after[lifted], fraction[lifted] = spells
+        lost = after
     else:
         spells = _spells_without_contact(off, lost, record.step)
         longest, lost = np.maximum(lost, spells.max(axis=0)), spells[-1].copy()
+        fraction = off.sum(axis=0) / samples
     # With every sample pushing and the grip needed below the floor's by more than rounding, the
-    # floor gives all of the force: unprovided_force is exactly 0 there.
+    # floor gives all of the force: unprovided_force is exactly 0 there (and so is every line
+    # between two samples, each below 0).
     grip_held = friction_coefficient is None or measures["friction_ratio"].max() <= friction_coefficient * (1 - 1e-12)
     if in_contact and grip_held:
         slip = np.zeros(num_robots)
+    elif trapezoid:  # on the robots that lost contact or needed more grip (the rest: 0, as above)
+        short = ~(summary["least_normal"] > 0.0)
+        if friction_coefficient is not None:
+            short |= ~(measures["friction_ratio"] <= friction_coefficient * (1 - 1e-12))
+        slip = np.zeros(num_robots)
+        slip[short] = _unprovided_impulse(normal[:, short], tangential[:, short], friction_coefficient, record.step)
+        slip /= config.robot.total_mass
     else:
         missing = unprovided_force(normal, tangential, friction_coefficient)
         slip = missing.sum(axis=0) * record.step / config.robot.total_mass
-    fraction = np.zeros(num_robots) if in_contact else off.sum(axis=0) / samples
     measures.update(liftoff_fraction=fraction, liftoff_time=longest, slip_velocity=slip)
     return measures, lost
+
+
+def _positive_part(a, b):
+    """The mean over [0, 1] of max(a + (b - a) s, 0): the line from a to b, only where it is
+    above 0, elementwise: (a+ + b+)^2 / (2 (|a| + |b|)), which is the trapezoid (a+ + b+) / 2
+    where neither end is below 0, the triangle a+^2 / (2 |a - b|) where the line crosses 0 down
+    (b+^2 / ... up), and 0 where both ends are <= 0 (a NaN stays NaN)."""
+    above = np.maximum(a, 0.0) + np.maximum(b, 0.0)
+    size = np.abs(a) + np.abs(b)
+    return np.divide(0.5 * above * above, size, out=np.zeros_like(size), where=~(size <= 0.0))
+
+
+def _unprovided_impulse(normal, tangential, friction_coefficient, step):
+    """(N,) N s: :func:`unprovided_force` integrated over a record's S substeps of ``step``,
+    ``normal`` and ``tangential`` (S, N), by the trapezoid rule on the pull (-normal) and the
+    grip beyond the floor's (tangential - mu max(normal, 0)), each a line between samples whose
+    part above 0 counts; the last substep holds its start's value."""
+    pull = -normal
+    inner = _positive_part(pull[:-1], pull[1:])
+    if friction_coefficient is not None:
+        beyond = tangential - friction_coefficient * np.maximum(normal, 0.0)
+        inner = inner + _positive_part(beyond[:-1], beyond[1:])
+    last = unprovided_force(normal[-1], tangential[-1], friction_coefficient)
+    return (inner.sum(axis=0) + last) * step
+
+
+def _interpolated_spells(normal, carried, step):
+    """(longest spell, spell going at the end, share of the record's time), each (N,), without
+    contact, ``normal`` (S, N) being a line between samples (held over the last substep) and
+    ``carried`` (N,) s the spell going at the first sample: as :func:`_spells_without_contact`,
+    with each spell starting and ending where the line crosses 0 instead of at samples."""
+    samples = normal.shape[0]
+    off = normal <= 0.0
+    start, end = normal[:-1], normal[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        crossing = step * np.abs(np.minimum(start, end)) / np.abs(end - start)  # the part <= 0 of a mixed line
+    # the time without contact within each substep, the last one held at its sample
+    part = np.concatenate([np.where(off[:-1] & off[1:], step, np.where(off[:-1] != off[1:], crossing, 0.0)),
+                           np.where(off[-1:], step, 0.0)])  # fmt: skip
+    total = np.concatenate([np.zeros((1,) + part.shape[1:]), np.add.accumulate(part, axis=0)])
+    # the spell through substep k began in the substep of the last sample in contact at or before
+    # k (1-based below; 0: none, so it began before the record, with ``carried``)
+    count = np.arange(1, samples + 1)[:, None]
+    began = np.maximum.accumulate(np.where(off, 0, count), axis=0)
+    before = np.take_along_axis(total, np.maximum(began - 1, 0), axis=0)
+    spells = total[1:] - before + np.where(began == 0, carried, 0.0)
+    return np.maximum(carried, spells.max(axis=0)), spells[-1].copy(), total[-1] / (samples * step)
 
 
 def _spells_without_contact(off, carried, step):

@@ -145,3 +145,87 @@ def test_step_measures_summarise_the_record_sample_by_sample():
     grip = np.hypot(force[..., 0], force[..., 1]) / np.abs(force[..., 2])
     np.testing.assert_allclose(measures["friction_ratio"], grip.max(axis=0), rtol=1e-12)
     np.testing.assert_array_equal(measures["liftoff_fraction"], np.zeros(robots))
+
+
+def _record(normal, tangential, step):
+    """A hand-made StepRecord of an upright body: the force (tangential, 0, normal)."""
+    normal, tangential = np.asarray(normal, dtype=float), np.asarray(tangential, dtype=float)
+    samples, robots = normal.shape
+    force = np.stack([tangential, np.zeros_like(normal), normal], axis=-1)
+    return StepRecord(
+        times=step * np.arange(samples), step=step, torque=np.zeros((samples, robots, 2)), force=force,
+        normal=normal, leg_clearance=np.ones((samples, robots, 2)), leg_rates=np.zeros((samples, robots, 2)),
+    )  # fmt: skip
+
+
+def test_the_trapezoid_quadrature_integrates_the_line_between_samples_and_its_zero_crossings():
+    """Worked by hand, step h = 0.01 s, four samples, friction 0.5:
+    robot 0 pushes 10 N throughout and needs 7, then 3 N of grip (beyond the floor's 5: +2, then -2):
+    the line from +2 to -2 is above 0 for half a step, a triangle of 0.5 h N s (rectangle: 2 h);
+    robot 1 pulls between samples 0 and 3 (normal 1, -1, -3, 1 N, no grip needed): off the ground
+    from 0.5 h to 2.75 h, a pull of 0.25 h + 2 h + 1.125 h N s (rectangle: 4 h), spell 2.25 h;
+    robot 2 lets go after 1.5 h (normal 1, 1, -1, -1) and is still off at the end, the last
+    substep held: off 2.5 h, pulling 0.25 h + h + h = 2.25 h N s."""
+    h, mu = 0.01, 0.5
+    normal = np.array([[10.0, 1.0, 1.0], [10.0, -1.0, 1.0], [10.0, -3.0, -1.0], [10.0, 1.0, -1.0]])
+    tangential = np.array([[7.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    config = SimConfig(model="plane")
+    mass = config.robot.total_mass
+    carried = np.array([0.0, 0.0, 0.003])  # robot 2 was off 3 ms before the step, and landed at its start
+    measures, after = validity.step_measures(_record(normal, tangential, h), config, mu, carried, "trapezoid")
+    np.testing.assert_allclose(measures["slip_velocity"] * mass, [0.5 * h, 3.375 * h, 2.25 * h], rtol=1e-12)
+    np.testing.assert_allclose(measures["liftoff_time"], [0.0, 2.25 * h, 2.5 * h], rtol=1e-12)
+    np.testing.assert_allclose(measures["liftoff_fraction"], [0.0, 2.25 / 4, 2.5 / 4], rtol=1e-12)
+    np.testing.assert_allclose(after, [0.0, 0.0, 2.5 * h], rtol=1e-12)
+    # the rectangle rule on the same samples: each sample for its whole step
+    measures, after = validity.step_measures(_record(normal, tangential, h), config, mu, carried)
+    np.testing.assert_allclose(measures["slip_velocity"] * mass, [2 * h, 4 * h, 2 * h], rtol=1e-12)
+    np.testing.assert_allclose(measures["liftoff_time"], [0.0, 2 * h, 2 * h], rtol=1e-12)
+    # a spell carried into a step that starts off the ground runs on until the line crosses 0
+    off_at_start = np.array([[-2.0], [2.0], [2.0]])
+    measures, after = validity.step_measures(_record(off_at_start, np.zeros((3, 1)), h), config, None, [0.004], "trapezoid")
+    np.testing.assert_allclose(measures["liftoff_time"], [0.004 + 0.5 * h], rtol=1e-12)
+    np.testing.assert_allclose(after, [0.0], atol=0)
+    # a step in contact with the grip held throughout: nothing missing, whatever the quadrature
+    held = _record(np.full((4, 1), 10.0), np.full((4, 1), 4.9), h)
+    measures, _ = validity.step_measures(held, config, mu, None, "trapezoid")
+    assert measures["slip_velocity"][0] == 0.0 and measures["liftoff_time"][0] == 0.0
+
+
+def test_an_unknown_quadrature_is_named():
+    record = _record(np.full((2, 1), 10.0), np.zeros((2, 1)), 0.01)
+    with pytest.raises(ValueError, match="unknown quadrature 'simpson'"):
+        validity.step_measures(record, SimConfig(model="plane"), 1.0, None, "simpson")
+
+
+def test_the_trapezoid_measures_equal_a_fine_grid_on_the_lines_between_samples():
+    """Against brute force: the normal force and the grip beyond the floor's drawn as lines
+    between random samples (the last held), evaluated on a grid 4000 times finer than the
+    step; the spells are the grid's runs without contact, the missing impulse its sum."""
+    rng = np.random.default_rng(7)
+    h, mu, fine = 0.01, 0.5, 4000
+    config = SimConfig(model="plane")
+    for samples in (1, 2, 3, 5, 8) * 4:
+        normal = rng.normal(0.3, 1.0, (samples, 4))
+        tangential = np.abs(rng.normal(0.0, 1.0, (samples, 4)))
+        carried = np.where(normal[0] <= 0.0, rng.uniform(0.0, 0.02, 4), 0.0)
+        measures, after = validity.step_measures(_record(normal, tangential, h), config, mu, carried, "trapezoid")
+        grid = (np.arange(samples * fine) + 0.5) / fine  # midpoints, in steps
+        k = np.minimum(grid.astype(int), samples - 1)
+        s = np.where(k < samples - 1, grid - k, 0.0)[:, None]  # the last substep holds its sample
+        nxt = np.minimum(k + 1, samples - 1)
+        line = lambda v: v[k] * (1 - s) + v[nxt] * s  # noqa: E731
+        beyond = tangential - mu * np.maximum(normal, 0.0)
+        impulse = (np.maximum(-line(normal), 0.0) + np.maximum(line(beyond), 0.0)).sum(axis=0) * h / fine
+        np.testing.assert_allclose(measures["slip_velocity"] * config.robot.total_mass, impulse, rtol=1e-6)
+        off = line(normal) <= 0.0
+        for robot in range(4):
+            # runs of the grid's points without contact, the first one extended by the carried spell
+            edges = np.flatnonzero(np.diff(np.r_[0, off[:, robot].astype(int), 0]))
+            runs = (edges[1::2] - edges[0::2]) * h / fine
+            if off[0, robot]:
+                runs[0] += carried[robot]
+            longest = max(runs.max(initial=0.0), carried[robot])
+            assert measures["liftoff_time"][robot] == pytest.approx(longest, abs=2 * h / fine)
+            assert after[robot] == pytest.approx(runs[-1] if off[-1, robot] else 0.0, abs=2 * h / fine)
+            assert measures["liftoff_fraction"][robot] == pytest.approx(off[:, robot].mean(), abs=2 / fine / samples)
