@@ -3,6 +3,7 @@ things that do not share its code (finite differences of the centre of mass, the
 written out by hand), and the env's model checks that read it."""
 
 import math
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -12,6 +13,8 @@ import rrrobot_gym  # noqa: F401  (registers the env)
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import Gait, RampTargets
 from rrrobot_gym.simulation import SimConfig, advance, initial_state, simulate
+
+ROOT = Path(__file__).resolve().parents[1]
 
 FAST_LEGS = Gait(amplitude=1.0, frequency=30.0, phase=(0.0, 2.0), offset=(1.2, 1.4), name="fast")
 """Legs swung at 30 rad/s, 1 rad: the ground force swings between about -2 and +3 m g."""
@@ -145,12 +148,13 @@ def test_a_held_target_jump_kicks_the_servo_with_the_full_step_at_once():
     assert ramp["torque_peak"] < 0.6 * kp * jump
 
 
-def test_grip_beyond_friction_ends_the_episode_and_unlimited_grip_does_not():
+@pytest.mark.parametrize("quadrature", ["rectangle", "trapezoid"])
+def test_grip_beyond_friction_ends_the_episode_and_unlimited_grip_does_not(quadrature):
     """A target jump that needs 4x the normal force in grip but never pulls on the floor."""
     action = np.array([0.3, 0.3], dtype=np.float32)
     results = {}
     for mu in (1.0, None):
-        env = _env_after_grace(action_hold="zero_order", friction_coefficient=mu)
+        env = _env_after_grace(action_hold="zero_order", friction_coefficient=mu, contact_quadrature=quadrature)
         _, reward, terminated, _, info = env.step(action)
         results[mu] = (terminated, info)
     slipping, info = results[1.0]
@@ -161,13 +165,15 @@ def test_grip_beyond_friction_ends_the_episode_and_unlimited_grip_does_not():
     assert info["slip_velocity"] == 0.0 and not holding and not info["outside_model"]
 
 
-def test_losing_ground_contact_for_longer_than_the_tolerance_ends_the_episode():
+@pytest.mark.parametrize("quadrature", ["rectangle", "trapezoid"])
+def test_losing_ground_contact_for_longer_than_the_tolerance_ends_the_episode(quadrature):
     # the pull's missing impulse alone would count as a hop past the default max_slip_velocity: lift it
-    env = _env_after_grace(friction_coefficient=None, max_liftoff_time=0.005, max_slip_velocity=10.0)
+    kwargs = dict(friction_coefficient=None, max_slip_velocity=10.0, contact_quadrature=quadrature)
+    env = _env_after_grace(max_liftoff_time=0.005, **kwargs)
     _, _, terminated, _, info = env.step(np.array([1.0, 1.0], dtype=np.float32))
     assert info["normal_force"] < 0.0 and info["liftoff_time"] > 0.005 and 0.0 < info["liftoff_fraction"] <= 1.0
     assert terminated and info["outside_model"] and info["reward_forward"] == 0.0
-    tolerant = _env_after_grace(friction_coefficient=None, max_liftoff_time=1.0, max_slip_velocity=10.0)
+    tolerant = _env_after_grace(max_liftoff_time=1.0, **kwargs)
     _, _, terminated, _, info = tolerant.step(np.array([1.0, 1.0], dtype=np.float32))
     assert not terminated and info["liftoff_time"] > 0.005
 
@@ -297,3 +303,49 @@ def test_a_record_of_no_samples_has_no_summary():
                        leg_clearance=np.zeros((0, 2)), leg_rates=np.zeros((0, 2)))  # fmt: skip
     with pytest.raises(ValueError, match="no samples"):
         empty.summary()
+
+
+def _largest_measures(agent, substeps, quadrature, duration, headings=(0.0, 90.0)):
+    """The largest slip velocity (m/s) and lift-off spell (s) of any step after the start-up
+    grace, per heading, of ``agent`` in the env at ``substeps`` integration steps a control step."""
+    from evaluate import run_episodes
+    from rrrobot_gym.envs.task import STARTUP_GRACE
+
+    run = run_episodes({"agent": agent}, "plane", list(headings), duration, info_keys=("slip_velocity", "liftoff_time"),
+                       timestep=0.05 / substeps, frame_skip=substeps, contact_quadrature=quadrature)["agent"]  # fmt: skip
+    first = math.ceil(STARTUP_GRACE / 0.05 - 1e-9)
+    assert not run["terminated"].any()
+    return run["slip_velocity"][first:].max(axis=0), run["liftoff_time"][first:].max(axis=0)
+
+
+def test_the_trapezoid_measures_of_a_searched_gait_converge_with_the_step():
+    """The robust search's best gait peaks in grip and lifts off for fractions of a millisecond.
+    Each rectangle-rule sample stands for a whole step, so at the default step its measures are
+    about twice the converged slip and ten times the spells; the trapezoid's agree from 1/260 s
+    (where the rectangle rule ends its episodes) to 1/2400 s."""
+    from agents import load_gait_agents
+
+    gait = load_gait_agents(ROOT / "agents" / "searched" / "plane_own_robust.json")["searched-plane-own-1"]
+    fine_slip, fine_spell = _largest_measures(gait, 120, "trapezoid", 3.0)
+    for substeps in (13, 15):
+        slip, spell = _largest_measures(gait, substeps, "trapezoid", 3.0)
+        np.testing.assert_allclose(slip, fine_slip, rtol=0.15)
+        np.testing.assert_allclose(spell, fine_spell, rtol=0, atol=2e-4)  # s, of max_liftoff_time's 5e-3
+    slip, spell = _largest_measures(gait, 15, "rectangle", 3.0)  # the default, for scale
+    assert (slip > 1.6 * fine_slip).all() and (spell > fine_spell + 2e-3).all()
+
+
+def test_the_trapezoid_slip_measure_of_a_policys_kicks_converges_with_the_step():
+    """Each new action kicks the servo: the grip needed jumps past the floor's and falls back
+    within about a millisecond, which the rectangle rule counts as a whole step (the shipped
+    policy along 0 deg: several times the converged measure at the default step). The trapezoid
+    rule's measure holds within 2 mm/s from 1/200 s to 1/2400 s, a tenth of the slip limit."""
+    from agents import load_ppo_agent
+
+    policy = load_ppo_agent(ROOT / "agents" / "pretrained" / "best_model.zip")
+    fine, _ = _largest_measures(policy, 120, "trapezoid", 2.0)
+    for substeps in (10, 15):
+        slip, _ = _largest_measures(policy, substeps, "trapezoid", 2.0)
+        np.testing.assert_allclose(slip, fine, rtol=0, atol=2e-3)
+    slip, _ = _largest_measures(policy, 15, "rectangle", 2.0)
+    assert slip[0] > fine[0] + 5e-3

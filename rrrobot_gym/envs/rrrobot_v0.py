@@ -158,8 +158,12 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        enough in one step that the shell would slip or hop at more than `max_slip_velocity`
        (default 0.02 m/s; `info["slip_velocity"]` is the missing impulse over the step per
        unit mass, sampled when the action starts to act and after every integration step).
-       A servo kick makes millisecond spikes that slip the shell by microns and do not
-       count; sustained overdemand does. Slip does not end the episode in its first 0.1 s:
+       By default (`contact_quadrature="rectangle"`) each sample stands for its whole
+       integration step, so where the force spikes for less than a step (a new action's
+       servo kick, a gait's brief peaks of grip) the measure grows with the step, to several
+       times the impulse actually missing at the default step (README, "Episode end");
+       `contact_quadrature="trapezoid"` takes the force as a line between samples, and
+       its slip and lift-off measures converge with the step. Slip does not end the episode in its first 0.1 s:
        the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
        there. Likewise a spell off the ground (normal force <= 0) longer than
        `max_liftoff_time` (default 0.005 s) leaves the model, also only after 0.1 s. A step

@@ -191,6 +191,11 @@ class TaskConfig:
     max_liftoff_time: float = _keyword(
         0.005, "s: a spell without ground contact longer than this leaves the model (>= 0)"
     )
+    contact_quadrature: str = _keyword(
+        "rectangle", 'how the lift-off and slip measures integrate the step record: `"rectangle"`, each sample '
+        'for its whole integration step (as the shipped policy and the searches were judged); `"trapezoid"`, '
+        "the force a line between samples, which converges with the step (`rrrobot_gym.validity.QUADRATURES`)"
+    )
     healthy_reward: float = _keyword(0.0, "reward for each step that does not end the episode (`reward_survive`, >= 0)")
     clock_frequency: float | None = _keyword(
         None, "rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation; None: no clock"
@@ -254,6 +259,7 @@ class TaskConfig:
         if self.clock_frequency is not None:
             put("clock_frequency", _real("clock_frequency", self.clock_frequency, positive=True))
         _choice("action_hold", self.action_hold, ACTION_HOLDS)
+        _choice("contact_quadrature", self.contact_quadrature, validity.QUADRATURES)
 
     @property
     def sim(self) -> SimConfig:
@@ -706,7 +712,9 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
         held = HeldTargets(leg_targets)
     states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, workers=workers)
     with np.errstate(all="ignore"):
-        measures, contact_lost = validity.step_measures(record, config.sim, config.friction_coefficient, contact_lost)
+        measures, contact_lost = validity.step_measures(
+            record, config.sim, config.friction_coefficient, contact_lost, config.contact_quadrature
+        )
     return states, measures, contact_lost
 
 
