@@ -35,7 +35,7 @@ GAIT_SETTINGS = [(integrator, n, False, 0) for n in (15, 12, 10) for integrator 
 """(integrator, steps an env step, fine first env step, ``start_halves``): 1/300, 1/240 and 1/200 s."""
 BATCH_SETTINGS = [("rk4", 15, 0), ("rk4_locked", 15, 0), ("rk4_locked", 12, 0), ("rk4_locked", 10, 0)]
 """(integrator, steps an env step, ``start_halves``) timed compiled; on numpy RK4 and rk4_locked at 1/300 s."""
-ENERGY_SETTINGS = [("rk4", 15), ("rk4_locked", 15), ("rk4_locked", 10), ("rk4", 30), ("rk4_locked", 30)]
+ENERGY_SETTINGS = [("rk4", 15), ("rk4_locked", 15), ("rk4", 10), ("rk4_locked", 10), ("rk4", 30), ("rk4_locked", 30)]
 ENV_SETTINGS = [("rk4", 15, 0), ("rk4_locked", 15, 0), ("rk4_locked", 12, 0), ("rk4_locked", 10, 0)]
 POLICY_SETTINGS = [(integrator, n, halves) for n, halves in ((15, 0), (12, 0), (10, 0), (15, 2), (12, 2))
                    for integrator in ("rk4", "rk4_locked")]  # fmt: skip
