@@ -152,10 +152,12 @@ def _positive_part(a, b):
     """The mean over [0, 1] of max(a + (b - a) s, 0): the line from a to b, only where it is
     above 0, elementwise: (a+ + b+)^2 / (2 (|a| + |b|)), which is the trapezoid (a+ + b+) / 2
     where neither end is below 0, the triangle a+^2 / (2 |a - b|) where the line crosses 0 down
-    (b+^2 / ... up), and 0 where both ends are <= 0 (a NaN stays NaN)."""
+    (b+^2 / ... up), and 0 where both ends are <= 0 (a NaN stays NaN, an infinite excess infinite)."""
     above = np.maximum(a, 0.0) + np.maximum(b, 0.0)
     size = np.abs(a) + np.abs(b)
-    return np.divide(0.5 * above * above, size, out=np.zeros_like(size), where=~(size <= 0.0))
+    # the share above 0, in [0, 1] (no overflow); 1 for an infinite excess, as the rectangle's
+    share = np.divide(above, size, out=np.ones_like(size), where=~(size <= 0.0) & ~np.isinf(above))
+    return 0.5 * above * np.where(size <= 0.0, 0.0, share)
 
 
 def _unprovided_impulse(normal, tangential, friction_coefficient, step):
@@ -182,6 +184,7 @@ def _interpolated_spells(normal, carried, step):
     start, end = normal[:-1], normal[1:]
     with np.errstate(divide="ignore", invalid="ignore"):
         crossing = step * np.abs(np.minimum(start, end)) / np.abs(end - start)  # the part <= 0 of a mixed line
+    crossing = np.where(np.isfinite(crossing), crossing, step)  # an infinite end: the line is off all the way
     # the time without contact within each substep, the last one held at its sample
     part = np.concatenate([np.where(off[:-1] & off[1:], step, np.where(off[:-1] != off[1:], crossing, 0.0)),
                            np.where(off[-1:], step, 0.0)])  # fmt: skip

@@ -326,12 +326,13 @@ def test_the_trapezoid_measures_of_a_searched_gait_converge_with_the_step():
     from agents import load_gait_agents
 
     gait = load_gait_agents(ROOT / "agents" / "searched" / "plane_own_robust.json")["searched-plane-own-1"]
-    fine_slip, fine_spell = _largest_measures(gait, 120, "trapezoid", 3.0)
+    heading = (90.0,)  # (an open-loop gait: every heading the same motion)
+    fine_slip, fine_spell = _largest_measures(gait, 120, "trapezoid", 3.0, heading)
     for substeps in (13, 15):
-        slip, spell = _largest_measures(gait, substeps, "trapezoid", 3.0)
+        slip, spell = _largest_measures(gait, substeps, "trapezoid", 3.0, heading)
         np.testing.assert_allclose(slip, fine_slip, rtol=0.15)
         np.testing.assert_allclose(spell, fine_spell, rtol=0, atol=2e-4)  # s, of max_liftoff_time's 5e-3
-    slip, spell = _largest_measures(gait, 15, "rectangle", 3.0)  # the default, for scale
+    slip, spell = _largest_measures(gait, 15, "rectangle", 3.0, heading)  # the default, for scale
     assert (slip > 1.6 * fine_slip).all() and (spell > fine_spell + 2e-3).all()
 
 
@@ -339,13 +340,14 @@ def test_the_trapezoid_slip_measure_of_a_policys_kicks_converges_with_the_step()
     """Each new action kicks the servo: the grip needed jumps past the floor's and falls back
     within about a millisecond, which the rectangle rule counts as a whole step (the shipped
     policy along 0 deg: several times the converged measure at the default step). The trapezoid
-    rule's measure holds within 2 mm/s from 1/200 s to 1/2400 s, a tenth of the slip limit."""
+    rule's measure holds within 3 mm/s from 1/200 s to 1/2400 s, 15 % of the slip limit (it moves
+    by up to 2 mm/s, along 90 deg at 1/200 s; the rectangle's by 11 along 0 deg at 1/300 s)."""
     from agents import load_ppo_agent
 
     policy = load_ppo_agent(ROOT / "agents" / "pretrained" / "best_model.zip")
     fine, _ = _largest_measures(policy, 120, "trapezoid", 2.0)
     for substeps in (10, 15):
         slip, _ = _largest_measures(policy, substeps, "trapezoid", 2.0)
-        np.testing.assert_allclose(slip, fine, rtol=0, atol=2e-3)
+        np.testing.assert_allclose(slip, fine, rtol=0, atol=3e-3)
     slip, _ = _largest_measures(policy, 15, "rectangle", 2.0)
     assert slip[0] > fine[0] + 5e-3

@@ -186,6 +186,15 @@ def test_the_trapezoid_quadrature_integrates_the_line_between_samples_and_its_ze
     measures, after = validity.step_measures(_record(off_at_start, np.zeros((3, 1)), h), config, None, [0.004], "trapezoid")
     np.testing.assert_allclose(measures["liftoff_time"], [0.004 + 0.5 * h], rtol=1e-12)
     np.testing.assert_allclose(after, [0.0], atol=0)
+    # a longer spell carried in than any within the step is the longest, as under the rectangle rule
+    measures, _ = validity.step_measures(_record(normal, tangential, h), config, mu, [0.0, 0.0, 0.03], "trapezoid")
+    np.testing.assert_allclose(measures["liftoff_time"], [0.0, 2.25 * h, 0.03], rtol=1e-12)
+    # a NaN sample (the integrator's failure, which the env raises on) is not hidden by either rule
+    broken = normal.copy()
+    broken[1, 0] = np.nan
+    for quadrature in validity.QUADRATURES:
+        measures, _ = validity.step_measures(_record(broken, tangential, h), config, mu, None, quadrature)
+        assert np.isnan(measures["slip_velocity"][0]) and not np.isnan(measures["slip_velocity"][1:]).any()
     # a step in contact with the grip held throughout: nothing missing, whatever the quadrature
     held = _record(np.full((4, 1), 10.0), np.full((4, 1), 4.9), h)
     measures, _ = validity.step_measures(held, config, mu, None, "trapezoid")
@@ -206,9 +215,9 @@ def test_the_trapezoid_measures_equal_a_fine_grid_on_the_lines_between_samples()
     h, mu, fine = 0.01, 0.5, 4000
     config = SimConfig(model="plane")
     for samples in (1, 2, 3, 5, 8) * 4:
-        normal = rng.normal(0.3, 1.0, (samples, 4))
+        normal = np.round(rng.normal(0.3, 1.0, (samples, 4)), 1)  # (exact zeros among them)
         tangential = np.abs(rng.normal(0.0, 1.0, (samples, 4)))
-        carried = np.where(normal[0] <= 0.0, rng.uniform(0.0, 0.02, 4), 0.0)
+        carried = rng.uniform(0.0, 0.03, 4)  # (ended at the first sample where it is in contact)
         measures, after = validity.step_measures(_record(normal, tangential, h), config, mu, carried, "trapezoid")
         grid = (np.arange(samples * fine) + 0.5) / fine  # midpoints, in steps
         k = np.minimum(grid.astype(int), samples - 1)
