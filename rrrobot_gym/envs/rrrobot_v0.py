@@ -160,8 +160,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        unit mass, sampled when the action starts to act and after every integration step).
        By default (`contact_quadrature="rectangle"`) each sample stands for its whole
        integration step, so where the force spikes for less than a step (a new action's
-       servo kick, a gait's brief peaks of grip) the measure grows with the step, to several
-       times the impulse actually missing at the default step (README, "Episode end");
+       servo kick, a gait's brief peaks of grip) the measure grows with the step, to about
+       twice the impulse actually missing at the default step (README, "Episode end");
        `contact_quadrature="trapezoid"` takes the force as a line between samples, and
        its slip and lift-off measures converge with the step. Slip does not end the episode in its first 0.1 s:
        the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s

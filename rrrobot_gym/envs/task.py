@@ -192,9 +192,10 @@ class TaskConfig:
         0.005, "s: a spell without ground contact longer than this leaves the model (>= 0)"
     )
     contact_quadrature: str = _keyword(
-        "rectangle", 'how the lift-off and slip measures integrate the step record: `"rectangle"`, each sample '
-        'for its whole integration step (as the shipped policy and the searches were judged); `"trapezoid"`, '
-        "the force a line between samples, which converges with the step (`rrrobot_gym.validity.QUADRATURES`)"
+        "rectangle", 'plane model: how the lift-off and slip measures integrate the step record: `"rectangle"`, '
+        "each sample for its whole integration step (as the shipped policy and the searches were judged); "
+        '`"trapezoid"`, the force a line between samples, which converges with the step '
+        "(`rrrobot_gym.validity.QUADRATURES`)"
     )
     healthy_reward: float = _keyword(0.0, "reward for each step that does not end the episode (`reward_survive`, >= 0)")
     clock_frequency: float | None = _keyword(
