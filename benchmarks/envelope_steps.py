@@ -2,6 +2,7 @@
 
     python -m benchmarks.envelope_steps [--quick] [--json FILE] [--headings 90 ...]
         [--substeps 13 15 20 30 60 120] [--quadrature rectangle trapezoid] [--integrator rk4]
+        [--gaits FILE ...]
 
 The env ends an episode on the plane when a step's slip velocity (the impulse the floor could
 not give, per unit mass: ``rrrobot_gym.validity.step_measures``) exceeds ``max_slip_velocity``
@@ -45,6 +46,8 @@ shipped PPO policy, whose every action kicks the servo."""
 
 
 def load(file: str, name: str):
+    if Path(file).is_file():  # a --gaits file
+        return load_gait_agents(Path(file))[name]
     if name == "ppo":
         from agents import load_ppo_agent
 
@@ -83,6 +86,7 @@ def main(argv=None):
     p.add_argument("--quadrature", nargs="+", default=["rectangle"], choices=QUADRATURES,
                    help="the env's contact_quadrature (each is run)")
     p.add_argument("--integrator", default="rk4", help="the env's integrator (default rk4; e.g. rk4_locked)")
+    p.add_argument("--gaits", nargs="+", default=[], metavar="FILE", help="also every gait of these gait-search files")
     args = p.parse_args(argv)
     for substeps in args.substeps:  # (the env's own checks: RK4's stability limit is 1/138 s on the plane)
         try:
@@ -90,11 +94,14 @@ def main(argv=None):
         except (TypeError, ValueError) as exc:
             p.error(f"--substeps {substeps} with --integrator {args.integrator}: {exc}")
     duration = 10.0 if args.quick else 50.0
-    agents = {f"{file}: {name}": load(file, name) for file, name in AGENTS}
+    listed = list(AGENTS)
+    for path in args.gaits:  # (a search's file: every gait in it, after the shipped baselines)
+        listed += [(path, name) for name in load_gait_agents(Path(path))]
+    agents = {f"{file}: {name}": load(file, name) for file, name in listed}
     rows = []
     cases = [(quadrature, substeps) for quadrature in args.quadrature for substeps in args.substeps]
     results = {case: run(agents, case[1], args.headings, duration, case[0], args.integrator) for case in cases}
-    for file, name in AGENTS:
+    for file, name in listed:
         for quadrature, substeps in cases:
             result = results[quadrature, substeps][f"{file}: {name}"]
             rows.append({"file": file, "agent": name, "quadrature": quadrature, "substeps": substeps,
