@@ -86,6 +86,12 @@ class Args:
         default="auto",
         metadata={"help": "simulator backend (the env's backend): auto (numba where installed), numba or numpy"},
     )
+    env: str | None = field(
+        default=None,
+        metadata={"help": "more env keywords, KEY=VALUE[,KEY=VALUE...], e.g. contact_quadrature=trapezoid or "
+                          "integrator=rk4_locked,timestep=0.005,frame_skip=10 (not those with options of their own; "
+                          "saved in env_kwargs.json, so evaluate.py holds the agents compared to them)"},
+    )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
     checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
@@ -213,6 +219,12 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--{name.replace('_', '-')} must be a positive number, got {value}")
     if args.leg_rate_limit is not None and args.torque_limit is None:
         parser.error("--leg-rate-limit needs --torque-limit (a motor's speed limit is where its torque reaches zero)")
+    from rrrobot_gym.envs.task import make_task_config
+
+    try:  # the env's own checks, on every keyword together (a step past the servo's stability limit, ...)
+        make_task_config(**env_kwargs(args))
+    except (TypeError, ValueError) as exc:
+        parser.error(f"--env {args.env}: {exc}" if args.env is not None else str(exc))
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
@@ -269,12 +281,34 @@ def _check_resumed_residual(parser, args):
         parser.error(f"--residual-scale: the --resume model was trained with scale {scale}, not {args.residual_scale}")
 
 
+ENV_OPTIONS = {"model": "--model", "target_direction": "--direction-deg", "healthy_reward": "--healthy-reward",
+               "clock_frequency": "--clock-frequency", "torque_limit": "--torque-limit",
+               "leg_rate_limit": "--leg-rate-limit", "backend": "--backend"}  # fmt: skip
+"""The env keywords train.py sets by options of their own (``--env`` refuses them)."""
+
+
+def extra_env_kwargs(text: str | None) -> dict:
+    """``--env`` KEY=VALUE[,KEY=VALUE...] as {key: value} (:func:`rrrobot_gym.cli.keyword_value`).
+    Raises ValueError naming a bad or repeated spec, or a keyword with an option of its own."""
+    from rrrobot_gym.cli import keyword_value
+
+    chosen = {}
+    for spec in [] if text is None else text.split(","):
+        name, value = keyword_value(spec)
+        if name in ENV_OPTIONS:
+            raise ValueError(f"set {name} with {ENV_OPTIONS[name]}, not --env")
+        if name in chosen:
+            raise ValueError(f"{name} given twice")
+        chosen[name] = value
+    return chosen
+
+
 def env_kwargs(args: Args) -> dict:
     """The training env's keywords (the env's heading keyword is in radians)."""
     direction = None if args.direction_deg is None else math.radians(args.direction_deg)
     return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
             "clock_frequency": args.clock_frequency, "torque_limit": args.torque_limit,
-            "leg_rate_limit": args.leg_rate_limit, "backend": args.backend}
+            "leg_rate_limit": args.leg_rate_limit, "backend": args.backend, **extra_env_kwargs(args.env)}
 
 
 def env_config(args: Args) -> dict:

@@ -151,13 +151,16 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
     import train
 
     args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
-                             "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading])
+                             "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading,
+                             "--env", "contact_quadrature=trapezoid,max-slip-velocity=0.03"])  # fmt: skip
     training = train.make_env(args, 2, seed=0).venv.vector_env
     evaluation = train.make_eval_env(args, seed=1).venv.vector_env
     # the same keywords but the start noise (evaluations start from the paper's start), the same episode
     assert evaluation.config == dataclasses.replace(training.config, reset_noise_scale=0.0)
     assert evaluation.max_episode_steps == training.max_episode_steps == 123
     assert (training.config.torque_limit, training.config.leg_rate_limit) == (0.5, 10.0)
+    assert (training.config.contact_quadrature, training.config.max_slip_velocity) == ("trapezoid", 0.03)
+    assert train.env_config(args)["contact_quadrature"] == "trapezoid"  # (env_kwargs.json: evaluate.py reads it)
     if heading:
         assert training.config.target_direction == pytest.approx(math.radians(30.0))
     training.reset(seed=0)
@@ -277,3 +280,17 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
     assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
+
+
+@pytest.mark.parametrize(
+    "spec, words",
+    [("model=pivot", "set model with --model"), ("contact_quadrature=simpson", "unknown contact_quadrature 'simpson'"),
+     ("nosuch=1", "unknown keyword argument"), ("timestep=0.02", "stability limit"),
+     ("frame_skip=2,frame_skip=3", "frame_skip given twice"), ("contact_quadrature", "expected KEY=VALUE")],
+)
+def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(spec, words, capsys):
+    import train
+
+    with pytest.raises(SystemExit):
+        train.parse_args(["--env", spec])
+    assert words in capsys.readouterr().err
