@@ -163,9 +163,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        servo kick, a gait's brief peaks of grip) the measure grows with the step, to about
        twice the impulse actually missing at the default step (README, "Episode end");
        `contact_quadrature="trapezoid"` takes the force as a line between samples, and
-       its slip and lift-off measures converge with the step. Slip does not end the episode in its first 0.1 s:
-       the paper's own start (legs leaving vertical abruptly) would slip at up to 0.63 m/s
-       there. Likewise a spell off the ground (normal force <= 0) longer than
+       its slip and lift-off measures converge with the step (down to about 1/200 s).
+       Slip does not end the episode in its first 0.1 s: the paper's own start (legs
+       leaving vertical abruptly) would slip at up to 0.63 m/s there. Likewise a spell off the ground (normal force <= 0) longer than
        `max_liftoff_time` (default 0.005 s) leaves the model, also only after 0.1 s. A step
        that slips or hops past `max_slip_velocity` or lifts off longer than
        `max_liftoff_time`, and any step in those 0.1 s, earns no forward reward.
