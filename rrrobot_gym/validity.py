@@ -116,10 +116,10 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
         measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
         return measures, zero.copy()
     trapezoid = quadrature == "trapezoid"
+    lifted = ~(summary["least_normal"] > 0.0) if trapezoid else None  # the robots that lost contact
     if in_contact:  # any spell carried in ended at the first sample
         longest, lost, fraction = lost, np.zeros(num_robots), np.zeros(num_robots)
     elif trapezoid:  # on the robots that lost contact (the rest as in the branch above)
-        lifted = ~(summary["least_normal"] > 0.0)
         longest, after, fraction = lost.copy(), np.zeros(num_robots), np.zeros(num_robots)
         spells = _interpolated_spells(normal[:, lifted], lost[lifted], record.step)
         longest[lifted], after[lifted], fraction[lifted] = spells
@@ -131,13 +131,13 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     # With every sample pushing and the grip needed below the floor's by more than rounding, the
     # floor gives all of the force: unprovided_force is exactly 0 there (and so is every line
     # between two samples, each below 0).
-    grip_held = friction_coefficient is None or measures["friction_ratio"].max() <= friction_coefficient * (1 - 1e-12)
-    if in_contact and grip_held:
+    beyond = np.zeros(num_robots, dtype=bool) if friction_coefficient is None else ~(
+        measures["friction_ratio"] <= friction_coefficient * (1 - 1e-12)
+    )  # the robots that needed more grip than that
+    if in_contact and not beyond.any():
         slip = np.zeros(num_robots)
     elif trapezoid:  # on the robots that lost contact or needed more grip (the rest: 0, as above)
-        short = ~(summary["least_normal"] > 0.0)
-        if friction_coefficient is not None:
-            short |= ~(measures["friction_ratio"] <= friction_coefficient * (1 - 1e-12))
+        short = lifted | beyond
         slip = np.zeros(num_robots)
         slip[short] = _unprovided_impulse(normal[:, short], tangential[:, short], friction_coefficient, record.step)
         slip /= config.robot.total_mass
