@@ -46,8 +46,6 @@ shipped PPO policy, whose every action kicks the servo."""
 
 
 def load(file: str, name: str):
-    if Path(file).is_file():  # a --gaits file
-        return load_gait_agents(Path(file))[name]
     if name == "ppo":
         from agents import load_ppo_agent
 
@@ -94,14 +92,14 @@ def main(argv=None):
         except (TypeError, ValueError) as exc:
             p.error(f"--substeps {substeps} with --integrator {args.integrator}: {exc}")
     duration = 10.0 if args.quick else 50.0
-    listed = list(AGENTS)
+    listed = [(file, name, load(file, name)) for file, name in AGENTS]
     for path in args.gaits:  # (a search's file: every gait in it, after the shipped baselines)
-        listed += [(path, name) for name in load_gait_agents(Path(path))]
-    agents = {f"{file}: {name}": load(file, name) for file, name in listed}
+        listed += [(path, name, agent) for name, agent in load_gait_agents(Path(path)).items()]
+    agents = {f"{file}: {name}": agent for file, name, agent in listed}
     rows = []
     cases = [(quadrature, substeps) for quadrature in args.quadrature for substeps in args.substeps]
     results = {case: run(agents, case[1], args.headings, duration, case[0], args.integrator) for case in cases}
-    for file, name in listed:
+    for file, name, _ in listed:
         for quadrature, substeps in cases:
             result = results[quadrature, substeps][f"{file}: {name}"]
             rows.append({"file": file, "agent": name, "quadrature": quadrature, "substeps": substeps,
