@@ -86,11 +86,11 @@ class Args:
         default="auto",
         metadata={"help": "simulator backend (the env's backend): auto (numba where installed), numba or numpy"},
     )
-    env: str | None = field(
+    env: list[str] | None = field(
         default=None,
-        metadata={"help": "more env keywords, KEY=VALUE[,KEY=VALUE...], e.g. contact_quadrature=trapezoid or "
-                          "integrator=rk4_locked,timestep=0.005,frame_skip=10 (not those with options of their own; "
-                          "saved in env_kwargs.json, so evaluate.py holds the agents compared to them)"},
+        metadata={"help": "another env keyword as KEY=VALUE, e.g. contact_quadrature=trapezoid (repeatable, as "
+                          "gait-search's; not those with options of their own; saved in env_kwargs.json, so "
+                          "evaluate.py holds the agents compared to them)"},
     )
     episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
     eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
@@ -137,6 +137,8 @@ def _parser(given_only=False):
         default = {} if given_only else {"default": f.default}
         if f.type in ("bool", "bool | None"):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
+        elif f.type == "list[str] | None":  # repeatable
+            parser.add_argument(flag, action="append", metavar="KEY=VALUE", help=help_text, **default)
         else:  # "float", "float | None", ...: the field's annotation names the type
             kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
             if f.type.endswith(" | None"):
@@ -224,7 +226,7 @@ def parse_args(argv=None) -> Args:
     try:  # the env's own checks, on every keyword together (a step past the servo's stability limit, ...)
         make_task_config(**env_kwargs(args))
     except (TypeError, ValueError) as exc:
-        parser.error(f"--env {args.env}: {exc}" if args.env is not None else str(exc))
+        parser.error(f"--env {' '.join(args.env)}: {exc}" if args.env else str(exc))
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
@@ -287,16 +289,14 @@ ENV_OPTIONS = {"model": "--model", "target_direction": "--direction-deg", "healt
 """The env keywords train.py sets by options of their own (``--env`` refuses them)."""
 
 
-def extra_env_kwargs(text: str | None) -> dict:
-    """``--env`` KEY=VALUE[,KEY=VALUE...] as {key: value} (:func:`rrrobot_gym.cli.keyword_value`).
-    Raises ValueError naming a bad or repeated spec, or a keyword with an option of its own."""
-    from rrrobot_gym.cli import keyword_value
+def extra_env_kwargs(specs) -> dict:
+    """The ``--env`` KEY=VALUE specs as {key: value} (:func:`rrrobot_gym.cli.env_keyword`). Raises
+    ValueError naming a bad or repeated spec, or a keyword with an option of its own."""
+    from rrrobot_gym.cli import env_keyword
 
     chosen = {}
-    for spec in [] if text is None else text.split(","):
-        name, value = keyword_value(spec)
-        if name in ENV_OPTIONS:
-            raise ValueError(f"set {name} with {ENV_OPTIONS[name]}, not --env")
+    for spec in specs or ():
+        name, value = env_keyword(spec, ENV_OPTIONS)
         if name in chosen:
             raise ValueError(f"{name} given twice")
         chosen[name] = value

@@ -118,15 +118,22 @@ def keyword_value(text: str):
     return name, value
 
 
+def env_keyword(text: str, options: dict):
+    """(name, value) of a tool's ``--env`` KEY=VALUE (:func:`keyword_value`), refusing the env
+    keywords the tool sets by options of its own, ``options`` ({keyword: option}). Raises
+    ValueError naming the problem. Shared by ``gait-search --env`` and ``train.py --env``."""
+    name, value = keyword_value(text)
+    if name in options:
+        raise ValueError(f"set {name} with {options[name]}, not --env")
+    return name, value
+
+
 def _env_keyword(text: str):
-    """``gait-search --env`` KEY=VALUE (:func:`keyword_value`), refusing the keywords with options of their own."""
+    """``gait-search --env`` KEY=VALUE (:func:`env_keyword`, its own options refused), for argparse."""
     try:
-        name, value = keyword_value(text)
+        return env_keyword(text, ENV_KEYWORDS_WITH_OPTIONS)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-    if name in ENV_KEYWORDS_WITH_OPTIONS:
-        raise argparse.ArgumentTypeError(f"set {name} with {ENV_KEYWORDS_WITH_OPTIONS[name]}, not --env")
-    return name, value
 
 
 def _integer(text: str, minimum: int) -> int:

@@ -245,3 +245,14 @@ def test_plot_without_matplotlib_says_what_to_install(tmp_path):
     assert "Traceback" not in result.stderr
     assert "pip install rrrobot_gym[plots]" in result.stderr
     assert not (tmp_path / "run.png").exists()
+
+
+@pytest.mark.parametrize("spec, option", [("model=pivot", "--model"), ("reset-noise-scale=0", "--reset-noise-scale")])
+def test_gait_search_env_refuses_a_keyword_set_by_an_option_of_its_own(spec, option, capsys):
+    from rrrobot_gym.cli import build_parser
+
+    required = ["gait-search", "--model", "plane", "--out", "gaits.json"]
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([*required, "--env", spec])
+    assert f"set {spec.split('=')[0].replace('-', '_')} with {option}, not --env" in capsys.readouterr().err
+    assert build_parser().parse_args([*required, "--env", "max_slip_velocity=0.05"]).env == [("max_slip_velocity", 0.05)]

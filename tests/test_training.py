@@ -152,7 +152,7 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
 
     args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
                              "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading,
-                             "--env", "contact_quadrature=trapezoid,max-slip-velocity=0.03"])  # fmt: skip
+                             "--env", "contact_quadrature=trapezoid", "--env", "max-slip-velocity=0.03"])  # fmt: skip
     training = train.make_env(args, 2, seed=0).venv.vector_env
     evaluation = train.make_eval_env(args, seed=1).venv.vector_env
     # the same keywords but the start noise (evaluations start from the paper's start), the same episode
@@ -286,11 +286,11 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     "spec, words",
     [("model=pivot", "set model with --model"), ("contact_quadrature=simpson", "unknown contact_quadrature 'simpson'"),
      ("nosuch=1", "unknown keyword argument"), ("timestep=0.02", "stability limit"),
-     ("frame_skip=2,frame_skip=3", "frame_skip given twice"), ("contact_quadrature", "expected KEY=VALUE")],
+     ("frame_skip=2 frame_skip=3", "frame_skip given twice"), ("contact_quadrature", "expected KEY=VALUE")],
 )
 def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(spec, words, capsys):
     import train
 
     with pytest.raises(SystemExit):
-        train.parse_args(["--env", spec])
+        train.parse_args([arg for one in spec.split() for arg in ("--env", one)])
     assert words in capsys.readouterr().err
