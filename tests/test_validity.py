@@ -12,6 +12,17 @@ from rrrobot_gym.params import RobotParams
 from rrrobot_gym.simulation import SimConfig, StepRecord, _derivative_fn, simulate_reference
 
 
+def _record(normal, tangential, step):
+    """A hand-made StepRecord of an upright body: the force (tangential, 0, normal)."""
+    normal, tangential = np.asarray(normal, dtype=float), np.asarray(tangential, dtype=float)
+    samples, robots = normal.shape
+    force = np.stack([tangential, np.zeros_like(normal), normal], axis=-1)
+    return StepRecord(
+        times=step * np.arange(samples), step=step, torque=np.zeros((samples, robots, 2)), force=force,
+        normal=normal, leg_clearance=np.ones((samples, robots, 2)), leg_rates=np.zeros((samples, robots, 2)),
+    )  # fmt: skip
+
+
 def _centre_of_mass(states, params):
     r = params.radius
     phi = states[:, dynamics.LEG_ANGLES]
@@ -90,13 +101,7 @@ def test_spells_without_contact_count_what_was_carried_in_and_restart_on_contact
             [-1.0, -1.0, 1.0],
         ]
     )
-    samples, robots = normal.shape
-    force = np.zeros((samples, robots, 3))
-    force[..., 2] = normal
-    record = StepRecord(
-        times=step * np.arange(samples), step=step, torque=np.zeros((samples, robots, 2)), force=force,
-        normal=normal, leg_clearance=np.ones((samples, robots, 2)), leg_rates=np.zeros((samples, robots, 2)),
-    )  # fmt: skip
+    record = _record(normal, np.zeros_like(normal), step)
     carried = np.array([0.02, 0.02, 0.0])
     measures, after = validity.step_measures(record, SimConfig(model="plane"), None, carried)
     # robot 0: spells 0.01, 0.02 (the carried 0.02 ended at the first sample), then 0.03 at the end
@@ -145,17 +150,6 @@ def test_step_measures_summarise_the_record_sample_by_sample():
     grip = np.hypot(force[..., 0], force[..., 1]) / np.abs(force[..., 2])
     np.testing.assert_allclose(measures["friction_ratio"], grip.max(axis=0), rtol=1e-12)
     np.testing.assert_array_equal(measures["liftoff_fraction"], np.zeros(robots))
-
-
-def _record(normal, tangential, step):
-    """A hand-made StepRecord of an upright body: the force (tangential, 0, normal)."""
-    normal, tangential = np.asarray(normal, dtype=float), np.asarray(tangential, dtype=float)
-    samples, robots = normal.shape
-    force = np.stack([tangential, np.zeros_like(normal), normal], axis=-1)
-    return StepRecord(
-        times=step * np.arange(samples), step=step, torque=np.zeros((samples, robots, 2)), force=force,
-        normal=normal, leg_clearance=np.ones((samples, robots, 2)), leg_rates=np.zeros((samples, robots, 2)),
-    )  # fmt: skip
 
 
 def test_the_trapezoid_quadrature_integrates_the_line_between_samples_and_its_zero_crossings():
