@@ -38,8 +38,9 @@ control step from t = 0 as the envs step it, with the steps in a control step eq
 The phi-functions come from scipy's expm of a block matrix, so CPU time says nothing here:
 only evaluations and errors are reported. Every run calls the one ``derivative_kernel``.
 The probe integrates the body rate Omega, as the shipped step did when these rows were measured;
-``Problem(locked=True)`` follows the locked rate instead, as the shipped ``etdrk4b`` now does
-(``dynamics.locked_share``; ``tests/test_integrators.py`` checks the shipped step against it so).
+``Problem(locked=True)`` (a ``Setting``'s ``locked``) follows the locked rate instead, as the shipped
+``etdrk4b`` now does (``dynamics.locked_share``; ``tests/test_integrators.py`` checks the shipped step
+against it so, and ``benchmarks.graded_schedule`` runs it in steps of any ratio).
 """
 
 from __future__ import annotations
@@ -80,6 +81,7 @@ class Setting:
     jacobian: str
     weights: tuple = (1,) * 5
     start: str = "coarse"
+    locked: bool = False  # follow the locked rate, as the shipped etdrk4b does (Problem)
 
     @property
     def uniform(self) -> bool:
@@ -257,7 +259,7 @@ def run_case(job):
     """Max and end contact error (m) and the steady evaluations per env step of one setting and case."""
     setting, (model, gait), duration = job
     config = SimConfig(model=model)
-    problem = Problem(config, table2_gait(gait))
+    problem = Problem(config, table2_gait(gait), locked=setting.locked)
     u = np.append(initial_state(), 0.0)
     n_env = round(duration / ENV_STEP)
     states = np.empty((n_env + 1, dynamics.STATE_SIZE))
@@ -291,7 +293,7 @@ def policy_episode(job):
     out = [u[:2].copy()]
     evaluations = 0
     for ramp_start, ramp_end in zip(starts, ends):
-        problem = Problem(config, RampTargets(ramp_start, ramp_end, 0.0, dt))
+        problem = Problem(config, RampTargets(ramp_start, ramp_end, 0.0, dt), locked=setting.locked)
         u[-1] = 0.0
         with np.errstate(all="ignore"):
             u = env_step(problem, u, setting, dt)
@@ -303,29 +305,29 @@ def policy_episode(job):
     return np.array(out), evaluations
 
 
-def policy_rows(workers: int):
-    """The shipped policy's first POLICY_S s along POLICY_HEADINGS: RK4 at the default step (the
-    envs' own stepping), then each of POLICY_SETTINGS; the worst contact error over the path."""
+def policy_rows(workers: int, settings=POLICY_SETTINGS, seconds: float = POLICY_S):
+    """The shipped policy's first ``seconds`` along POLICY_HEADINGS: RK4 at the default step (the
+    envs' own stepping), then each of ``settings``; the worst contact error over the path."""
     from agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, error_fields, replay, rollouts
 
-    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), POLICY_HEADINGS, round(POLICY_S / ENV_STEP))
+    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), POLICY_HEADINGS, round(seconds / ENV_STEP))
     ref, _ = replay(sim, start, starts, ends, dt, reference=True)
     path, _ = replay(sim, start, starts, ends, dt)
     rows = [{"method": "rk4", "setting": f"1/{1 / sim.step:.0f} s (the default)",
              "evals_per_env_step": 4 * round(dt / sim.step), **error_fields(contact_error(path, ref), POLICY_HEADINGS)}]  # fmt: skip
-    jobs = [(setting, sim, start[j], starts[j], ends[j], dt) for setting in POLICY_SETTINGS for j in range(len(start))]
+    jobs = [(setting, sim, start[j], starts[j], ends[j], dt) for setting in settings for j in range(len(start))]
     with ProcessPoolExecutor(max_workers=workers) as pool:
         results = list(pool.map(policy_episode, jobs))
-    for i, setting in enumerate(POLICY_SETTINGS):
+    for i, setting in enumerate(settings):
         episodes = results[i * len(start) : (i + 1) * len(start)]
         path = np.stack([p for p, _ in episodes], axis=1)  # (n + 1, N, 2)
         rows.append({"method": setting.method, "jacobian": setting.jacobian, "setting": setting.step_label(),
                      "weights": setting.weights, "evals_per_env_step": episodes[0][1],
                      **error_fields(contact_error(path, ref), POLICY_HEADINGS)})  # fmt: skip
     for r in rows:
-        print(f"policy, {POLICY_S:g} s: {r['method']} {r['setting']} ({r['evals_per_env_step']} evaluations an env step): "
+        print(f"policy, {seconds:g} s: {r['method']} {r['setting']} ({r['evals_per_env_step']} evaluations an env step): "
               f"worst max contact error {r['contact_max_m'] * 1e3:.3g} mm", flush=True)  # fmt: skip
     return rows
 

@@ -1,0 +1,94 @@
+"""Where in a control step the evaluations go: graded ETDRK4-B steps on a policy's path (issue 10).
+
+    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W]
+
+A probe of the "at most 16 derivative evaluations an env step" aim on the path where the shipped
+steps miss it: the shipped policy's leg-target ramps (``benchmarks.policy_replay``; needs the
+``train`` extra), where every control step's new ramp kicks the servo. ETDRK4-B in the locked
+rate, as the shipped ``integrator="etdrk4b"`` steps (``benchmarks.exp_rosenbrock``'s full-matrix
+version with ``locked=True``, which ``tests/test_integrators.py`` holds to the shipped step), takes
+each control step in steps whose lengths are in the ratio of a schedule's weights, shortest first.
+The shipped options give some of them: ``timestep=1/60, start_halves=1`` is 1:1:2:2 (16
+evaluations), ``1/60`` with ``start_halves=2`` is 1:1:1:1:2 and ``1/80`` with ``start_halves=1``
+1:1:2:2:2 (20). The others need a schedule the shipped steppers do not take.
+
+Two questions, each answered by rows side by side:
+
+- is the matrix A the limit? The shipped schedule with A the exact Jacobian (forward differences,
+  12 more evaluations a step, counted) beside the servo's part of it;
+- is it where the steps fall? Schedules of four, five and six steps.
+
+Each row is run on the policy's ramps along 0, 90, 180 and 270 deg for 50 s (--quick: 10 s),
+control step by control step, against ``simulate_reference`` solved so, and, for the servo's A,
+on the six Table II cases for 50 s (every env step in the same schedule, from the paper's start),
+against the reference paths. Reported: the worst contact error over each path. CPU time means
+nothing here (the phi-functions come from scipy's expm): only evaluations and errors count.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor
+
+from rrrobot_gym.control import table2_gait
+from rrrobot_gym.simulation import SimConfig
+
+from ._common import fmt, machine, markdown_table, parser, reference, write_json
+from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Setting, policy_rows, run_case
+
+SHIPPED = (1, 1, 2, 2)
+"""``timestep=1/60, start_halves=1``: the shipped options' 16 evaluations an env step."""
+SCHEDULES = [
+    ("servo", SHIPPED),
+    ("full", SHIPPED),
+    ("servo", (1, 2, 3, 4)),
+    ("servo", (1, 2, 4, 5)),
+    ("servo", (1, 1, 1, 1, 2)),
+    ("servo", (1, 1, 2, 2, 2)),
+    ("servo", (1, 2, 3, 4, 5)),
+    ("servo", (1, 1, 1, 1, 4, 4)),
+]
+"""(A, weights): the steps of a control step in the ratio of the weights."""
+
+
+def main(argv=None):
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
+    p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
+    args = p.parse_args(argv)
+    seconds = 10.0 if args.quick else 50.0
+    settings = [Setting("etdrk4b", jacobian, weights, "coarse", locked=True) for jacobian, weights in SCHEDULES]
+    gait_settings = [s for s in settings if s.jacobian == "servo"]
+    for model, gait in CASES:  # fill the reference cache before the workers read it
+        reference(SimConfig(model=model), table2_gait(gait), seconds, ENV_STEP)
+    jobs = [(setting, case, seconds) for setting in gait_settings for case in CASES]
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        gaits = dict(zip([(s, c) for s, c, _ in jobs], pool.map(run_case, jobs)))
+    policy = policy_rows(args.workers, settings, seconds)[1:]  # the first row is RK4 at the default step
+    rows = []
+    for setting, replayed in zip(settings, policy):
+        row = {"jacobian": setting.jacobian, "weights": setting.weights,
+               "evals_per_env_step": replayed["evals_per_env_step"], "policy_contact_max_m": replayed["contact_max_m"],
+               "policy_per_heading_max_m": replayed["per_heading_max_m"]}  # fmt: skip
+        if setting in gait_settings:
+            per_case = {f"{m}_gait{g}": gaits[setting, (m, g)][0] for m, g in CASES}
+            row["gaits_contact_max_m"], row["gaits_per_case_max_m"] = max(per_case.values()), per_case
+        rows.append(row)
+        gait_text = f", gaits {row['gaits_contact_max_m'] * 1e3:.3g} mm" if "gaits_contact_max_m" in row else ""
+        print(f"A={row['jacobian']} {':'.join(map(str, row['weights']))} ({row['evals_per_env_step']} evaluations): "
+              f"policy {row['policy_contact_max_m'] * 1e3:.3g} mm{gait_text}", flush=True)  # fmt: skip
+    table = markdown_table(
+        ["A", "steps of a control step (weights)", "evaluations / env step", f"policy, worst max contact error, {seconds:g} s (mm)"]
+        + [f"{h:g} deg" for h in POLICY_HEADINGS] + [f"six gaits, worst, {seconds:g} s (mm)"],
+        [[r["jacobian"], ":".join(map(str, r["weights"])), r["evals_per_env_step"], fmt(r["policy_contact_max_m"] * 1e3)]
+         + [fmt(v * 1e3) for v in r["policy_per_heading_max_m"].values()]
+         + [fmt(r["gaits_contact_max_m"] * 1e3) if "gaits_contact_max_m" in r else "-"] for r in rows],
+    )  # fmt: skip
+    print(table)
+    if args.markdown:
+        with open(args.markdown, "w") as fh:
+            fh.write(f"`python -m benchmarks.graded_schedule{' --quick' if args.quick else ''}`\n\n{table}\n")
+    write_json(args.json, {"machine": machine(), "duration_s": seconds, "headings_deg": POLICY_HEADINGS, "rows": rows})
+
+
+if __name__ == "__main__":
+    main()
