@@ -327,7 +327,7 @@ def policy_rows(workers: int, settings=POLICY_SETTINGS, seconds: float = POLICY_
                      "weights": setting.weights, "evals_per_env_step": episodes[0][1],
                      **error_fields(contact_error(path, ref), POLICY_HEADINGS)})  # fmt: skip
     for r in rows:
-        print(f"policy, {seconds:g} s: {r['method']} {r['setting']} ({r['evals_per_env_step']} evaluations an env step): "
+        print(f"policy, {seconds:g} s: {r['method']} A={r.get('jacobian', '-')} {r['setting']} ({r['evals_per_env_step']} evaluations an env step): "
               f"worst max contact error {r['contact_max_m'] * 1e3:.3g} mm", flush=True)  # fmt: skip
     return rows
 

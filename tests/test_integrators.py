@@ -429,33 +429,37 @@ def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets)
         np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
 
 
-def test_the_probes_graded_schedule_1_1_2_2_is_the_shipped_start_halves_step():
+@pytest.mark.parametrize(
+    "step, halves, weights", [(1 / 60, 1, (1, 1, 2, 2)), (1 / 60, 2, (1, 1, 1, 1, 2)), (1 / 80, 1, (1, 1, 2, 2, 2))]
+)
+def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, halves, weights):
     """benchmarks.graded_schedule compares schedules of the probe's ETDRK4-B (in the locked rate)
-    with the shipped 16-evaluation setting as 1:1:2:2; that row must be what ``timestep=1/60,
-    start_halves=1`` integrates: one control step of a ramp from a state far off its targets, the
-    shipped step against the probe's (matrices and expm, sharing only the equations)."""
+    and names three of them shipped settings, the 16-evaluation one 1:1:2:2; each must be what
+    its ``timestep`` and ``start_halves`` integrate: one control step of a ramp from a state far off
+    its targets, the shipped step against the probe's (matrices and expm, sharing only the
+    equations), and the benchmark's replay of two ramps (a Setting marked locked)."""
     from benchmarks import exp_rosenbrock as probe
     from rrrobot_gym.control import RampTargets
 
     targets = RampTargets((1.0, 2.0), (1.5, 1.2), 0.0, 0.05)
     start = simulation.initial_state()
     start[6:13] = (0.3, 2.0, 0.2, -0.1, 0.3, 2.0, -3.0)
-    shipped = SimConfig(integrator="etdrk4b", timestep=1 / 60, start_halves=1)
+    shipped = SimConfig(integrator="etdrk4b", timestep=step, start_halves=halves)
     ours = simulation.advance(shipped, start, 0.0, 0.05, targets)
     problem = probe.Problem(SimConfig(), targets, locked=True)
-    theirs = probe.env_step(problem, np.append(start, 0.0), probe.Setting("etdrk4b", "servo", (1, 1, 2, 2), locked=True))
-    assert problem.evaluations == 16
+    theirs = probe.env_step(problem, np.append(start, 0.0), probe.Setting("etdrk4b", "servo", weights, locked=True))
+    assert problem.evaluations == 4 * len(weights)
     assert np.abs(ours - start).max() > 1.0
     np.testing.assert_allclose(ours, theirs[:-1], rtol=0, atol=1e-11)
     # The benchmark's replay (a Setting marked locked, control step by control step): two ramps
     ramps = [(1.0, 2.0), (1.5, 1.2), (0.4, 1.9)]
-    setting = probe.Setting("etdrk4b", "servo", (1, 1, 2, 2), locked=True)
+    setting = probe.Setting("etdrk4b", "servo", weights, locked=True)
     contact, evaluations = probe.policy_episode((setting, SimConfig(), start, ramps[:-1], ramps[1:], 0.05))
     state = start
     for i in range(2):
         state = simulation.advance(shipped, state, 0.0, 0.05, RampTargets(ramps[i], ramps[i + 1], 0.0, 0.05))
         np.testing.assert_allclose(contact[i + 1], state[:2], rtol=0, atol=1e-11)
-    assert evaluations == 16
+    assert evaluations == 4 * len(weights)
 
 
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
