@@ -1,6 +1,6 @@
 """Where in a control step the evaluations go: graded ETDRK4-B steps on a policy's path (issue 10).
 
-    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W]
+    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W] [--drift]
 
 A probe of the "at most 16 derivative evaluations an env step" aim on the path where the shipped
 steps miss it: the shipped policy's leg-target ramps (``benchmarks.policy_replay``; needs the
@@ -23,17 +23,25 @@ control step by control step, against ``simulate_reference`` solved so, and, for
 on the six Table II cases for 50 s (every env step in the same schedule, from the paper's start),
 against the reference paths. Reported: the worst contact error over each path. CPU time means
 nothing here (the phi-functions come from scipy's expm): only evaluations and errors count.
+
+``--drift`` asks what the policy's error is made of instead: along DRIFT_HEADINGS, with the
+shipped schedule and the closest one of four steps, the whole state against the reference's,
+every DRIFT_EVERY_S: the contact error and the body's rotation error (the rotation vector of
+q_ref^-1 q, in the body's frame; z is the shell's axis, about which the robot turns its heading).
 """
 
 from __future__ import annotations
 
 from concurrent.futures import ProcessPoolExecutor
 
-from rrrobot_gym.control import table2_gait
-from rrrobot_gym.simulation import SimConfig
+import numpy as np
+
+from rrrobot_gym import dynamics
+from rrrobot_gym.control import RampTargets, table2_gait
+from rrrobot_gym.simulation import SimConfig, simulate_reference
 
 from ._common import fmt, machine, markdown_table, parser, reference, write_json
-from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Setting, policy_rows, run_case
+from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Problem, Setting, env_step, policy_rows, run_case
 
 SHIPPED = (1, 1, 2, 2)
 """``timestep=1/60, start_halves=1``: the shipped options' 16 evaluations an env step."""
@@ -48,14 +56,84 @@ SCHEDULES = [
     ("servo", (1, 1, 1, 1, 4, 4)),
 ]
 """(A, weights): the steps of a control step in the ratio of the weights."""
+DRIFT_HEADINGS = (0.0, 90.0)
+DRIFT_SCHEDULES = (SHIPPED, (1, 2, 4, 5))
+DRIFT_EVERY_S = 10.0
+
+
+def _drift_states(job):
+    """States (n + 1, 13) of one episode's ramps, by the reference (weights None, DOP853 control
+    step by control step) or by the probe's ETDRK4-B in the locked rate in steps of ``weights``."""
+    weights, config, start, starts, ends, dt = job
+    states = [start.copy()]
+    u = np.append(start, 0.0)
+    for ramp_start, ramp_end in zip(starts, ends):
+        targets = RampTargets(ramp_start, ramp_end, 0.0, dt)
+        if weights is None:
+            u[:-1] = simulate_reference(config, targets, dt, state=u[:-1], sample_dt=dt).states[-1]
+        else:
+            u[-1] = 0.0
+            u = env_step(Problem(config, targets, locked=True), u, Setting("etdrk4b", "servo", weights, locked=True), dt)
+        states.append(u[:-1].copy())
+    return np.array(states)
+
+
+def body_rotation_error(states, ref) -> np.ndarray:
+    """(..., 3) rad: the rotation vector of q_ref^-1 q, in the body's frame (to second order in the angle)."""
+    conjugate = ref[..., dynamics.QUAT] * np.array([1.0, -1.0, -1.0, -1.0])
+    relative = dynamics.quat_multiply(conjugate, states[..., dynamics.QUAT])
+    return 2.0 * np.sign(relative[..., :1]) * relative[..., 1:]
+
+
+def drift_rows(workers: int, seconds: float) -> list[dict]:
+    """Contact error and body rotation error every DRIFT_EVERY_S along DRIFT_HEADINGS."""
+    from agents.ppo import load_ppo_agent
+
+    from .policy_replay import MODEL, rollouts
+
+    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
+    runs = [None, *DRIFT_SCHEDULES]
+    jobs = [(weights, sim, start[j], starts[j], ends[j], dt) for weights in runs for j in range(len(start))]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        paths = list(pool.map(_drift_states, jobs))
+    every = round(DRIFT_EVERY_S / dt)
+    rows = []
+    for i, weights in enumerate(DRIFT_SCHEDULES, start=1):
+        for j, heading in enumerate(DRIFT_HEADINGS):
+            ref, path = paths[j], paths[i * len(start) + j]
+            samples = np.arange(every, len(ref), every)
+            contact = np.hypot(path[samples, 0] - ref[samples, 0], path[samples, 1] - ref[samples, 1])
+            rotation = body_rotation_error(path[samples], ref[samples])
+            rows.append({"weights": weights, "heading_deg": heading, "times_s": (samples * dt).tolist(),
+                         "contact_m": contact.tolist(), "body_rotation_rad": rotation.tolist(),
+                         "distance_m": float(np.hypot(*(ref[-1, :2] - ref[0, :2])))})  # fmt: skip
+            print(f"{':'.join(map(str, weights))} along {heading:g} deg: "
+                  + ", ".join(f"{t:g} s {c * 1e3:.3g} mm, z {r[2] * 1e3:.3g} mrad" for t, c, r in zip(rows[-1]["times_s"], contact, rotation)),
+                  flush=True)  # fmt: skip
+    return rows
 
 
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
     p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
+    p.add_argument("--drift", action="store_true", help="instead: what the policy's error is made of (--drift)")
     args = p.parse_args(argv)
     seconds = 10.0 if args.quick else 50.0
+    if args.drift:
+        rows = drift_rows(args.workers, seconds)
+        table = markdown_table(
+            ["steps of a control step (ratio)", "heading (deg)", "path (m)"]
+            + [f"{t:g} s: contact (mm) / body z rotation (mrad)" for t in rows[0]["times_s"]],
+            [[":".join(map(str, r["weights"])), f"{r['heading_deg']:g}", f"{r['distance_m']:.2f}"]
+             + [f"{fmt(c * 1e3)} / {fmt(z[2] * 1e3)}" for c, z in zip(r["contact_m"], r["body_rotation_rad"])] for r in rows],
+        )  # fmt: skip
+        print(table)
+        if args.markdown:
+            with open(args.markdown, "w") as fh:
+                fh.write(f"`python -m benchmarks.graded_schedule --drift{' --quick' if args.quick else ''}`\n\n{table}\n")
+        write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
+        return
     settings = [Setting("etdrk4b", jacobian, weights, "coarse", locked=True) for jacobian, weights in SCHEDULES]
     gait_settings = [s for s in settings if s.jacobian == "servo"]
     for model, gait in CASES:  # fill the reference cache before the workers read it

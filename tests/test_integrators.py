@@ -462,6 +462,25 @@ def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, ha
     assert evaluations == 4 * len(weights)
 
 
+def test_the_drift_probes_rotation_error_is_the_body_frame_rotation_vector():
+    """benchmarks.graded_schedule --drift reads the heading error as the body-frame z component of
+    the rotation from the reference's attitude to the run's: a state turned by a small angle about
+    a body axis (q = q_ref (x) exp(angle axis / 2)) gives that axis times the angle, whichever sign
+    either quaternion carries."""
+    from benchmarks.graded_schedule import body_rotation_error
+
+    rng = np.random.default_rng(3)
+    ref = simulation.initial_state(5)
+    ref[:, 2:6] = rng.normal(size=(5, 4))
+    ref[:, 2:6] /= np.linalg.norm(ref[:, 2:6], axis=1, keepdims=True)
+    turned = ref.copy()
+    rotation = rng.normal(scale=1e-3, size=(5, 3))
+    angle = np.linalg.norm(rotation, axis=1, keepdims=True)
+    turn = np.concatenate([np.cos(angle / 2), np.sin(angle / 2) * rotation / angle], axis=1)
+    turned[:, 2:6] = dynamics.quat_multiply(ref[:, 2:6], turn) * np.array([[1], [-1], [1], [-1], [1]])
+    np.testing.assert_allclose(body_rotation_error(turned, ref), rotation, rtol=0, atol=1e-9)
+
+
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
 def test_the_exponential_step_is_stable_under_bang_bang_targets_at_1_80_s(gains):
     """Leg targets slammed between 0 and pi every control step (24 robots, the batch path), at 1/80 s:
