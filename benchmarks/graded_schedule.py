@@ -40,7 +40,7 @@ from rrrobot_gym import dynamics
 from rrrobot_gym.control import RampTargets, table2_gait
 from rrrobot_gym.simulation import SimConfig, simulate_reference
 
-from ._common import fmt, machine, markdown_table, parser, reference, write_json
+from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
 from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Problem, Setting, env_step, policy_rows, run_case
 
 SHIPPED = (1, 1, 2, 2)
@@ -102,7 +102,7 @@ def drift_rows(workers: int, seconds: float) -> list[dict]:
         for j, heading in enumerate(DRIFT_HEADINGS):
             ref, path = paths[j], paths[i * len(start) + j]
             samples = np.arange(every, len(ref), every)
-            contact = np.hypot(path[samples, 0] - ref[samples, 0], path[samples, 1] - ref[samples, 1])
+            contact = contact_error(path[samples], ref[samples])
             rotation = body_rotation_error(path[samples], ref[samples])
             rows.append({"weights": weights, "heading_deg": heading, "times_s": (samples * dt).tolist(),
                          "contact_m": contact.tolist(), "body_rotation_rad": rotation.tolist(),
@@ -123,7 +123,7 @@ def main(argv=None):
     if args.drift:
         rows = drift_rows(args.workers, seconds)
         table = markdown_table(
-            ["steps of a control step (ratio)", "heading (deg)", "path (m)"]
+            ["steps of a control step (ratio)", "heading (deg)", "start to end (m)"]
             + [f"{t:g} s: contact (mm) / body z rotation (mrad)" for t in rows[0]["times_s"]],
             [[":".join(map(str, r["weights"])), f"{r['heading_deg']:g}", f"{r['distance_m']:.2f}"]
              + [f"{fmt(c * 1e3)} / {fmt(z[2] * 1e3)}" for c, z in zip(r["contact_m"], r["body_rotation_rad"])] for r in rows],
