@@ -117,7 +117,7 @@ def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
     p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
-    p.add_argument("--drift", action="store_true", help="instead: what the policy's error is made of (--drift)")
+    p.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
     args = p.parse_args(argv)
     seconds = 10.0 if args.quick else 50.0
     if args.drift:
