@@ -286,11 +286,11 @@ def run_case(job):
 
 
 def policy_episode(job):
-    """Contact points (n + 1, 2) of one policy episode's ramps replayed in ``setting``, each
-    control step from t = 0 (as the envs step), and the evaluations an env step."""
+    """States (n + 1, 13) of one policy episode's ramps replayed in ``setting``, each control step
+    from t = 0 (as the envs step), and the evaluations an env step."""
     setting, config, start, starts, ends, dt = job
     u = np.append(start, 0.0)
-    out = [u[:2].copy()]
+    out = [u[:-1].copy()]
     evaluations = 0
     for ramp_start, ramp_end in zip(starts, ends):
         problem = Problem(config, RampTargets(ramp_start, ramp_end, 0.0, dt), locked=setting.locked)
@@ -299,9 +299,9 @@ def policy_episode(job):
             u = env_step(problem, u, setting, dt)
         evaluations = problem.evaluations
         if not np.all(np.isfinite(u)):  # inf from here on
-            out += [np.full(2, np.inf)] * (len(starts) + 1 - len(out))
+            out += [np.full(dynamics.STATE_SIZE, np.inf)] * (len(starts) + 1 - len(out))
             break
-        out.append(u[:2].copy())
+        out.append(u[:-1].copy())
     return np.array(out), evaluations
 
 
@@ -322,7 +322,7 @@ def policy_rows(workers: int, settings=POLICY_SETTINGS, seconds: float = POLICY_
         results = list(pool.map(policy_episode, jobs))
     for i, setting in enumerate(settings):
         episodes = results[i * len(start) : (i + 1) * len(start)]
-        path = np.stack([p for p, _ in episodes], axis=1)  # (n + 1, N, 2)
+        path = np.stack([p for p, _ in episodes], axis=1)  # (n + 1, N, 13)
         rows.append({"method": setting.method, "jacobian": setting.jacobian, "setting": setting.step_label(),
                      "weights": setting.weights, "evals_per_env_step": episodes[0][1],
                      **error_fields(contact_error(path, ref), POLICY_HEADINGS)})  # fmt: skip

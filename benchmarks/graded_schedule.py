@@ -37,11 +37,11 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.control import RampTargets, table2_gait
-from rrrobot_gym.simulation import SimConfig, simulate_reference
+from rrrobot_gym.control import table2_gait
+from rrrobot_gym.simulation import SimConfig
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
-from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Problem, Setting, env_step, policy_rows, run_case
+from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Setting, policy_episode, policy_rows, run_case
 
 SHIPPED = (1, 1, 2, 2)
 """``timestep=1/60, start_halves=1``: the shipped options' 16 evaluations an env step."""
@@ -61,23 +61,6 @@ DRIFT_SCHEDULES = (SHIPPED, (1, 2, 4, 5))
 DRIFT_EVERY_S = 10.0
 
 
-def _drift_states(job):
-    """States (n + 1, 13) of one episode's ramps, by the reference (weights None, DOP853 control
-    step by control step) or by the probe's ETDRK4-B in the locked rate in steps of ``weights``."""
-    weights, config, start, starts, ends, dt = job
-    states = [start.copy()]
-    u = np.append(start, 0.0)
-    for ramp_start, ramp_end in zip(starts, ends):
-        targets = RampTargets(ramp_start, ramp_end, 0.0, dt)
-        if weights is None:
-            u[:-1] = simulate_reference(config, targets, dt, state=u[:-1], sample_dt=dt).states[-1]
-        else:
-            u[-1] = 0.0
-            u = env_step(Problem(config, targets, locked=True), u, Setting("etdrk4b", "servo", weights, locked=True), dt)
-        states.append(u[:-1].copy())
-    return np.array(states)
-
-
 def body_rotation_error(states, ref) -> np.ndarray:
     """(..., 3) rad: the rotation vector of q_ref^-1 q, in the body's frame (to second order in the angle)."""
     conjugate = ref[..., dynamics.QUAT] * np.array([1.0, -1.0, -1.0, -1.0])
@@ -89,18 +72,19 @@ def drift_rows(workers: int, seconds: float) -> list[dict]:
     """Contact error and body rotation error every DRIFT_EVERY_S along DRIFT_HEADINGS."""
     from agents.ppo import load_ppo_agent
 
-    from .policy_replay import MODEL, rollouts
+    from .policy_replay import MODEL, replay, rollouts
 
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
-    runs = [None, *DRIFT_SCHEDULES]
-    jobs = [(weights, sim, start[j], starts[j], ends[j], dt) for weights in runs for j in range(len(start))]
+    refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
+    jobs = [(Setting("etdrk4b", "servo", weights, locked=True), sim, start[j], starts[j], ends[j], dt)
+            for weights in DRIFT_SCHEDULES for j in range(len(start))]  # fmt: skip
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        paths = list(pool.map(_drift_states, jobs))
+        paths = [states for states, _ in pool.map(policy_episode, jobs)]
     every = round(DRIFT_EVERY_S / dt)
     rows = []
-    for i, weights in enumerate(DRIFT_SCHEDULES, start=1):
+    for i, weights in enumerate(DRIFT_SCHEDULES):
         for j, heading in enumerate(DRIFT_HEADINGS):
-            ref, path = paths[j], paths[i * len(start) + j]
+            ref, path = refs[:, j], paths[i * len(start) + j]
             samples = np.arange(every, len(ref), every)
             contact = contact_error(path[samples], ref[samples])
             rotation = body_rotation_error(path[samples], ref[samples])

@@ -172,18 +172,19 @@ def replay_refined(config: SimConfig, start, starts, ends, dt: float, refine: in
     return out, refined
 
 
-def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False):
+def replay(config: SimConfig, start, starts, ends, dt: float, reference: bool = False, whole: bool = False):
     """Contact points (n + 1, N, 2) of the batch of episodes replayed control step by control step,
-    each from t = 0 as the envs step."""
+    each from t = 0 as the envs step (``whole``: the whole states, (n + 1, N, 13)), and the last states."""
+    kept = slice(None) if whole else slice(0, 2)
     state = start.copy()
-    out = [state[:, :2].copy()]
+    out = [state[:, kept].copy()]
     for i in range(starts.shape[1]):
         targets = RampTargets(starts[:, i], ends[:, i], 0.0, dt)
         if reference:
             state = simulate_reference(config, targets, dt, state=state, sample_dt=dt).states[-1]
         else:
             state = advance(config, state, 0.0, dt, targets, check=False)  # as the envs call it
-        out.append(state[:, :2].copy())
+        out.append(state[:, kept].copy())
     return np.array(out), state
 
 

@@ -454,11 +454,11 @@ def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, ha
     # The benchmark's replay (a Setting marked locked, control step by control step): two ramps
     ramps = [(1.0, 2.0), (1.5, 1.2), (0.4, 1.9)]
     setting = probe.Setting("etdrk4b", "servo", weights, locked=True)
-    contact, evaluations = probe.policy_episode((setting, SimConfig(), start, ramps[:-1], ramps[1:], 0.05))
+    states, evaluations = probe.policy_episode((setting, SimConfig(), start, ramps[:-1], ramps[1:], 0.05))
     state = start
     for i in range(2):
         state = simulation.advance(shipped, state, 0.0, 0.05, RampTargets(ramps[i], ramps[i + 1], 0.0, 0.05))
-        np.testing.assert_allclose(contact[i + 1], state[:2], rtol=0, atol=1e-11)
+        np.testing.assert_allclose(states[i + 1], state, rtol=0, atol=1e-11)
     assert evaluations == 4 * len(weights)
 
 
