@@ -1,6 +1,6 @@
 """Where in a control step the evaluations go: graded ETDRK4-B steps on a policy's path (issue 10).
 
-    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W] [--drift]
+    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W] [--drift | --inject]
 
 A probe of the "at most 16 derivative evaluations an env step" aim on the path where the shipped
 steps miss it: the shipped policy's leg-target ramps (``benchmarks.policy_replay``; needs the
@@ -28,6 +28,15 @@ nothing here (the phi-functions come from scipy's expm): only evaluations and er
 shipped schedule and the closest one of four steps, the whole state against the reference's,
 every DRIFT_EVERY_S: the contact error and the body's rotation error (the rotation vector of
 q_ref^-1 q, in the body's frame; z is the shell's axis, about which the robot turns its heading).
+
+``--inject`` asks which of the step's errors make that: the reference is run again, and at the end
+of every control step the errors that the probe's steps would have made in it are added, but only
+those of some rows of the state and some of the steps (each step is taken from the reference's
+state at its start, so its error is its own, not one carried from the steps before). The rows are
+taken in the locked rate (the variables the step integrates), so the legs' errors can be told from
+the body's. All rows from all steps make nearly the schedule's own run (the errors are small, so
+they add); each group of rows alone says what its errors cost, and the locked rate's errors from
+one step alone say where in the control step that cost is made.
 """
 
 from __future__ import annotations
@@ -37,11 +46,11 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.control import table2_gait
-from rrrobot_gym.simulation import SimConfig
+from rrrobot_gym.control import RampTargets, table2_gait
+from rrrobot_gym.simulation import SimConfig, simulate_reference
 
 from ._common import contact_error, fmt, machine, markdown_table, parser, reference, write_json
-from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Setting, policy_episode, policy_rows, run_case
+from .exp_rosenbrock import CASES, ENV_STEP, POLICY_HEADINGS, Problem, Setting, env_step, policy_episode, policy_rows, run_case
 
 SHIPPED = (1, 1, 2, 2)
 """``timestep=1/60, start_halves=1``: the shipped options' 16 evaluations an env step."""
@@ -59,6 +68,81 @@ SCHEDULES = [
 DRIFT_HEADINGS = (0.0, 90.0)
 DRIFT_SCHEDULES = (SHIPPED, (1, 2, 4, 5))
 DRIFT_EVERY_S = 10.0
+ALL_ROWS = tuple(range(dynamics.STATE_SIZE))
+ROW_GROUPS = {
+    "contact and attitude (x, y, q)": (0, 1, 2, 3, 4, 5),
+    "legs (angles and rates)": (6, 7, 11, 12),
+    "locked rate": (8, 9, 10),
+}
+"""--inject: the rows whose errors are added, in the locked rate's variables (rows 8-10 Lambda)."""
+
+
+def inject_variants(steps: int) -> list[tuple[str, tuple, tuple]]:
+    """(label, rows, steps) of --inject's runs for a schedule of ``steps`` steps: all rows from all
+    steps, each of ROW_GROUPS from all steps, then the locked rate from each step alone."""
+    every = tuple(range(steps))
+    return ([("all rows", ALL_ROWS, every)] + [(name, rows, every) for name, rows in ROW_GROUPS.items()]
+            + [(f"locked rate, step {i + 1} only", ROW_GROUPS["locked rate"], (i,)) for i in every])  # fmt: skip
+
+
+def injected_run(job) -> np.ndarray:
+    """States (n + 1, V, 13) of the reference replay of one episode's ramps (each control step from
+    t = 0), solved step by step of a schedule in the ratio of ``weights``, with each of the
+    ``variants``' errors added at the end of its steps: those of the probe's ETDRK4-B step (in the
+    locked rate) from the same state, of the variant's rows only, in the locked rate's variables."""
+    config, start, starts, ends, dt, weights, variants = job
+    edges = np.concatenate([[0], np.cumsum(weights)]) * dt / sum(weights)
+    masks = np.zeros((len(variants), len(weights), dynamics.STATE_SIZE))
+    for v, (_, rows, steps) in enumerate(variants):
+        masks[np.ix_([v], steps, rows)] = 1.0
+    one_step = Setting("etdrk4b", "servo", (1,), locked=True)
+    state = np.repeat(np.asarray(start, dtype=float)[None], len(variants), axis=0)
+    out = [state.copy()]
+    for ramp_start, ramp_end in zip(starts, ends):
+        problem = Problem(config, RampTargets(ramp_start, ramp_end, 0.0, dt), locked=True)
+        for i, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+            # the reference over [a, b]: the same ramp, its clock started at a
+            batch = RampTargets(np.repeat([ramp_start], len(variants), 0), np.repeat([ramp_end], len(variants), 0), -a, dt)
+            exact = simulate_reference(config, batch, b - a, state=state, sample_dt=b - a).states[-1]
+            for v in np.flatnonzero(masks[:, i].any(axis=1)):
+                step = problem.to_locked(env_step(problem, np.append(state[v], a), one_step, b - a), 1.0)
+                end = problem.to_locked(np.append(exact[v], b), 1.0)
+                end[:-1] += masks[v, i] * (step - end)[:-1]
+                end[dynamics.QUAT] /= np.linalg.norm(end[dynamics.QUAT])
+                exact[v] = problem.to_locked(end, -1.0)[:-1]
+            state = exact
+        out.append(state.copy())
+    return np.array(out)
+
+
+def inject_rows(workers: int, seconds: float) -> list[dict]:
+    """--inject's rows: along DRIFT_HEADINGS, each of DRIFT_SCHEDULES, each of its variants, and the
+    schedule's own run: contact error at the end and its maximum, and the body z rotation at the end."""
+    from agents.ppo import load_ppo_agent
+
+    from .policy_replay import MODEL, replay, rollouts
+
+    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
+    refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
+    cases = [(weights, j) for weights in DRIFT_SCHEDULES for j in range(len(start))]
+    own_jobs = [(Setting("etdrk4b", "servo", w, locked=True), sim, start[j], starts[j], ends[j], dt) for w, j in cases]
+    jobs = [(sim, start[j], starts[j], ends[j], dt, w, inject_variants(len(w))) for w, j in cases]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        owns = [states for states, _ in pool.map(policy_episode, own_jobs)]
+        injected = list(pool.map(injected_run, jobs))
+    rows = []
+    for (weights, j), own, runs, job in zip(cases, owns, injected, jobs):
+        ref = refs[:, j]
+        labelled = [("the schedule's own run", own)] + [(label, runs[:, v]) for v, (label, _, _) in enumerate(job[-1])]
+        for label, path in labelled:
+            contact = contact_error(path, ref)
+            rows.append({"weights": weights, "heading_deg": DRIFT_HEADINGS[j], "injected": label,
+                         "contact_end_m": float(contact[-1]), "contact_max_m": float(contact.max()),
+                         "body_z_rotation_end_rad": float(body_rotation_error(path[-1], ref[-1])[2])})  # fmt: skip
+            r = rows[-1]
+            print(f"{':'.join(map(str, weights))} along {r['heading_deg']:g} deg, {label}: contact {r['contact_end_m'] * 1e3:.3g} mm "
+                  f"(max {r['contact_max_m'] * 1e3:.3g}), body z {r['body_z_rotation_end_rad'] * 1e3:.3g} mrad", flush=True)  # fmt: skip
+    return rows
 
 
 def body_rotation_error(states, ref) -> np.ndarray:
@@ -101,9 +185,25 @@ def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
     p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
-    p.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
+    mode = p.add_mutually_exclusive_group()
+    mode.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
+    mode.add_argument("--inject", action="store_true", help="instead of the tables: the errors of some rows and steps alone, added to the reference")
     args = p.parse_args(argv)
     seconds = 10.0 if args.quick else 50.0
+    if args.inject:
+        rows = inject_rows(args.workers, seconds)
+        table = markdown_table(
+            ["steps of a control step (ratio)", "heading (deg)", "errors added to the reference", f"contact error at {seconds:g} s (mm)",
+             "max (mm)", f"body z rotation at {seconds:g} s (mrad)"],
+            [[":".join(map(str, r["weights"])), f"{r['heading_deg']:g}", r["injected"], fmt(r["contact_end_m"] * 1e3),
+              fmt(r["contact_max_m"] * 1e3), fmt(r["body_z_rotation_end_rad"] * 1e3)] for r in rows],
+        )  # fmt: skip
+        print(table)
+        if args.markdown:
+            with open(args.markdown, "w") as fh:
+                fh.write(f"`python -m benchmarks.graded_schedule --inject{' --quick' if args.quick else ''}`\n\n{table}\n")
+        write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
+        return
     if args.drift:
         rows = drift_rows(args.workers, seconds)
         table = markdown_table(
