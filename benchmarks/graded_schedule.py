@@ -181,6 +181,15 @@ def drift_rows(workers: int, seconds: float) -> list[dict]:
     return rows
 
 
+def _write_mode(args, flag: str, table: str, rows: list[dict], seconds: float):
+    """Print a mode's table and write it as Markdown and its rows as JSON, if asked."""
+    print(table)
+    if args.markdown:
+        with open(args.markdown, "w") as fh:
+            fh.write(f"`python -m benchmarks.graded_schedule {flag}{' --quick' if args.quick else ''}`\n\n{table}\n")
+    write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
+
+
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
@@ -198,12 +207,7 @@ def main(argv=None):
             [[":".join(map(str, r["weights"])), f"{r['heading_deg']:g}", r["injected"], fmt(r["contact_end_m"] * 1e3),
               fmt(r["contact_max_m"] * 1e3), fmt(r["body_z_rotation_end_rad"] * 1e3)] for r in rows],
         )  # fmt: skip
-        print(table)
-        if args.markdown:
-            with open(args.markdown, "w") as fh:
-                fh.write(f"`python -m benchmarks.graded_schedule --inject{' --quick' if args.quick else ''}`\n\n{table}\n")
-        write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
-        return
+        return _write_mode(args, "--inject", table, rows, seconds)
     if args.drift:
         rows = drift_rows(args.workers, seconds)
         table = markdown_table(
@@ -212,12 +216,7 @@ def main(argv=None):
             [[":".join(map(str, r["weights"])), f"{r['heading_deg']:g}", f"{r['distance_m']:.2f}"]
              + [f"{fmt(c * 1e3)} / {fmt(z[2] * 1e3)}" for c, z in zip(r["contact_m"], r["body_rotation_rad"])] for r in rows],
         )  # fmt: skip
-        print(table)
-        if args.markdown:
-            with open(args.markdown, "w") as fh:
-                fh.write(f"`python -m benchmarks.graded_schedule --drift{' --quick' if args.quick else ''}`\n\n{table}\n")
-        write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
-        return
+        return _write_mode(args, "--drift", table, rows, seconds)
     settings = [Setting("etdrk4b", jacobian, weights, "coarse", locked=True) for jacobian, weights in SCHEDULES]
     gait_settings = [s for s in settings if s.jacobian == "servo"]
     for model, gait in CASES:  # fill the reference cache before the workers read it
