@@ -29,14 +29,15 @@ shipped schedule and the closest one of four steps, the whole state against the 
 every DRIFT_EVERY_S: the contact error and the body's rotation error (the rotation vector of
 q_ref^-1 q, in the body's frame; z is the shell's axis, about which the robot turns its heading).
 
-``--inject`` asks which of the step's errors make that: the reference is run again, and at the end
-of every control step the errors that the probe's steps would have made in it are added, but only
-those of some rows of the state and some of the steps (each step is taken from the reference's
-state at its start, so its error is its own, not one carried from the steps before). The rows are
-taken in the locked rate (the variables the step integrates), so the legs' errors can be told from
-the body's. All rows from all steps make nearly the schedule's own run (the errors are small, so
-they add); each group of rows alone says what its errors cost, and the locked rate's errors from
-one step alone say where in the control step that cost is made.
+``--inject`` asks which of the step's errors make that: the reference is run again, step by step
+of a schedule, and at the end of each of its steps the error that the probe's step makes from the
+same state (the injected run's own state at that step's start) is added, but only in some rows of
+the state and for some of the steps. The rows are taken in the locked rate's variables (those the
+step integrates), so the legs' errors can be told from the body's. All rows of all steps give the
+schedule's own run, to rounding (each step then ends where the probe's step ends). Each group of
+rows alone says what its errors cost (the errors are small, so the groups' runs about add up to
+the whole), and the locked rate's errors from one step alone say where in the control step that
+cost is made.
 """
 
 from __future__ import annotations
@@ -86,10 +87,10 @@ def inject_variants(steps: int) -> list[tuple[str, tuple, tuple]]:
 
 
 def injected_run(job) -> np.ndarray:
-    """States (n + 1, V, 13) of the reference replay of one episode's ramps (each control step from
-    t = 0), solved step by step of a schedule in the ratio of ``weights``, with each of the
-    ``variants``' errors added at the end of its steps: those of the probe's ETDRK4-B step (in the
-    locked rate) from the same state, of the variant's rows only, in the locked rate's variables."""
+    """States (n + 1, V, 13), V = len(variants), of the reference replay of one episode's ramps
+    (each control step from t = 0), solved step by step of a schedule in the ratio of ``weights``.
+    A variant is (label, rows, steps, 0-based): at the end of each of its steps, its rows are set,
+    in the locked rate's variables, to where one probe ETDRK4-B step from the same state ends."""
     config, start, starts, ends, dt, weights, variants = job
     edges = np.concatenate([[0], np.cumsum(weights)]) * dt / sum(weights)
     masks = np.zeros((len(variants), len(weights), dynamics.STATE_SIZE))
@@ -196,7 +197,7 @@ def main(argv=None):
     p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
-    mode.add_argument("--inject", action="store_true", help="instead of the tables: the errors of some rows and steps alone, added to the reference")
+    mode.add_argument("--inject", action="store_true", help="instead of the tables: the reference with the probe's step errors of chosen rows and steps added (which errors make the miss at 16)")
     args = p.parse_args(argv)
     seconds = 10.0 if args.quick else 50.0
     if args.inject:

@@ -486,7 +486,8 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
     at each step's end, the errors of some rows the probe's step makes from the same state. With
     every row of every step that is the probe's own run (to rounding); with none, the reference;
     the rows are chosen in the locked rate's variables, so the legs' errors leave the locked rate
-    as it was; and the row groups' runs add up to the whole (the errors are small)."""
+    as it was; and the row groups' runs, and the locked rate's runs of one step each, add up to
+    their whole (the errors are small)."""
     from benchmarks import exp_rosenbrock as probe
     from benchmarks import graded_schedule as bench
     from rrrobot_gym.control import RampTargets
@@ -496,11 +497,11 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
     start[6:13] = (0.3, 2.0, 0.2, -0.1, 0.3, 2.0, -3.0)
     ramps = np.array([(1.0, 2.0), (1.5, 1.2), (0.4, 1.9), (1.2, 1.0)])
     weights = (1, 1, 2, 2)
-    every = tuple(range(len(weights)))
     assert sorted(sum(bench.ROW_GROUPS.values(), ())) == list(bench.ALL_ROWS)
     legs = bench.ROW_GROUPS["legs (angles and rates)"]
-    variants = [("all", bench.ALL_ROWS, every), ("none", (), ()), ("legs, last step", legs, (3,))]
-    variants += [(name, rows, every) for name, rows in bench.ROW_GROUPS.items()]
+    variants = bench.inject_variants(len(weights))  # all rows, the groups, the locked rate step by step
+    labels = [label for label, _, _ in variants]
+    variants += [("none", (), ()), ("legs, last step", legs, (3,))]
     runs = bench.injected_run((config, start, ramps[:-1], ramps[1:], 0.05, weights, variants))
     setting = probe.Setting("etdrk4b", "servo", weights, locked=True)
     own, _ = probe.policy_episode((setting, config, start, ramps[:-1], ramps[1:], 0.05))
@@ -509,18 +510,25 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
         ref.append(simulate_reference(config, RampTargets(a, b, 0.0, 0.05), 0.05, state=ref[-1], sample_dt=0.05).states[-1])
     assert np.abs(own - ref).max() > 1e-3  # the probe's steps are well off the reference here
     np.testing.assert_allclose(runs[:, 0], own, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(runs[:, 1], ref, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(runs[:, -2], ref, rtol=0, atol=1e-9)
     # After one control step, the legs' errors of its last step alone: in the locked rate's
     # variables only the legs' rows have moved.
     k = dynamics.constants(config.robot, config.depth)
-    locked = runs[1, 1:3].copy()
+    locked = runs[1, -2:].copy()
     for row in locked:
         simulation._to_locked(row, k, 1.0)
     moved = np.abs(locked[1] - locked[0])
     assert moved[list(legs)].min() > 1e-6
     assert np.delete(moved, legs).max() < 1e-14
-    groups = sum(runs[-1, v, :2] - runs[-1, 1, :2] for v in range(3, 3 + len(bench.ROW_GROUPS)))
-    np.testing.assert_allclose(groups, runs[-1, 0, :2] - runs[-1, 1, :2], rtol=0.05)
+
+    def deviation(label):  # the contact's end point against the reference's, m
+        return runs[-1, labels.index(label), :2] - runs[-1, -2, :2]
+
+    groups = sum(deviation(name) for name in bench.ROW_GROUPS)
+    np.testing.assert_allclose(groups, deviation("all rows"), rtol=0.05)
+    steps = sum(deviation(f"locked rate, step {i + 1} only") for i in range(len(weights)))
+    assert np.abs(deviation("locked rate")).max() > 1e-6
+    np.testing.assert_allclose(steps, deviation("locked rate"), rtol=0.01)
 
 
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
