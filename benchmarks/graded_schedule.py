@@ -1,6 +1,6 @@
 """Where in a control step the evaluations go: graded ETDRK4-B steps on a policy's path (issue 10).
 
-    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W] [--drift | --inject]
+    python -m benchmarks.graded_schedule [--quick] [--json FILE] [--markdown FILE] [--workers W] [--drift | --inject] [--schedule W:W:...]
 
 A probe of the "at most 16 derivative evaluations an env step" aim on the path where the shipped
 steps miss it: the shipped policy's leg-target ramps (``benchmarks.policy_replay``; needs the
@@ -42,6 +42,7 @@ cost is made.
 
 from __future__ import annotations
 
+import argparse
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -116,8 +117,8 @@ def injected_run(job) -> np.ndarray:
     return np.array(out)
 
 
-def inject_rows(workers: int, seconds: float) -> list[dict]:
-    """--inject's rows: along DRIFT_HEADINGS, each of DRIFT_SCHEDULES, each of its variants, and the
+def inject_rows(workers: int, seconds: float, schedules=DRIFT_SCHEDULES) -> list[dict]:
+    """--inject's rows: along DRIFT_HEADINGS, each of ``schedules``, each of its variants, and the
     schedule's own run: contact error at the end and its maximum, and the body z rotation at the end."""
     from agents.ppo import load_ppo_agent
 
@@ -125,7 +126,7 @@ def inject_rows(workers: int, seconds: float) -> list[dict]:
 
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
     refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
-    cases = [(weights, j) for weights in DRIFT_SCHEDULES for j in range(len(start))]
+    cases = [(weights, j) for weights in schedules for j in range(len(start))]
     own_jobs = [(Setting("etdrk4b", "servo", w, locked=True), sim, start[j], starts[j], ends[j], dt) for w, j in cases]
     jobs = [(sim, start[j], starts[j], ends[j], dt, w, inject_variants(len(w))) for w, j in cases]
     with ProcessPoolExecutor(max_workers=workers) as pool:
@@ -153,7 +154,7 @@ def body_rotation_error(states, ref) -> np.ndarray:
     return 2.0 * np.sign(relative[..., :1]) * relative[..., 1:]
 
 
-def drift_rows(workers: int, seconds: float) -> list[dict]:
+def drift_rows(workers: int, seconds: float, schedules=DRIFT_SCHEDULES) -> list[dict]:
     """Contact error and body rotation error every DRIFT_EVERY_S along DRIFT_HEADINGS."""
     from agents.ppo import load_ppo_agent
 
@@ -162,12 +163,12 @@ def drift_rows(workers: int, seconds: float) -> list[dict]:
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
     refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
     jobs = [(Setting("etdrk4b", "servo", weights, locked=True), sim, start[j], starts[j], ends[j], dt)
-            for weights in DRIFT_SCHEDULES for j in range(len(start))]  # fmt: skip
+            for weights in schedules for j in range(len(start))]  # fmt: skip
     with ProcessPoolExecutor(max_workers=workers) as pool:
         paths = [states for states, _ in pool.map(policy_episode, jobs)]
     every = round(DRIFT_EVERY_S / dt)
     rows = []
-    for i, weights in enumerate(DRIFT_SCHEDULES):
+    for i, weights in enumerate(schedules):
         for j, heading in enumerate(DRIFT_HEADINGS):
             ref, path = refs[:, j], paths[i * len(start) + j]
             samples = np.arange(every, len(ref), every)
@@ -182,12 +183,24 @@ def drift_rows(workers: int, seconds: float) -> list[dict]:
     return rows
 
 
+def _ratio(text: str) -> tuple[int, ...]:
+    """A schedule's weights from "1:2:4:5": positive whole numbers."""
+    try:
+        weights = tuple(int(w) for w in text.split(":"))
+    except ValueError:
+        weights = ()
+    if not weights or min(weights) < 1:
+        raise argparse.ArgumentTypeError(f"a schedule is positive whole numbers joined by ':', e.g. 1:2:4:5, got {text!r}")
+    return weights
+
+
 def _write_mode(args, flag: str, table: str, rows: list[dict], seconds: float):
     """Print a mode's table and write it as Markdown and its rows as JSON, if asked."""
     print(table)
     if args.markdown:
         with open(args.markdown, "w") as fh:
-            fh.write(f"`python -m benchmarks.graded_schedule {flag}{' --quick' if args.quick else ''}`\n\n{table}\n")
+            schedules = "".join(f" --schedule {':'.join(map(str, w))}" for w in args.schedule or ())
+            fh.write(f"`python -m benchmarks.graded_schedule {flag}{schedules}{' --quick' if args.quick else ''}`\n\n{table}\n")
     write_json(args.json, {"machine": machine(), "duration_s": seconds, "rows": rows})
 
 
@@ -198,10 +211,15 @@ def main(argv=None):
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
     mode.add_argument("--inject", action="store_true", help="instead of the tables: the reference with the probe's step errors of chosen rows and steps added (which errors make the miss at 16)")
+    p.add_argument("--schedule", action="append", type=_ratio, metavar="W:W:...",
+                   help="with --drift or --inject: a control step's steps in this ratio, e.g. 1:1:1:1:2:2:2:2 "
+                   "(repeat for more; default the shipped 1:1:2:2 and 1:2:4:5)")  # fmt: skip
     args = p.parse_args(argv)
+    if args.schedule and not (args.drift or args.inject):
+        p.error("--schedule applies to --drift and --inject (the tables run their own SCHEDULES)")
     seconds = 10.0 if args.quick else 50.0
     if args.inject:
-        rows = inject_rows(args.workers, seconds)
+        rows = inject_rows(args.workers, seconds, args.schedule or DRIFT_SCHEDULES)
         table = markdown_table(
             ["steps of a control step (ratio)", "heading (deg)", "errors added to the reference", f"contact error at {seconds:g} s (mm)",
              "max (mm)", f"body z rotation at {seconds:g} s (mrad)"],
@@ -210,7 +228,7 @@ def main(argv=None):
         )  # fmt: skip
         return _write_mode(args, "--inject", table, rows, seconds)
     if args.drift:
-        rows = drift_rows(args.workers, seconds)
+        rows = drift_rows(args.workers, seconds, args.schedule or DRIFT_SCHEDULES)
         table = markdown_table(
             ["steps of a control step (ratio)", "heading (deg)", "start to end (m)"]
             + [f"{t:g} s: contact (mm) / body z rotation (mrad)" for t in rows[0]["times_s"]],

@@ -531,6 +531,24 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
     np.testing.assert_allclose(steps, deviation("locked rate"), rtol=0.01)
 
 
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--inject", "--schedule", "1:0:2"], "positive whole numbers joined by ':'"),
+        (["--drift", "--schedule", "1:two"], "got '1:two'"),
+        (["--schedule", "1:2:4:5"], "--schedule applies to --drift and --inject"),
+    ],
+)
+def test_the_probes_schedule_option_names_what_is_wrong(argv, message, capsys):
+    """graded_schedule's --schedule (steps of a control step in a ratio) refuses a step of no
+    length, a word, and a table run that takes its own schedules, before any run starts."""
+    from benchmarks import graded_schedule
+
+    with pytest.raises(SystemExit):
+        graded_schedule.main(argv)
+    assert message in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
 def test_the_exponential_step_is_stable_under_bang_bang_targets_at_1_80_s(gains):
     """Leg targets slammed between 0 and pi every control step (24 robots, the batch path), at 1/80 s:
