@@ -213,7 +213,7 @@ def main(argv=None):
     mode.add_argument("--inject", action="store_true", help="instead of the tables: the reference with the probe's step errors of chosen rows and steps added (which errors make the miss at 16)")
     p.add_argument("--schedule", action="append", type=_ratio, metavar="W:W:...",
                    help="with --drift or --inject: a control step's steps in this ratio, e.g. 1:1:1:1:2:2:2:2 "
-                   "(repeat for more; default the shipped 1:1:2:2 and 1:2:4:5)")  # fmt: skip
+                   "(repeat for more; default 1:1:2:2, the shipped 16, and 1:2:4:5)")  # fmt: skip
     args = p.parse_args(argv)
     if args.schedule and not (args.drift or args.inject):
         p.error("--schedule applies to --drift and --inject (the tables run their own SCHEDULES)")
