@@ -102,9 +102,10 @@ def injected_run(job) -> np.ndarray:
     out = [state.copy()]
     for ramp_start, ramp_end in zip(starts, ends):
         problem = Problem(config, RampTargets(ramp_start, ramp_end, 0.0, dt), locked=True)
+        batch_start, batch_end = (np.repeat([ramp], len(variants), axis=0) for ramp in (ramp_start, ramp_end))
         for i, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
             # the reference over [a, b]: the same ramp, its clock started at a
-            batch = RampTargets(np.repeat([ramp_start], len(variants), 0), np.repeat([ramp_end], len(variants), 0), -a, dt)
+            batch = RampTargets(batch_start, batch_end, -a, dt)
             exact = simulate_reference(config, batch, b - a, state=state, sample_dt=b - a).states[-1]
             for v in np.flatnonzero(masks[:, i].any(axis=1)):
                 step = problem.to_locked(env_step(problem, np.append(state[v], a), one_step, b - a), 1.0)
@@ -117,25 +118,35 @@ def injected_run(job) -> np.ndarray:
     return np.array(out)
 
 
-def inject_rows(workers: int, seconds: float, schedules=DRIFT_SCHEDULES) -> list[dict]:
-    """--inject's rows: along DRIFT_HEADINGS, each of ``schedules``, each of its variants, and the
-    schedule's own run: contact error at the end and its maximum, and the body z rotation at the end."""
+def _schedule_runs(workers: int, seconds: float, schedules):
+    """What --drift and --inject share: the shipped policy's ramps along DRIFT_HEADINGS for
+    ``seconds`` ((simulator config, starts' states, ramp starts, ramp ends, control step)), the
+    reference's whole states (n + 1, N, 13), the (weights, heading index) of each of ``schedules``
+    along each heading, and those runs' whole states (the probe's ETDRK4-B in the locked rate)."""
     from agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, replay, rollouts
 
     _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
-    refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
+    refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)
     cases = [(weights, j) for weights in schedules for j in range(len(start))]
-    own_jobs = [(Setting("etdrk4b", "servo", w, locked=True), sim, start[j], starts[j], ends[j], dt) for w, j in cases]
+    jobs = [(Setting("etdrk4b", "servo", w, locked=True), sim, start[j], starts[j], ends[j], dt) for w, j in cases]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        paths = [states for states, _ in pool.map(policy_episode, jobs)]
+    return (sim, start, starts, ends, dt), refs, cases, paths
+
+
+def inject_rows(workers: int, seconds: float, schedules=DRIFT_SCHEDULES) -> list[dict]:
+    """--inject's rows: along DRIFT_HEADINGS, each of ``schedules``, each of its variants, and the
+    schedule's own run: contact error at the end and its maximum, and the body z rotation at the end."""
+    (sim, start, starts, ends, dt), refs, cases, owns = _schedule_runs(workers, seconds, schedules)
     jobs = [(sim, start[j], starts[j], ends[j], dt, w, inject_variants(len(w))) for w, j in cases]
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        owns = [states for states, _ in pool.map(policy_episode, own_jobs)]
         injected = list(pool.map(injected_run, jobs))
     rows = []
-    for (weights, j), own, runs, job in zip(cases, owns, injected, jobs):
+    for (weights, j), own, runs, (*_, variants) in zip(cases, owns, injected, jobs):
         ref = refs[:, j]
-        labelled = [("the schedule's own run", own)] + [(label, runs[:, v]) for v, (label, _, _) in enumerate(job[-1])]
+        labelled = [("the schedule's own run", own)] + [(label, runs[:, v]) for v, (label, _, _) in enumerate(variants)]
         for label, path in labelled:
             contact = contact_error(path, ref)
             rows.append({"weights": weights, "heading_deg": DRIFT_HEADINGS[j], "injected": label,
@@ -156,30 +167,21 @@ def body_rotation_error(states, ref) -> np.ndarray:
 
 def drift_rows(workers: int, seconds: float, schedules=DRIFT_SCHEDULES) -> list[dict]:
     """Contact error and body rotation error every DRIFT_EVERY_S along DRIFT_HEADINGS."""
-    from agents.ppo import load_ppo_agent
-
-    from .policy_replay import MODEL, replay, rollouts
-
-    _, start, starts, ends, dt, sim = rollouts(load_ppo_agent(MODEL), DRIFT_HEADINGS, round(seconds / ENV_STEP))
-    refs, _ = replay(sim, start, starts, ends, dt, reference=True, whole=True)  # (n + 1, N, 13)
-    jobs = [(Setting("etdrk4b", "servo", weights, locked=True), sim, start[j], starts[j], ends[j], dt)
-            for weights in schedules for j in range(len(start))]  # fmt: skip
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        paths = [states for states, _ in pool.map(policy_episode, jobs)]
+    (*_, dt), refs, cases, paths = _schedule_runs(workers, seconds, schedules)
     every = round(DRIFT_EVERY_S / dt)
     rows = []
-    for i, weights in enumerate(schedules):
-        for j, heading in enumerate(DRIFT_HEADINGS):
-            ref, path = refs[:, j], paths[i * len(start) + j]
-            samples = np.arange(every, len(ref), every)
-            contact = contact_error(path[samples], ref[samples])
-            rotation = body_rotation_error(path[samples], ref[samples])
-            rows.append({"weights": weights, "heading_deg": heading, "times_s": (samples * dt).tolist(),
-                         "contact_m": contact.tolist(), "body_rotation_rad": rotation.tolist(),
-                         "distance_m": float(np.hypot(*(ref[-1, :2] - ref[0, :2])))})  # fmt: skip
-            print(f"{':'.join(map(str, weights))} along {heading:g} deg: "
-                  + ", ".join(f"{t:g} s {c * 1e3:.3g} mm, z {r[2] * 1e3:.3g} mrad" for t, c, r in zip(rows[-1]["times_s"], contact, rotation)),
-                  flush=True)  # fmt: skip
+    for (weights, j), path in zip(cases, paths):
+        heading = DRIFT_HEADINGS[j]
+        ref = refs[:, j]
+        samples = np.arange(every, len(ref), every)
+        contact = contact_error(path[samples], ref[samples])
+        rotation = body_rotation_error(path[samples], ref[samples])
+        rows.append({"weights": weights, "heading_deg": heading, "times_s": (samples * dt).tolist(),
+                     "contact_m": contact.tolist(), "body_rotation_rad": rotation.tolist(),
+                     "distance_m": float(np.hypot(*(ref[-1, :2] - ref[0, :2])))})  # fmt: skip
+        print(f"{':'.join(map(str, weights))} along {heading:g} deg: "
+              + ", ".join(f"{t:g} s {c * 1e3:.3g} mm, z {r[2] * 1e3:.3g} mrad" for t, c, r in zip(rows[-1]["times_s"], contact, rotation)),
+              flush=True)  # fmt: skip
     return rows
 
 
