@@ -490,7 +490,7 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
     their whole (the errors are small)."""
     from benchmarks import exp_rosenbrock as probe
     from benchmarks import graded_schedule as bench
-    from rrrobot_gym.control import RampTargets
+    from benchmarks.policy_replay import replay
 
     config = SimConfig()
     start = simulation.initial_state()
@@ -505,9 +505,7 @@ def test_the_injection_probe_splits_a_run_into_its_steps_errors():
     runs = bench.injected_run((config, start, ramps[:-1], ramps[1:], 0.05, weights, variants))
     setting = probe.Setting("etdrk4b", "servo", weights, locked=True)
     own, _ = probe.policy_episode((setting, config, start, ramps[:-1], ramps[1:], 0.05))
-    ref = [start]
-    for a, b in zip(ramps[:-1], ramps[1:]):
-        ref.append(simulate_reference(config, RampTargets(a, b, 0.0, 0.05), 0.05, state=ref[-1], sample_dt=0.05).states[-1])
+    ref = replay(config, start[None], ramps[None, :-1], ramps[None, 1:], 0.05, reference=True, whole=True)[0][:, 0]
     assert np.abs(own - ref).max() > 1e-3  # the probe's steps are well off the reference here
     np.testing.assert_allclose(runs[:, 0], own, rtol=0, atol=1e-12)
     np.testing.assert_allclose(runs[:, -2], ref, rtol=0, atol=1e-9)
