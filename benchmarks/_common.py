@@ -60,11 +60,29 @@ def gentle_actions(rng, shape, steps):
     return (0.05 * np.sin(0.4 * k + phase)).astype(np.float32)
 
 
-def parser(description: str) -> argparse.ArgumentParser:
+def parser(description: str, markdown: bool = False, workers: bool = False) -> argparse.ArgumentParser:
+    """The options every benchmark takes (--quick, --json), and those of the accuracy probes that
+    write Markdown tables (``markdown``) and spread their runs over processes (``workers``)."""
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--quick", action="store_true", help="fewer, shorter runs (under a minute)")
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    if markdown:
+        p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
+    if workers:
+        p.add_argument("--workers", type=_process_count, default=2, metavar="W",
+                       help="processes for the runs (the results do not depend on it; default 2)")  # fmt: skip
     return p
+
+
+def _process_count(text: str) -> int:
+    """--workers: a whole number >= 1, refused by name otherwise (not ProcessPoolExecutor's error later)."""
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number of processes >= 1, got {text!r}")
+    return count
 
 
 def write_json(path: str | None, payload: dict):

@@ -201,9 +201,7 @@ def policy_case(passes: int, duration: float = 10.0):
 
 
 def main(argv=None):
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
-    p.add_argument("--workers", type=int, default=2, help="processes for the cases (errors do not depend on it)")
+    p = parser(__doc__.splitlines()[0], markdown=True, workers=True)
     p.add_argument("--policy", action="store_true", help="also the shipped policy's first 10 s (needs the train extra)")
     args = p.parse_args(argv)
     duration = 10.0 if args.quick else 50.0

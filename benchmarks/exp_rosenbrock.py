@@ -333,9 +333,7 @@ def policy_rows(workers: int, settings=POLICY_SETTINGS, seconds: float = POLICY_
 
 
 def main(argv=None):
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
-    p.add_argument("--workers", type=int, default=2, help="processes for the cases (errors do not depend on it)")
+    p = parser(__doc__.splitlines()[0], markdown=True, workers=True)
     p.add_argument("--policy", action="store_true", help=f"also the shipped policy's first {POLICY_S:g} s (needs the train extra)")
     args = p.parse_args(argv)
     duration = 10.0 if args.quick else 50.0

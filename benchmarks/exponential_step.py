@@ -281,9 +281,7 @@ def report(title: str, module: str, argv=None, gait_settings=GAIT_SETTINGS, batc
            policy_settings=POLICY_SETTINGS, envelope_settings=ENVELOPE_SETTINGS):
     """Parse the command line, run the parts with these settings (as the module constants), print and
     write the tables: the work of this module's main, shared with ``benchmarks.locked_rate``."""
-    p = parser(title)
-    p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
-    p.add_argument("--workers", type=int, default=2, help="processes for the gait cases (errors do not depend on it)")
+    p = parser(title, markdown=True, workers=True)
     p.add_argument("--policy", action="store_true", help="also the shipped policy's replay (needs the train extra)")
     args = p.parse_args(argv)
     duration = 10.0 if args.quick else 50.0

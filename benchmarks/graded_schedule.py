@@ -207,9 +207,7 @@ def _write_mode(args, flag: str, table: str, rows: list[dict], seconds: float):
 
 
 def main(argv=None):
-    p = parser(__doc__.splitlines()[0])
-    p.add_argument("--markdown", metavar="FILE", help="write the table as Markdown")
-    p.add_argument("--workers", type=int, default=2, help="processes (errors do not depend on it)")
+    p = parser(__doc__.splitlines()[0], markdown=True, workers=True)
     mode = p.add_mutually_exclusive_group()
     mode.add_argument("--drift", action="store_true", help="instead of the tables: the heading and contact errors along two headings every 10 s")
     mode.add_argument("--inject", action="store_true", help="instead of the tables: the reference with the probe's step errors of chosen rows and steps added (which errors make the miss at 16)")

@@ -178,9 +178,8 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
 
 
 def main(argv=None):
-    p = parser(__doc__.splitlines()[0])
+    p = parser(__doc__.splitlines()[0], markdown=True)
     p.add_argument("--plot", metavar="FILE", help="write the log-log plot (PNG)")
-    p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
     p.add_argument("--gains", nargs=2, type=float, metavar=("KP", "KD"), help="a servo of these PD gains (servo legs only)")
     args = p.parse_args(argv)
     gains = None if args.gains is None else PDGains(kp=args.gains[0], kd=args.gains[1])

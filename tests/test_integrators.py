@@ -547,6 +547,22 @@ def test_the_probes_schedule_option_names_what_is_wrong(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("bad", ["0", "-2", "two", "1.5"])
+@pytest.mark.parametrize("probe", ["dynamic_iteration", "exp_rosenbrock", "exponential_step", "graded_schedule"])
+def test_the_probes_refuse_a_process_count_below_one_by_name(probe, bad, capsys):
+    """The accuracy probes' shared --workers (benchmarks._common.parser) takes a whole number of
+    processes >= 1 and refuses anything else before a run starts, naming the option and the value
+    (not ProcessPoolExecutor's error minutes later); a good count reaches the probe as a number."""
+    import importlib
+
+    from benchmarks._common import parser
+
+    with pytest.raises(SystemExit):
+        importlib.import_module(f"benchmarks.{probe}").main(["--workers", bad])
+    err = capsys.readouterr().err
+    assert "--workers" in err and f"got {bad!r}" in err
+    assert parser("probe", workers=True).parse_args(["--workers", "3"]).workers == 3
+
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
 def test_the_exponential_step_is_stable_under_bang_bang_targets_at_1_80_s(gains):
     """Leg targets slammed between 0 and pi every control step (24 robots, the batch path), at 1/80 s:
