@@ -430,11 +430,12 @@ def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets)
 
 
 @pytest.mark.parametrize(
-    "step, halves, weights", [(1 / 60, 1, (1, 1, 2, 2)), (1 / 60, 2, (1, 1, 1, 1, 2)), (1 / 80, 1, (1, 1, 2, 2, 2))]
+    "step, halves, weights",
+    [(1 / 60, 1, (1, 1, 2, 2)), (1 / 60, 2, (1, 1, 1, 1, 2)), (1 / 80, 1, (1, 1, 2, 2, 2)), (1 / 120, 2, (1, 1, 1, 1, 2, 2, 2, 2))],
 )
 def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, halves, weights):
     """benchmarks.graded_schedule compares schedules of the probe's ETDRK4-B (in the locked rate)
-    and names three of them shipped settings, the 16-evaluation one 1:1:2:2; each must be what
+    and names four of them shipped settings, the 16-evaluation one 1:1:2:2; each must be what
     its ``timestep`` and ``start_halves`` integrate: one control step of a ramp from a state far off
     its targets, the shipped step against the probe's (matrices and expm, sharing only the
     equations), and the benchmark's replay of two ramps (a Setting marked locked)."""
