@@ -64,7 +64,7 @@ def parser(description: str, markdown: bool = False, workers: bool = False) -> a
     """The options every benchmark takes (--quick, --json), and those of the accuracy probes that
     write Markdown tables (``markdown``) and spread their runs over processes (``workers``)."""
     p = argparse.ArgumentParser(description=description)
-    p.add_argument("--quick", action="store_true", help="fewer, shorter runs (under a minute)")
+    p.add_argument("--quick", action="store_true", help="fewer, shorter runs")
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     if markdown:
         p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")

@@ -10,7 +10,8 @@ version with ``locked=True``, which ``tests/test_integrators.py`` holds to the s
 each control step in steps whose lengths are in the ratio of a schedule's weights, shortest first.
 The shipped options give some of them: ``timestep=1/60, start_halves=1`` is 1:1:2:2 (16
 evaluations), ``1/60`` with ``start_halves=2`` is 1:1:1:1:2 and ``1/80`` with ``start_halves=1``
-1:1:2:2:2 (20). The others need a schedule the shipped steppers do not take.
+1:1:2:2:2 (20), ``1/120`` with ``start_halves=2`` 1:1:1:1:2:2:2:2 (32). The others need a schedule
+the shipped steppers do not take.
 
 Two questions, each answered by rows side by side:
 

@@ -435,12 +435,16 @@ def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets)
 )
 def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, halves, weights):
     """benchmarks.graded_schedule compares schedules of the probe's ETDRK4-B (in the locked rate)
-    and names four of them shipped settings, the 16-evaluation one 1:1:2:2; each must be what
-    its ``timestep`` and ``start_halves`` integrate: one control step of a ramp from a state far off
-    its targets, the shipped step against the probe's (matrices and expm, sharing only the
-    equations), and the benchmark's replay of two ramps (a Setting marked locked)."""
+    and the README names four of its rows shipped settings, the 16-evaluation one 1:1:2:2; each must
+    be a row of the benchmark's table and what its ``timestep`` and ``start_halves`` integrate: one
+    control step of a ramp from a state far off its targets, the shipped step against the probe's
+    (matrices and expm, sharing only the equations), and the benchmark's replay of two ramps (a
+    Setting marked locked)."""
     from benchmarks import exp_rosenbrock as probe
+    from benchmarks.graded_schedule import SCHEDULES
     from rrrobot_gym.control import RampTargets
+
+    assert ("servo", weights) in SCHEDULES
 
     targets = RampTargets((1.0, 2.0), (1.5, 1.2), 0.0, 0.05)
     start = simulation.initial_state()
@@ -548,21 +552,40 @@ def test_the_probes_schedule_option_names_what_is_wrong(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
+PROBES = ("dynamic_iteration", "exp_rosenbrock", "exponential_step", "locked_rate", "graded_schedule")
+"""The accuracy probes that take --markdown and --workers from benchmarks._common.parser."""
+
+
 @pytest.mark.parametrize("bad", ["0", "-2", "two", "1.5"])
-@pytest.mark.parametrize("probe", ["dynamic_iteration", "exp_rosenbrock", "exponential_step", "graded_schedule"])
+@pytest.mark.parametrize("probe", PROBES)
 def test_the_probes_refuse_a_process_count_below_one_by_name(probe, bad, capsys):
-    """The accuracy probes' shared --workers (benchmarks._common.parser) takes a whole number of
-    processes >= 1 and refuses anything else before a run starts, naming the option and the value
-    (not ProcessPoolExecutor's error minutes later); a good count reaches the probe as a number."""
+    """The accuracy probes' shared --workers takes a whole number of processes >= 1 and refuses
+    anything else as a usage error before a run starts, naming the option and the value (not
+    ProcessPoolExecutor's error after the reference cache is filled)."""
+    import importlib
+
+    with pytest.raises(SystemExit) as exit_info:
+        importlib.import_module(f"benchmarks.{probe}").main(["--quick", "--workers", bad])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--workers" in err and f"got {bad!r}" in err
+
+
+def test_the_probes_keep_their_shared_options(capsys):
+    """Each probe still offers --markdown and --workers (a probe that lost one would fail only at a
+    run's end, reading args), and the shared parser hands a good process count on as a number."""
     import importlib
 
     from benchmarks._common import parser
 
-    with pytest.raises(SystemExit):
-        importlib.import_module(f"benchmarks.{probe}").main(["--workers", bad])
-    err = capsys.readouterr().err
-    assert "--workers" in err and f"got {bad!r}" in err
+    for probe in PROBES:
+        with pytest.raises(SystemExit) as exit_info:
+            importlib.import_module(f"benchmarks.{probe}").main(["--help"])
+        assert exit_info.value.code == 0
+        out = capsys.readouterr().out
+        assert "--markdown FILE" in out and "--workers W" in out, probe
     assert parser("probe", workers=True).parse_args(["--workers", "3"]).workers == 3
+
 
 @pytest.mark.parametrize("gains", [PDGains(), STIFF], ids=["default", "stiff"])
 def test_the_exponential_step_is_stable_under_bang_bang_targets_at_1_80_s(gains):
