@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from rrrobot_gym import dynamics
+from rrrobot_gym.cli import _positive_int  # the CLI's check: --workers refused by name before a run starts
 from rrrobot_gym.simulation import SimConfig, simulate_reference
 
 CACHE_DIR = Path(os.environ.get("RRROBOT_BENCH_CACHE", Path(__file__).resolve().parent / ".cache"))
@@ -69,20 +70,9 @@ def parser(description: str, markdown: bool = False, workers: bool = False) -> a
     if markdown:
         p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
     if workers:
-        p.add_argument("--workers", type=_process_count, default=2, metavar="W",
+        p.add_argument("--workers", type=_positive_int, default=2, metavar="W",
                        help="processes for the runs (the results do not depend on it; default 2)")  # fmt: skip
     return p
-
-
-def _process_count(text: str) -> int:
-    """--workers: a whole number >= 1, refused by name otherwise (not ProcessPoolExecutor's error later)."""
-    try:
-        count = int(text)
-    except ValueError:
-        count = 0
-    if count < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number of processes >= 1, got {text!r}")
-    return count
 
 
 def write_json(path: str | None, payload: dict):
