@@ -92,7 +92,7 @@ GAIT_OFFSETS = {1: 0.5 * math.pi, 2: 0.0, 3: 0.25 * math.pi}
 
 def table2_gait(number: int, swapped: bool = False) -> Gait:
     """Gait 1, 2 or 3 of the paper's Table II, optionally with the legs' phases swapped."""
-    if number not in GAIT_OFFSETS:
+    if isinstance(number, bool) or not isinstance(number, (int, np.integer)) or number not in GAIT_OFFSETS:
         raise ValueError(f"unknown gait {number!r}: Table II has gaits 1, 2 and 3")
     gamma = GAIT_OFFSETS[number]
     gait = Gait(offset=(gamma, gamma), name=f"gait{number}")
@@ -108,7 +108,9 @@ class HeldTargets:
             raise ValueError(f"leg target angles must have shape (2,) or (N, 2), got {angles.shape}")
         if not np.all(np.isfinite(angles)):
             raise ValueError("leg target angles contain NaN or inf")
-        self._angles = tuple(angles.tolist()) if angles.ndim == 1 else (angles[:, 0].copy(), angles[:, 1].copy())
+        # (1, 2): one robot's targets, kept as numbers like (2,): every robot of a batch takes them
+        one = angles.ndim == 1 or angles.shape[0] == 1
+        self._angles = tuple(angles.reshape(2).tolist()) if one else (angles[:, 0].copy(), angles[:, 1].copy())
 
     def leg_targets(self, t):
         return self._angles, (0.0, 0.0), (0.0, 0.0)
@@ -183,6 +185,8 @@ class RampTargets:
         if not (math.isfinite(duration) and duration > 0.0):
             raise ValueError(f"ramp duration must be a positive number of seconds, got {duration}")
         self.t0, self.duration = float(t0), float(duration)
+        if start.ndim == 2 and start.shape[0] == 1:  # one robot's ramp: as (2,), every robot of a batch takes it
+            start, end = start[0], end[0]
         if start.ndim == 1:
             # One robot: Python floats throughout (the single env's every step; same arithmetic).
             (a1, a2), (b1, b2) = start.tolist(), end.tolist()

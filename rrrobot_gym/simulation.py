@@ -18,6 +18,7 @@ integrated on Python floats, which is several times faster than numpy at N = 1.
 
 from __future__ import annotations
 
+import cmath
 import ctypes
 import functools
 import math
@@ -144,6 +145,11 @@ class SimConfig:
                 f"integrator {self.integrator!r} steps the body's locked rate, the share of the momentum the leg "
                 "servo's torques do not reach; kinematic legs have no servo: use 'rk4'"
             )
+        if self.legs == "servo" and not math.isfinite(servo_fastest_rate(self.model, self.robot, self.gains)):
+            raise ValueError(
+                f"the leg servo's fastest pole overflows floating point (kp={self.gains.kp}, kd={self.gains.kd}, "
+                f"{self.model} model, {self.robot}): no step can follow it"
+            )
         if isinstance(self.timestep, str):
             if self.timestep != "auto":
                 raise ValueError(f"SimConfig.timestep must be a number of seconds or 'auto', got {self.timestep!r}")
@@ -194,14 +200,20 @@ def initial_state(num_robots: int | None = None, leg_angles=(0.5 * math.pi, 0.5 
 
     Returns shape (13,) when ``num_robots`` is None, else (num_robots, 13).
     """
+    try:
+        angles = np.array(leg_angles, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"leg_angles must be two numbers (rad), got {leg_angles!r}") from None
+    if angles.shape != (2,):
+        raise ValueError(f"leg_angles must be two numbers (rad), got shape {angles.shape}")
+    if not np.all(np.isfinite(angles)):
+        raise ValueError(f"leg_angles must be finite, got {leg_angles!r}")
     state = np.zeros(dynamics.STATE_SIZE)
     state[dynamics.QUAT] = (1.0, 0.0, 0.0, 0.0)
-    state[dynamics.LEG_ANGLES] = leg_angles
+    state[dynamics.LEG_ANGLES] = angles
     if num_robots is None:
         return state
-    if int(num_robots) != num_robots or num_robots < 1:
-        raise ValueError(f"num_robots must be a positive integer, got {num_robots!r}")
-    return np.tile(state, (int(num_robots), 1))
+    return np.tile(state, (whole_number("num_robots", num_robots), 1))
 
 
 def check_state(state):
@@ -219,8 +231,9 @@ def check_state(state):
     if not np.all(np.isfinite(arr)):
         raise ValueError("state contains NaN or inf")
     norm = np.linalg.norm(arr[..., dynamics.QUAT], axis=-1)
-    if np.any((norm < 0.5) | (norm > 2.0)):
-        raise ValueError(f"state quaternion (entries 2:6) must be a unit quaternion, got norm {norm.min():.3g}")
+    off = (norm < 0.5) | (norm > 2.0)
+    if np.any(off):
+        raise ValueError(f"state quaternion (entries 2:6) must be a unit quaternion, got norm {norm[off].flat[0]:.3g}")
     arr[..., dynamics.QUAT] /= norm[..., None]
     return arr
 
@@ -245,7 +258,13 @@ def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
     states[..., 3] = np.sin(0.5 * tilt_angle) * np.cos(axis_angle)
     states[..., 4] = np.sin(0.5 * tilt_angle) * np.sin(axis_angle)
     states[..., 6], states[..., 7] = phi1, phi2
-    mass = dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mass = dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model)
+    if not np.all(np.isfinite(mass)):  # (eigvalsh would fail on it as "did not converge")
+        raise ValueError(
+            f"the generalised mass matrix of {robot} ({model} model) overflows: masses times lengths squared "
+            f"must stay within floating point (are the lengths in m and the masses in kg?)"
+        )
     # Skip configurations where M is singular (e.g. no bottom mass and every mass on one
     # line): the dynamics is undefined there and no step size helps.
     eig = np.linalg.eigvalsh(mass)
@@ -268,7 +287,7 @@ def servo_poles(model: str, robot: RobotParams, gains: PDGains) -> tuple:
     """
     mu = _effective_leg_inverse_inertia(model, robot)
     disc = complex((gains.kd * mu) ** 2 - 4.0 * gains.kp * mu)
-    root = disc**0.5
+    root = cmath.sqrt(disc)  # (an overflowing discriminant gives an infinite pole, not OverflowError)
     return (0.5 * (-gains.kd * mu - root), 0.5 * (-gains.kd * mu + root))
 
 
@@ -1292,10 +1311,13 @@ def advance(
 
     Raises :class:`NumericalFailure` if the result is not finite.
     """
+    t0 = real_number("t0", t0)
+    duration = real_number("duration", duration)
     if check:
         state = check_state(state)
+        check_targets(targets, state, t0)
     workers = whole_number("workers", workers)
-    if duration < 0.0 or not math.isfinite(duration):
+    if duration < 0.0:
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
     if duration == 0.0:
         if record:
@@ -1329,6 +1351,26 @@ def advance(
     if record:
         return out, _Recorder.merge(records, t0, h, summary)
     return out
+
+
+def check_targets(targets, state, t0: float = 0.0) -> None:
+    """Raise naming the problem unless ``targets`` is a leg-target source for the robots of
+    ``state`` ((13,) or (N, 13), checked): one with a ``leg_targets(t)`` method whose values at
+    ``t0`` are numbers (every robot's) or (N,) arrays (one per robot)."""
+    if not callable(getattr(targets, "leg_targets", None)):
+        raise TypeError(
+            "targets must be a leg-target source with a leg_targets(t) method (rrrobot_gym.control's Gait, "
+            f"HeldTargets or RampTargets), got {type(targets).__name__}"
+        )
+    robots = 1 if state.ndim == 1 else state.shape[0]
+    for value in (v for triple in targets.leg_targets(t0) for v in triple):
+        shape = np.shape(value)
+        if not shape:
+            continue
+        if state.ndim == 1:
+            raise ValueError(f"one robot's state (13,) takes leg targets that are numbers, got arrays of shape {shape}")
+        if len(shape) > 1 or shape[0] != robots:
+            raise ValueError(f"the leg targets are for {shape[0] if len(shape) == 1 else shape} robots, the state has {robots}")
 
 
 def _substeps(duration: float, step: float):
@@ -1582,12 +1624,23 @@ class Trajectory:
         return dynamics.total_energy(self.states, self.config.robot, self.config.model)
 
 
+MAX_SAMPLES = 10**8
+"""The most samples :func:`simulate` and :func:`simulate_reference` keep (``duration / sample_dt``):
+13 float64s each, 10.4 GB for one robot."""
+
+
 def _sample_times(duration: float, sample_dt: float):
-    if not (math.isfinite(duration) and duration > 0.0):
+    duration, sample_dt = real_number("duration", duration), real_number("sample_dt", sample_dt)
+    if duration <= 0.0:
         raise ValueError(f"duration must be a positive finite number of seconds, got {duration}")
-    if not (math.isfinite(sample_dt) and sample_dt > 0.0):
+    if sample_dt <= 0.0:
         raise ValueError(f"sample_dt must be a positive finite number of seconds, got {sample_dt}")
     n = max(1, round(duration / sample_dt))
+    if n > MAX_SAMPLES:
+        raise ValueError(
+            f"duration {duration:g} s sampled every {sample_dt:g} s is {n:.3g} samples, more than {MAX_SAMPLES:.0e}: "
+            "a longer sample_dt or a shorter duration"
+        )
     return np.linspace(0.0, duration, n + 1)
 
 
@@ -1606,6 +1659,7 @@ def simulate(config: SimConfig, targets, duration: float, *, state=None, sample_
     kinematic legs the legs follow :class:`SmoothStart` from the start state into the targets.
     """
     state = check_state(initial_state() if state is None else state)
+    check_targets(targets, state)
     targets = _kinematic_path(config, targets, state)
     times = _sample_times(duration, sample_dt)
     out = np.empty((len(times),) + state.shape)
@@ -1634,6 +1688,10 @@ def simulate_reference(
     from scipy.integrate import solve_ivp
 
     state = check_state(initial_state() if state is None else state)
+    check_targets(targets, state)
+    rtol, atol = real_number("rtol", rtol), real_number("atol", atol)
+    if rtol <= 0.0 or atol < 0.0:
+        raise ValueError(f"rtol must be positive and atol non-negative, got rtol={rtol!r}, atol={atol!r}")
     times = _sample_times(duration, sample_dt)
     shape = state.shape
     f = _derivative_fn(config, _kinematic_path(config, targets, state))

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from rrrobot_gym.control import Gait, HeldTargets, table2_gait
+from rrrobot_gym.control import Gait, HeldTargets, RampTargets, table2_gait
 from rrrobot_gym.params import PDGains, RobotParams
-from rrrobot_gym.simulation import SimConfig, advance, check_state, initial_state, simulate
+from rrrobot_gym.simulation import SimConfig, advance, check_state, initial_state, simulate, simulate_reference
 
 
 @pytest.mark.parametrize(
@@ -86,3 +86,79 @@ def test_travel_summary_refuses_a_trajectory_shorter_than_two_periods():
     times = np.linspace(0.0, 1.0, 101)
     with pytest.raises(ValueError, match="two periods"):
         travel_summary(times, times, times, period=0.785)
+
+
+# --- What an exploratory pass over the public API found crashing deep inside numpy, hanging,
+# or returning a wrong shape without a word; each now names its problem.
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_leg_targets_for_another_number_of_robots_are_refused_on_every_path(backend):
+    """The numpy path integrated a (13,) state under two robots' targets into a (13, 2) array."""
+    config = SimConfig(backend=backend)
+    with pytest.raises(ValueError, match=r"one robot's state \(13,\) takes leg targets that are numbers"):
+        advance(config, initial_state(), 0.0, 0.05, HeldTargets(np.ones((2, 2))))
+    for robots in (3, 30):  # robot by robot, and batched
+        with pytest.raises(ValueError, match=f"the leg targets are for 2 robots, the state has {robots}"):
+            advance(config, initial_state(robots), 0.0, 0.05, HeldTargets(np.ones((2, 2))))
+    with pytest.raises(TypeError, match="leg_targets"):
+        advance(config, initial_state(), 0.0, 0.05, None)
+    with pytest.raises(ValueError, match="the leg targets are for 2 robots"):
+        simulate(config, HeldTargets(np.ones((2, 2))), 0.1, state=initial_state(3))
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_one_robots_targets_in_a_batch_of_one_row_drive_every_robot(backend):
+    """(1, 2) targets are one robot's: the same run as (2,) on one state and on a batch (the numpy
+    path returned (13, 1) for the first and raised IndexError for the second)."""
+    config = SimConfig(backend=backend)
+    angles = np.array([[1.2, 1.9]])
+    for targets in (HeldTargets(angles), RampTargets(angles - 0.3, angles, 0.0, 0.05)):
+        one = advance(config, initial_state(), 0.0, 0.05, targets)
+        assert one.shape == (13,)
+        if isinstance(targets, HeldTargets):
+            flat = HeldTargets(angles[0])
+        else:
+            flat = RampTargets(angles[0] - 0.3, angles[0], 0.0, 0.05)
+        np.testing.assert_array_equal(one, advance(config, initial_state(), 0.0, 0.05, flat))
+        np.testing.assert_array_equal(advance(config, initial_state(3), 0.0, 0.05, targets), np.tile(one, (3, 1)))
+
+
+def test_times_and_tolerances_are_numbers_checked_by_name():
+    config = SimConfig(backend="numpy")
+    with pytest.raises(ValueError, match="t0 must be finite"):  # (was a NumericalFailure, "try a smaller timestep")
+        advance(config, initial_state(), float("nan"), 0.05, table2_gait(1))
+    with pytest.raises(TypeError, match="duration must be a real number"):
+        advance(config, initial_state(), 0.0, None, table2_gait(1))
+    with pytest.raises(ValueError, match="rtol must be finite"):  # (scipy ran on, never finishing)
+        simulate_reference(config, table2_gait(1), 0.05, rtol=float("nan"))
+    with pytest.raises(ValueError, match="rtol must be positive"):
+        simulate_reference(config, table2_gait(1), 0.05, rtol=0.0, atol=0.0)
+    with pytest.raises(ValueError, match=r"is 1e\+302 samples, more than 1e\+08"):  # (numpy's "maximum allowed size")
+        simulate(config, table2_gait(1), 1e300)
+
+
+def test_a_servo_or_a_body_beyond_floating_point_is_named_not_an_overflow_inside():
+    """kp = 1e308 raised OverflowError ("complex exponentiation"), a radius of 1e300 m numpy's
+    LinAlgError ("Eigenvalues did not converge"), with nothing naming the parameter."""
+    for integrator, timestep in (("rk4", 1 / 300), ("rk4", "auto"), ("rosw", 1e-3), ("etdrk4b", 1 / 60)):
+        with pytest.raises(ValueError, match="fastest pole overflows floating point"):
+            SimConfig(gains=PDGains(kp=1e308), integrator=integrator, timestep=timestep)
+    with pytest.raises(ValueError, match="beyond the stability limit"):  # (large but finite: the step is named)
+        SimConfig(gains=PDGains(kp=1e300))
+    for robot in (RobotParams(radius=1e300), RobotParams(leg_length=1e200)):
+        with pytest.raises(ValueError, match="mass matrix .* overflows"):
+            SimConfig(robot=robot)
+
+
+def test_start_helpers_name_their_arguments():
+    with pytest.raises(ValueError, match="leg_angles must be finite"):  # (returned a NaN state)
+        initial_state(leg_angles=(np.nan, 0.0))
+    with pytest.raises(ValueError, match="leg_angles must be two numbers"):
+        initial_state(leg_angles=(1.0, 2.0, 3.0))
+    with pytest.raises(ValueError, match="unknown gait"):  # (was "unhashable type")
+        table2_gait([1])
+    batch = initial_state(2)
+    batch[1, 2] = 3.0
+    with pytest.raises(ValueError, match="got norm 3"):  # the bad one, not the batch's least
+        check_state(batch)
