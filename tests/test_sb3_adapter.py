@@ -137,3 +137,17 @@ def test_get_attr_set_attr_and_env_method_follow_vec_env_semantics_per_index():
     with pytest.raises(ValueError, match="simulation state"):
         venv.set_attr("states", np.zeros(13), indices=[0])
     assert len(venv.env_method("reset", seed=0)) == 3
+    # a value or an index that is not one is named (NaN headings, out-of-range indices went through)
+    with pytest.raises(ValueError, match="episode_target_directions must be finite"):
+        venv.set_attr("episode_target_directions", np.nan, indices=[1])
+    with pytest.raises(TypeError, match="episode_target_directions must be a real number"):
+        venv.set_attr("episode_target_directions", [0.1, 0.2], indices=[0])
+    with pytest.raises(ValueError, match="max_episode_steps"):
+        venv.set_attr("max_episode_steps", -5)
+    with pytest.raises(ValueError, match="num_envs is fixed"):
+        venv.set_attr("num_envs", 5)
+    for call in (lambda: venv.get_attr("dt", indices=[99]), lambda: venv.env_method("render", indices=[5]),
+                 lambda: venv.env_is_wrapped(object, indices=[3])):  # fmt: skip
+        with pytest.raises(IndexError, match="not among the 3 envs"):
+            call()
+    assert venv.get_attr("episode_target_directions", indices=-1) == venv.get_attr("episode_target_directions", indices=2)

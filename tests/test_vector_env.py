@@ -170,14 +170,17 @@ def test_a_robot_whose_observation_overflows_reports_the_state_it_keeps():
     starts = initial_state(2)
     starts[:, dynamics.QUAT] = dynamics.quat_from_paper_angles(np.array([0.1, 0.2, 0.05]))
     starts[:, dynamics.BODY_RATE] = (0.5, -0.3, 0.2)  # the attitude moves within a step
-    starts[1, 0] = 1e39
     _, start_info = env.reset(seed=0, options={"state": starts})
+    # (reset refuses such a start: the state is put where a run could have taken it)
+    env.states[1, 0] = 1e39
+    kept = task.reset_info(env.states[1:].copy(), np.zeros(1), env.config)
     _, _, terminated, _, info = env.step(np.zeros((2, 2), dtype=np.float32))
     np.testing.assert_array_equal(terminated, [False, True])
     final = info["final_info"]
     assert final["numerical_failure"][1]
     for key in ("tilt", "x_upright", "y_upright"):
-        assert final[key][1] == start_info[key][1]
+        assert final[key][1] == kept[key][0]
+    assert final["x_upright"][1] > 1e38  # (the state kept, not the reset's)
     assert info["tilt"][0] != start_info["tilt"][0]  # (the other robot's attitude did move)
 
 
@@ -192,6 +195,15 @@ def test_a_robot_whose_observation_overflows_reports_the_state_it_keeps():
         (lambda: RRRobotVectorEnv(num_envs=2, color="red"), TypeError, "color"),
         (lambda: RRRobotVectorEnv(num_envs=2).reset(seed=[1, 2, 3]), ValueError, "seed"),
         (lambda: RRRobotVectorEnv(num_envs=2).reset(options={"state": initial_state(3)}), ValueError, "shape"),
+        # (numpy's broadcast and conversion errors before)
+        (lambda: RRRobotVectorEnv(num_envs=4).reset(options={"target_direction": [0.1, 0.2]}), ValueError,
+         r"a number or 4 numbers \(rad\), got shape \(2,\)"),
+        (lambda: RRRobotVectorEnv(num_envs=2).reset(options={"target_direction": "abc"}), TypeError, "target_direction"),
+        # (drew starts past the rim, or overflowed inside numpy's uniform)
+        (lambda: RRRobotVectorEnv(num_envs=2, reset_noise_scale=3.0), ValueError, "reset_noise_scale must be below pi/2"),
+        (lambda: RRRobotVectorEnv(num_envs=2, reset_noise_scale=1e308), ValueError, "reset_noise_scale"),
+        # (the phase overflowed, and every episode ended as a numerical failure)
+        (lambda: RRRobotVectorEnv(num_envs=2, clock_frequency=1e308), ValueError, r"clock_frequency must be below pi / dt"),
     ],
 )
 def test_bad_construction_and_reset_arguments_raise_naming_the_problem(call, error, message):
@@ -312,3 +324,40 @@ def test_finite_rows_flags_exactly_the_rows_with_inf_or_nan(n):
     expected = np.ones(n, dtype=bool)
     expected[bad[:4]] = False
     assert np.array_equal(task.finite_rows(states, observations), expected)
+
+
+def test_the_reset_noise_bound_keeps_every_start_inside_the_rim():
+    """Just below the bound the widest draws still start upright of the rim (a tilt is below pi/2
+    while both tilting angles are), so reset never hands out a start the model has left."""
+    env = RRRobotVectorEnv(num_envs=2000, reset_noise_scale=0.999 * dynamics.TILT_LIMIT)
+    _, info = env.reset(seed=0)
+    assert info["tilt"].max() < dynamics.TILT_LIMIT
+    assert info["tilt"].max() > 0.9 * dynamics.TILT_LIMIT  # (the draws do reach near the rim)
+
+
+@pytest.mark.parametrize("vector", [True, False])
+def test_a_start_whose_observation_overflows_float32_is_refused_at_reset(vector):
+    """A finite float64 state beyond float32's range gave an observation with inf, from reset
+    (step already refused to hand one out)."""
+    start = initial_state()
+    start[dynamics.BODY_RATE.start] = 1e39
+    env = RRRobotVectorEnv(num_envs=3) if vector else gymnasium.make("RRRobot-v0")
+    with pytest.raises(ValueError, match="non-finite observation"):
+        env.reset(options={"state": start})
+
+
+def test_headings_written_by_a_caller_are_checked():
+    env = RRRobotVectorEnv(num_envs=3, reset_noise_scale=0.0)
+    env.reset(seed=0)
+    before = env.states.copy()
+    env.episode_target_directions[1] = np.nan  # a row: checked by the next step, before it moves anything
+    with pytest.raises(ValueError, match="episode_target_directions must be finite"):
+        env.step(np.zeros((3, 2), dtype=np.float32))
+    np.testing.assert_array_equal(env.states, before)
+    with pytest.raises(TypeError, match="episode_target_directions must be a number or 3 numbers"):
+        env.episode_target_directions = "abc"  # the whole attribute: checked at once
+    env.episode_target_directions = [0.1, 0.2, 0.3]
+    obs, *_ = env.step(np.zeros((3, 2), dtype=np.float32))
+    np.testing.assert_allclose(obs[:, 13], np.cos([0.1, 0.2, 0.3]), atol=1e-6)
+    with pytest.raises(ValueError, match="max_episode_steps"):  # (a string reached numpy in the next step)
+        env.max_episode_steps = "x"

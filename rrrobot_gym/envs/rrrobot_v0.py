@@ -238,6 +238,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.leg_targets = self.state[6:8].copy()
         self.contact_lost = 0.0
         self._observation = self._observe(self.state)
+        task.check_start_observations(self._observation)
         if self.render_mode is not None:
             self._path = [(float(self.state[0]), float(self.state[1]))]
         if self.render_mode == "human":

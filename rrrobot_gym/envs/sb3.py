@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from stable_baselines3.common.vec_env import VecEnv
 
+from ..params import real_number
 from .vector import RRRobotVectorEnv
 
 
@@ -129,9 +130,13 @@ class RRRobotSB3VecEnv(VecEnv):
                     "state with set_options({'state': ...}) and reset()"
                 )
             rows = getattr(self.vector_env, attr_name)
+            if rows.dtype.kind == "f":  # (a heading: a finite number, named if not)
+                value = real_number(attr_name, value)
             for i in indices:
                 rows[i] = value
             return
+        if attr_name == "num_envs":
+            raise ValueError("num_envs is fixed when the batched env is made: make a new one for another batch size")
         self._require_all(indices, f"set_attr({attr_name!r})")
         setattr(self.vector_env, attr_name, value)
 
@@ -146,6 +151,15 @@ class RRRobotSB3VecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class, indices=None):
         return [False for _ in self._get_indices(indices)]
+
+    def _get_indices(self, indices):
+        """SB3's indices (None: every env; an int; an iterable), each checked to be an env's."""
+        indices = list(super()._get_indices(indices))
+        bad = [i for i in indices if isinstance(i, bool) or not isinstance(i, (int, np.integer))
+               or not -self.num_envs <= i < self.num_envs]  # fmt: skip
+        if bad:
+            raise IndexError(f"env indices {bad} are not among the {self.num_envs} envs (0 to {self.num_envs - 1})")
+        return indices
 
     def _per_env(self, kind):
         return getattr(self.vector_env, kind, ())

@@ -179,7 +179,9 @@ class TaskConfig:
     )
     forward_reward_weight: float = _keyword(1.0, "reward per cm/s along the commanded heading")
     ctrl_cost_weight: float = _keyword(0.01, "cost per unit \\|action\\|^2 (>= 0)")
-    reset_noise_scale: float = _keyword(0.01, "rad, rad/s: half-width of the uniform start noise (>= 0)")
+    reset_noise_scale: float = _keyword(
+        0.01, "rad, rad/s: half-width of the uniform start noise (>= 0, below pi/2: no start past the rim)"
+    )
     exclude_current_positions_from_observation: bool = _keyword(
         True, "leave the contact point (x, y) out of the observation"
     )
@@ -199,7 +201,8 @@ class TaskConfig:
     )
     healthy_reward: float = _keyword(0.0, "reward for each step that does not end the episode (`reward_survive`, >= 0)")
     clock_frequency: float | None = _keyword(
-        None, "rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation; None: no clock"
+        None, "rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation; None: no clock. "
+        "Below pi / `dt` (a faster clock, seen once a step, aliases to a slower one)"
     )
     terminate_outside_model: bool = _keyword(True, "end the episode when the robot leaves the model (see Episode End)")
     action_hold: str = _keyword(
@@ -250,6 +253,11 @@ class TaskConfig:
         put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight))
         put("ctrl_cost_weight", _real("ctrl_cost_weight", self.ctrl_cost_weight, minimum=0.0))
         put("reset_noise_scale", _real("reset_noise_scale", self.reset_noise_scale, minimum=0.0))
+        if self.reset_noise_scale >= dynamics.TILT_LIMIT:  # (a tilt is below pi/2 while both tilting angles are)
+            raise ValueError(
+                f"reset_noise_scale must be below pi/2 ({dynamics.TILT_LIMIT:.4g}), got {self.reset_noise_scale!r}: "
+                "start angles drawn from U(-s, s) could tip the robot past the rim, where the model ends"
+            )
         for name in ("exclude_current_positions_from_observation", "terminate_outside_model"):
             put(name, _flag(name, getattr(self, name)))
         if self.friction_coefficient is not None:
@@ -259,6 +267,11 @@ class TaskConfig:
         put("healthy_reward", _real("healthy_reward", self.healthy_reward, minimum=0.0))
         if self.clock_frequency is not None:
             put("clock_frequency", _real("clock_frequency", self.clock_frequency, positive=True))
+            if self.clock_frequency >= math.pi / self.dt:
+                raise ValueError(
+                    f"clock_frequency must be below pi / dt = {math.pi / self.dt:.4g} rad/s (dt = {self.dt:.4g} s, the "
+                    f"control step), got {self.clock_frequency!r}: seen once a step, a faster clock aliases to a slower one"
+                )
         _choice("action_hold", self.action_hold, ACTION_HOLDS)
         _choice("contact_quadrature", self.contact_quadrature, validity.QUADRATURES)
 
@@ -483,10 +496,33 @@ def parse_reset_options(options, num_envs: int | None):
         if num_envs is None:
             targets = _real("options['target_direction']", value)
         else:
-            targets = np.array(np.broadcast_to(np.asarray(value, dtype=np.float64), (num_envs,)))
-            if not np.all(np.isfinite(targets)):
-                raise ValueError(f"options['target_direction'] must be finite, got {value!r}")
+            targets = headings("options['target_direction']", value, num_envs)
     return states, targets
+
+
+def headings(label: str, value, num_envs: int) -> np.ndarray:
+    """(num_envs,) finite headings, rad, from a number (every sub-env's) or ``num_envs`` numbers,
+    or an error naming ``label``."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{label} must be a number or {num_envs} numbers (rad), got {value!r}") from None
+    if array.shape not in ((), (num_envs,)):
+        raise ValueError(f"{label} must be a number or {num_envs} numbers (rad), got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{label} must be finite, got {value!r}")
+    return np.array(np.broadcast_to(array, (num_envs,)))
+
+
+def check_start_observations(observations) -> None:
+    """Raise ValueError where a start's float32 observation ((size,) or (N, size)) is not finite:
+    a reset state whose finite float64 values overflow float32 (a drawn start never does)."""
+    bad = np.flatnonzero(~np.isfinite(np.atleast_2d(observations)).all(axis=1))
+    if bad.size:
+        which = "" if np.ndim(observations) == 1 else f" of sub-env(s) {bad.tolist()}"
+        raise ValueError(
+            f"options['state']{which} gives a non-finite observation: a value beyond float32's range (3.4e38)"
+        )
 
 
 # ---------------------------------------------------------------------------

@@ -80,8 +80,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             **kwargs,
         )
         whole_number("num_envs", num_envs)
-        if max_episode_steps is not None:
-            whole_number("max_episode_steps (or None)", max_episode_steps)
+        self.max_episode_steps = max_episode_steps
         self.workers = whole_number("workers", workers)
         self.config = task.make_task_config(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -90,7 +89,6 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 "(for a window, use the single env with render_mode='human')"
             )
         self.num_envs = int(num_envs)
-        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
         self.render_mode = render_mode
         self._frame_size = render.check_frame_size(width, height)
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
@@ -116,6 +114,27 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         """s, one control step: frame_skip x timestep."""
         return self.config.dt
 
+    @property
+    def episode_target_directions(self) -> np.ndarray | None:
+        """(N,) rad, each sub-env's commanded heading (None before the first reset). A caller may
+        write it whole or row by row; it takes effect in the next step, which checks it."""
+        return self._episode_target_directions
+
+    @episode_target_directions.setter
+    def episode_target_directions(self, value):
+        self._episode_target_directions = (
+            None if value is None else task.headings("episode_target_directions", value, self.num_envs)
+        )
+
+    @property
+    def max_episode_steps(self) -> int | None:
+        """Control steps before an episode is truncated (None: never); checked when written."""
+        return self._max_episode_steps
+
+    @max_episode_steps.setter
+    def max_episode_steps(self, value):
+        self._max_episode_steps = None if value is None else whole_number("max_episode_steps (or None)", value)
+
     # ------------------------------------------------------------------
     # reset
 
@@ -133,6 +152,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.episode_target_directions = targets if option_targets is None else option_targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = task.observe(self.states, self.episode_target_directions, self.config, np.zeros(self.num_envs))
+        task.check_start_observations(self._observations)
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
@@ -172,11 +192,12 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         actions = task.check_actions(actions, (self.num_envs, 2))
         before = self.states
         targets = self.episode_target_directions
-        after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
-        # The rotations of the new states and the headings' cos and sin, computed once for the
-        # observation and the step's outcome (at N = 64 the task code is most of a step).
-        rows = task.rotation_rows(after)
+        # The headings' cos and sin (checked, if a caller wrote them) and the rotations of the new
+        # states, computed once for the observation and the step's outcome (at N = 64 the task
+        # code is most of a step).
         heading = self.heading_vectors(targets)
+        after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
+        rows = task.rotation_rows(after)
         observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt, rows, heading)
         failed |= ~task.finite_rows(after, observations)
         if failed.any():
@@ -216,6 +237,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
+            if not np.all(np.isfinite(targets)):  # (a row written by a caller)
+                raise ValueError(f"episode_target_directions must be finite, got {targets!r}")
             kept = self._headings = (targets.copy(), task.heading_vectors(targets))
         return kept[1]
 
