@@ -367,7 +367,7 @@ def trajectory_arrays(traj) -> dict:
 def _run_gait(config: SimConfig, gait, args):
     try:
         traj = simulate(config, gait, args.duration, sample_dt=args.sample_dt)
-    except NumericalFailure as exc:
+    except (NumericalFailure, ValueError) as exc:  # (a ValueError: --duration / --sample-dt, too many samples)
         raise UsageError(str(exc)) from None
     _warn_if_tipped(traj, f"{gait.name}, {config.model}")
     return traj
@@ -408,6 +408,12 @@ def format_travel(label: str, summary) -> str:
     )
 
 
+def _check_directory(flag: str, path: Path) -> None:
+    """A usage error, before a run, if ``path``'s directory does not exist."""
+    if path.parent and not path.parent.is_dir():
+        raise UsageError(f"cannot write {flag} {path}: no directory {path.parent}")
+
+
 def _write(path: Path, writer) -> None:
     try:
         writer(path)
@@ -418,9 +424,14 @@ def _write(path: Path, writer) -> None:
 def run_simulate(args) -> None:
     if args.out.suffix != ".npz":
         raise UsageError(f"--out must name an .npz file, got {str(args.out)!r}")
+    _check_directory("--out", args.out)
     config = sim_config(args, args.model)
-    if args.plot:
-        plotting.require_matplotlib()  # before the run, not after it
+    if args.plot:  # before the run, not after it
+        try:
+            plotting.check_figure_path(args.plot)
+        except ValueError as exc:
+            raise UsageError(f"--plot: {exc}") from None
+        _check_directory("--plot", args.plot)
     gait = table2_gait(args.gait, swapped=args.swap_phase)
     traj = _run_gait(config, gait, args)
     arrays = trajectory_arrays(traj)
@@ -534,8 +545,7 @@ def run_gait_search(args) -> None:
         raise UsageError("--heading-deg needs --objective heading (objective own follows the gait's own direction)")
     if args.popsize < 2:
         raise UsageError(f"--popsize must be at least 2 for CMA-ES, got {args.popsize}")
-    if args.out.parent and not args.out.parent.is_dir():
-        raise UsageError(f"cannot write {args.out}: no directory {args.out.parent}")
+    _check_directory("--out", args.out)
     env_kwargs = dict(args.env)
     for module, extra in (("cma", "search"), ("tqdm", "search")) + ((("ray", "distributed"),) if args.ray_address else ()):
         try:

@@ -31,6 +31,18 @@ def require_matplotlib() -> None:
     _pyplot()
 
 
+def check_figure_path(path) -> None:
+    """Raise ValueError unless matplotlib writes the format that ``path``'s suffix names (before a
+    run, not after it); ImportError as :func:`require_matplotlib` if matplotlib is missing."""
+    _pyplot()
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = Path(path).suffix.lstrip(".").lower()
+    if suffix not in formats:
+        raise ValueError(f"a figure's file name must end in one of .{', .'.join(sorted(formats))}, got {str(path)!r}")
+
+
 def _pyplot():
     """matplotlib.pyplot on the Agg backend, or an ImportError saying what to install."""
     try:

@@ -153,6 +153,12 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         (("--model", "plane", "--gait", "1", "--backend", "fortran"), "--backend"),
         (("--model", "plane", "--gait", "1", "--integrator", "euler"), "--integrator"),
         (("--model", "plane", "--gait", "1", "--integrator", "etdrk4b", "--timestep", "auto"), "fixed step"),
+        # (tracebacks from numpy, cmath, matplotlib, the last after the run and its .npz)
+        (("--model", "plane", "--gait", "1", "--duration", "1e300"), "samples, more than"),
+        (("--model", "plane", "--gait", "1", "--kp", "1e305"), "fastest pole overflows"),
+        (("--model", "plane", "--gait", "1", "--param", "radius=1e300"), "mass matrix"),
+        (("--model", "plane", "--gait", "1", "--plot", "figure.txt"), "--plot"),
+        (("--model", "plane", "--gait", "1", "--plot", "/no-such-rrrobot-directory/figure.png"), "no directory"),
     ],
 )
 def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
