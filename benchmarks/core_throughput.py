@@ -22,7 +22,7 @@ import numpy as np
 
 from rrrobot_gym import compiled
 from rrrobot_gym.control import HeldTargets
-from rrrobot_gym.simulation import SimConfig, advance, check_state, initial_state
+from rrrobot_gym.simulation import SimConfig, advance, check_state, check_targets, initial_state
 
 from ._common import fmt, machine, markdown_table, median_time, parser, write_json
 
@@ -121,9 +121,10 @@ def main(argv=None):
         on = measure(config, n, repeats, 4 if n > 1 else 40, rng, check=True)
         off = measure(config, n, repeats, 4 if n > 1 else 40, rng, check=False)
         state = random_state(n, rng)
-        t_check = median_time(lambda: check_state(state), repeats)
+        targets = HeldTargets(rng.uniform(0.0, math.pi, (n, 2)))
+        t_check = median_time(lambda: (check_state(state), check_targets(targets, state)), repeats)
         checks.append({"num_robots": n, "env_steps_per_s_check_on": on["env_steps_per_s"],
-                       "env_steps_per_s_check_off": off["env_steps_per_s"], "check_state_s": t_check})  # fmt: skip
+                       "env_steps_per_s_check_off": off["env_steps_per_s"], "input_checks_s": t_check})  # fmt: skip
 
     header = ["setting"] + [f"N={n} env steps/s" for n in sizes] + ["us / derivative at N=4096"]
     rows = []
@@ -132,9 +133,9 @@ def main(argv=None):
         rows.append([name] + [fmt(recs[n]["env_steps_per_s"]) for n in sizes] + [fmt(recs[4096]["us_per_derivative_eval"])])
     text = markdown_table(header, rows)
     text += "\n\n" + markdown_table(
-        ["N", "env steps/s, check=True", "env steps/s, check=False", "check_state() alone (us)"],
+        ["N", "env steps/s, check=True", "env steps/s, check=False", "check_state() and check_targets() alone (us)"],
         [[c["num_robots"], fmt(c["env_steps_per_s_check_on"]), fmt(c["env_steps_per_s_check_off"]),
-          fmt(c["check_state_s"] * 1e6)] for c in checks],  # fmt: skip
+          fmt(c["input_checks_s"] * 1e6)] for c in checks],  # fmt: skip
     )
     print()
     print(text)

@@ -32,14 +32,15 @@ def require_matplotlib() -> None:
 
 
 def check_figure_path(path) -> None:
-    """Raise ValueError unless matplotlib writes the format that ``path``'s suffix names (before a
-    run, not after it); ImportError as :func:`require_matplotlib` if matplotlib is missing."""
+    """Raise ValueError unless matplotlib writes the format that ``path``'s suffix names, if it
+    has one (before a run, not after it); ImportError as :func:`require_matplotlib` if
+    matplotlib is missing."""
     _pyplot()
     from matplotlib.backend_bases import FigureCanvasBase
 
     formats = FigureCanvasBase.get_supported_filetypes()
     suffix = Path(path).suffix.lstrip(".").lower()
-    if suffix not in formats:
+    if suffix and suffix not in formats:  # (no suffix: matplotlib writes its default format)
         raise ValueError(f"a figure's file name must end in one of .{', .'.join(sorted(formats))}, got {str(path)!r}")
 
 

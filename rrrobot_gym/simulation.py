@@ -286,9 +286,10 @@ def servo_poles(model: str, robot: RobotParams, gains: PDGains) -> tuple:
     1/max eig(M^-1 legs block): poles (-kd mu +- sqrt((kd mu)^2 - 4 kp mu)) / 2, mu = 1/I_eff.
     """
     mu = _effective_leg_inverse_inertia(model, robot)
-    disc = complex((gains.kd * mu) ** 2 - 4.0 * gains.kp * mu)
+    damping = gains.kd * mu  # (products, not **: an overflow gives inf, named by SimConfig, not OverflowError)
+    disc = complex(damping * damping - 4.0 * gains.kp * mu)
     root = cmath.sqrt(disc)  # (an overflowing discriminant gives an infinite pole, not OverflowError)
-    return (0.5 * (-gains.kd * mu - root), 0.5 * (-gains.kd * mu + root))
+    return (0.5 * (-damping - root), 0.5 * (-damping + root))
 
 
 def servo_fastest_rate(model: str, robot: RobotParams, gains: PDGains) -> float:
@@ -1309,6 +1310,8 @@ def advance(
     independent and the step is chosen for the whole batch first, so the result is
     bit-identical to one process. Worth it for large batches (``benchmarks.throughput``).
 
+    ``check`` validates the state (:func:`check_state`) and the targets against it
+    (:func:`check_targets`); callers that made both themselves, as the envs do, pass False.
     Raises :class:`NumericalFailure` if the result is not finite.
     """
     t0 = real_number("t0", t0)
@@ -1369,8 +1372,10 @@ def check_targets(targets, state, t0: float = 0.0) -> None:
             continue
         if state.ndim == 1:
             raise ValueError(f"one robot's state (13,) takes leg targets that are numbers, got arrays of shape {shape}")
-        if len(shape) > 1 or shape[0] != robots:
-            raise ValueError(f"the leg targets are for {shape[0] if len(shape) == 1 else shape} robots, the state has {robots}")
+        if len(shape) > 1:
+            raise ValueError(f"leg targets must be numbers or (N,) arrays, one entry a robot, got shape {shape}")
+        if shape[0] != robots:
+            raise ValueError(f"the leg targets are for {shape[0]} robots, the state has {robots}")
 
 
 def _substeps(duration: float, step: float):
@@ -1635,13 +1640,13 @@ def _sample_times(duration: float, sample_dt: float):
         raise ValueError(f"duration must be a positive finite number of seconds, got {duration}")
     if sample_dt <= 0.0:
         raise ValueError(f"sample_dt must be a positive finite number of seconds, got {sample_dt}")
-    n = max(1, round(duration / sample_dt))
-    if n > MAX_SAMPLES:
+    ratio = duration / sample_dt
+    if not ratio <= MAX_SAMPLES:  # (before round(): an infinite ratio has no integer)
         raise ValueError(
-            f"duration {duration:g} s sampled every {sample_dt:g} s is {n:.3g} samples, more than {MAX_SAMPLES:.0e}: "
+            f"duration {duration:g} s sampled every {sample_dt:g} s is {ratio:.3g} samples, more than {MAX_SAMPLES:.0e}: "
             "a longer sample_dt or a shorter duration"
         )
-    return np.linspace(0.0, duration, n + 1)
+    return np.linspace(0.0, duration, max(1, round(ratio)) + 1)
 
 
 def _kinematic_path(config: SimConfig, targets, state):

@@ -103,6 +103,13 @@ def test_leg_targets_for_another_number_of_robots_are_refused_on_every_path(back
             advance(config, initial_state(robots), 0.0, 0.05, HeldTargets(np.ones((2, 2))))
     with pytest.raises(TypeError, match="leg_targets"):
         advance(config, initial_state(), 0.0, 0.05, None)
+
+    class Grid:  # a source whose values are (N, 2): not one entry a robot
+        def leg_targets(self, t):
+            return (np.ones((3, 2)), 0.0), (0.0, 0.0), (0.0, 0.0)
+
+    with pytest.raises(ValueError, match=r"numbers or \(N,\) arrays, one entry a robot, got shape \(3, 2\)"):
+        advance(config, initial_state(3), 0.0, 0.05, Grid())
     with pytest.raises(ValueError, match="the leg targets are for 2 robots"):
         simulate(config, HeldTargets(np.ones((2, 2))), 0.1, state=initial_state(3))
 
@@ -136,14 +143,17 @@ def test_times_and_tolerances_are_numbers_checked_by_name():
         simulate_reference(config, table2_gait(1), 0.05, rtol=0.0, atol=0.0)
     with pytest.raises(ValueError, match=r"is 1e\+302 samples, more than 1e\+08"):  # (numpy's "maximum allowed size")
         simulate(config, table2_gait(1), 1e300)
+    with pytest.raises(ValueError, match=r"is inf samples"):  # (an OverflowError from round())
+        simulate(config, table2_gait(1), 1e300, sample_dt=1e-300)
 
 
 def test_a_servo_or_a_body_beyond_floating_point_is_named_not_an_overflow_inside():
     """kp = 1e308 raised OverflowError ("complex exponentiation"), a radius of 1e300 m numpy's
     LinAlgError ("Eigenvalues did not converge"), with nothing naming the parameter."""
     for integrator, timestep in (("rk4", 1 / 300), ("rk4", "auto"), ("rosw", 1e-3), ("etdrk4b", 1 / 60)):
-        with pytest.raises(ValueError, match="fastest pole overflows floating point"):
-            SimConfig(gains=PDGains(kp=1e308), integrator=integrator, timestep=timestep)
+        for gains in (PDGains(kp=1e308), PDGains(kd=1e200)):
+            with pytest.raises(ValueError, match="fastest pole overflows floating point"):
+                SimConfig(gains=gains, integrator=integrator, timestep=timestep)
     with pytest.raises(ValueError, match="beyond the stability limit"):  # (large but finite: the step is named)
         SimConfig(gains=PDGains(kp=1e300))
     for robot in (RobotParams(radius=1e300), RobotParams(leg_length=1e200)):

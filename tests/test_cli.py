@@ -156,6 +156,8 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         # (tracebacks from numpy, cmath, matplotlib, the last after the run and its .npz)
         (("--model", "plane", "--gait", "1", "--duration", "1e300"), "samples, more than"),
         (("--model", "plane", "--gait", "1", "--kp", "1e305"), "fastest pole overflows"),
+        (("--model", "plane", "--gait", "1", "--kd", "1e200"), "fastest pole overflows"),
+        (("--model", "plane", "--gait", "1", "--duration", "1e300", "--sample-dt", "1e-300"), "samples, more than"),
         (("--model", "plane", "--gait", "1", "--param", "radius=1e300"), "mass matrix"),
         (("--model", "plane", "--gait", "1", "--plot", "figure.txt"), "--plot"),
         (("--model", "plane", "--gait", "1", "--plot", "/no-such-rrrobot-directory/figure.png"), "no directory"),

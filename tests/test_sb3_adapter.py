@@ -151,3 +151,5 @@ def test_get_attr_set_attr_and_env_method_follow_vec_env_semantics_per_index():
         with pytest.raises(IndexError, match="not among the 3 envs"):
             call()
     assert venv.get_attr("episode_target_directions", indices=-1) == venv.get_attr("episode_target_directions", indices=2)
+    venv.set_attr("max_episode_steps", 9, indices=[-1, -2, -3])  # (every env, counted from the end)
+    assert venv.get_attr("max_episode_steps") == [9] * 3

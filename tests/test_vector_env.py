@@ -199,6 +199,8 @@ def test_a_robot_whose_observation_overflows_reports_the_state_it_keeps():
         (lambda: RRRobotVectorEnv(num_envs=4).reset(options={"target_direction": [0.1, 0.2]}), ValueError,
          r"a number or 4 numbers \(rad\), got shape \(2,\)"),
         (lambda: RRRobotVectorEnv(num_envs=2).reset(options={"target_direction": "abc"}), TypeError, "target_direction"),
+        (lambda: RRRobotVectorEnv(num_envs=2).reset(options={"target_direction": [[0.1, 0.2]]}), ValueError,
+         r"got shape \(1, 2\)"),
         # (drew starts past the rim, or overflowed inside numpy's uniform)
         (lambda: RRRobotVectorEnv(num_envs=2, reset_noise_scale=3.0), ValueError, "reset_noise_scale must be below pi/2"),
         (lambda: RRRobotVectorEnv(num_envs=2, reset_noise_scale=1e308), ValueError, "reset_noise_scale"),
@@ -341,9 +343,12 @@ def test_a_start_whose_observation_overflows_float32_is_refused_at_reset(vector)
     (step already refused to hand one out)."""
     start = initial_state()
     start[dynamics.BODY_RATE.start] = 1e39
-    env = RRRobotVectorEnv(num_envs=3) if vector else gymnasium.make("RRRobot-v0")
+    env = RRRobotVectorEnv(num_envs=3) if vector else gymnasium.make("RRRobot-v0").unwrapped
+    env.reset(seed=0)
+    kept = (env.states if vector else env.state).copy()
     with pytest.raises(ValueError, match="non-finite observation"):
         env.reset(options={"state": start})
+    np.testing.assert_array_equal(env.states if vector else env.state, kept)  # a refused reset changes nothing
 
 
 def test_headings_written_by_a_caller_are_checked():

@@ -232,13 +232,16 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         super().reset(seed=seed)
         option_state, option_target = task.parse_reset_options(options, None)
         noise, target = task.draw_start(self.np_random, self.config)
-        self.state = task.start_states(noise[None])[0] if option_state is None else option_state
-        self.episode_target_direction = target if option_target is None else option_target
+        state = task.start_states(noise[None])[0] if option_state is None else option_state
+        heading = target if option_target is None else option_target
+        observation = task.observe(state[None], np.array([heading]), self.config, np.zeros(1))[0]
+        task.check_start_observations(observation)  # (before anything changes: a refused reset keeps the env as it was)
+        self.state = state
+        self.episode_target_direction = heading
         self.time = 0.0
         self.leg_targets = self.state[6:8].copy()
         self.contact_lost = 0.0
-        self._observation = self._observe(self.state)
-        task.check_start_observations(self._observation)
+        self._observation = observation
         if self.render_mode is not None:
             self._path = [(float(self.state[0]), float(self.state[1]))]
         if self.render_mode == "human":

@@ -159,7 +159,7 @@ class RRRobotSB3VecEnv(VecEnv):
                or not -self.num_envs <= i < self.num_envs]  # fmt: skip
         if bad:
             raise IndexError(f"env indices {bad} are not among the {self.num_envs} envs (0 to {self.num_envs - 1})")
-        return indices
+        return [int(i) % self.num_envs for i in indices]  # (-1 is the last env, as in a list)
 
     def _per_env(self, kind):
         return getattr(self.vector_env, kind, ())

@@ -501,13 +501,13 @@ def parse_reset_options(options, num_envs: int | None):
 
 
 def headings(label: str, value, num_envs: int) -> np.ndarray:
-    """(num_envs,) finite headings, rad, from a number (every sub-env's) or ``num_envs`` numbers,
-    or an error naming ``label``."""
+    """(num_envs,) finite headings, rad, from a number (every sub-env's; also as one-element
+    array) or ``num_envs`` numbers, or an error naming ``label``."""
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"{label} must be a number or {num_envs} numbers (rad), got {value!r}") from None
-    if array.shape not in ((), (num_envs,)):
+    if array.shape not in ((), (1,), (num_envs,)):
         raise ValueError(f"{label} must be a number or {num_envs} numbers (rad), got shape {array.shape}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{label} must be finite, got {value!r}")

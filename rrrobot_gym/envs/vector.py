@@ -146,13 +146,16 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             if sub_seed is not None or self._generators[i] is None:
                 self._generators[i], _ = seeding.np_random(sub_seed)
         states, targets = self._draw_starts(np.arange(self.num_envs))
-        self.states = states if option_states is None else option_states
+        states = states if option_states is None else option_states
+        targets = targets if option_targets is None else option_targets
+        observations = task.observe(states, targets, self.config, np.zeros(self.num_envs))
+        task.check_start_observations(observations)  # (before anything changes: a refused reset keeps the env as it was)
+        self.states = states
         self.leg_targets = self.states[:, 6:8].copy()
         self.contact_lost = np.zeros(self.num_envs)
-        self.episode_target_directions = targets if option_targets is None else option_targets
+        self.episode_target_directions = targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
-        self._observations = task.observe(self.states, self.episode_target_directions, self.config, np.zeros(self.num_envs))
-        task.check_start_observations(self._observations)
+        self._observations = observations
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
