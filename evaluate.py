@@ -73,6 +73,9 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
     )
     steps = int(round(duration / env.dt))
+    if steps < 1 or abs(steps * env.dt - duration) > 1e-9 * max(1.0, duration):
+        # (speeds are travel / duration: a part step would be rounded away from one but not the other)
+        raise ValueError(f"duration {duration:g} s is not a whole number of the env's {env.dt:g} s control steps")
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
     xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
     effort = {key: [] for key in info_keys}
@@ -426,6 +429,14 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
+    for flag, path in (("--json", args.json), ("--markdown", args.markdown)):  # before the runs, not after them
+        if path is not None and (path.is_dir() or not path.parent.is_dir()):
+            problem = "a directory" if path.is_dir() else f"no directory {path.parent}"
+            parser.error(f"{flag}: cannot write {path}: {problem}")
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        parser.error(f"--plots: {args.plots} is a file, not a directory")
+    if args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
     try:
         physics = parse_physics(args.physics)
     except ValueError as exc:

@@ -231,6 +231,7 @@ def parse_args(argv=None) -> Args:
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
+    _check_ppo_settings(parser, args)
     from agents.residual import check_scale
 
     try:
@@ -258,6 +259,40 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
                          "give --mirror")
     return args
+
+
+LOG_STD_INIT_RANGE = (-20.0, 5.0)
+"""--log-std-init's range: e^-20 is no noise at all, e^5 = 148 action units is noise over [-1, 1] many times."""
+
+
+def _check_ppo_settings(parser, args):
+    """The PPO settings SB3 and torch would take and fail on later (NaN in the first rollout's
+    update, an assertion, a bad seed) or train on without meaning (a discount above 1)."""
+    for name in ("gamma", "gae_lambda"):
+        value = getattr(args, name)
+        if not 0.0 <= value <= 1.0:
+            parser.error(f"--{name.replace('_', '-')} must be in [0, 1], got {value}")
+    if not (math.isfinite(args.clip_range) and args.clip_range > 0):
+        parser.error(f"--clip-range must be a positive number, got {args.clip_range}")
+    if not (math.isfinite(args.ent_coef) and args.ent_coef >= 0):
+        parser.error(f"--ent-coef must be a number >= 0, got {args.ent_coef}")
+    low, high = LOG_STD_INIT_RANGE
+    if not low <= args.log_std_init <= high:
+        parser.error(f"--log-std-init must be in [{low:g}, {high:g}], got {args.log_std_init}")
+    sizes = args.net_arch.split(",")
+    if not all(size.strip().isdigit() and int(size) > 0 for size in sizes):
+        parser.error(f"--net-arch must be positive layer sizes joined by commas, e.g. 128,128, got {args.net_arch!r}")
+    if args.batch_size < 2:  # (SB3 normalises each minibatch's advantages)
+        parser.error(f"--batch-size must be at least 2, got {args.batch_size}")
+    if not 0 <= args.seed < 2**31:
+        parser.error(f"--seed must be in [0, 2**31), got {args.seed}")
+    if Path(args.runs_dir).exists() and not Path(args.runs_dir).is_dir():
+        parser.error(f"--runs-dir: {args.runs_dir} is a file, not a directory")
+    if args.resume is not None and Path(args.resume).is_file():
+        import zipfile
+
+        if not zipfile.is_zipfile(args.resume) or "data" not in zipfile.ZipFile(args.resume).namelist():
+            parser.error(f"--resume: {args.resume} is not a Stable-Baselines3 model zip")
 
 
 def _check_resumed_residual(parser, args):

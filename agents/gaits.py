@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from rrrobot_gym.control import Gait, table2_gait
+from rrrobot_gym.params import real_number
 from rrrobot_gym.envs.task import TaskConfig, leg_targets_to_action
 
 GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped")
@@ -38,12 +39,17 @@ class GaitAgent:
                 "gait must have an angles(times) method giving (T, 2) leg targets, such as "
                 f"rrrobot_gym.control.Gait or rrrobot_gym.gait_search.SinusoidGait; got {type(gait).__name__}"
             )
-        if not (np.isfinite(dt) and dt > 0):
+        dt, sample_fraction = real_number("dt", dt), real_number("sample_fraction", sample_fraction)
+        if dt <= 0:
             raise ValueError(f"dt must be a positive number of seconds (the env's control step), got {dt}")
+        if not 0.0 <= sample_fraction <= 1.0:
+            raise ValueError(
+                f"sample_fraction must be in [0, 1] (where in a control step the gait is sampled), got {sample_fraction}"
+            )
         self.gait = gait
-        self.dt = float(dt)
+        self.dt = dt
         self.name = name or gait.name
-        self.sample_fraction = float(sample_fraction)
+        self.sample_fraction = sample_fraction
 
     @classmethod
     def for_env(cls, gait: Gait, env, **kwargs) -> "GaitAgent":
@@ -58,9 +64,15 @@ class GaitAgent:
         observation = np.asarray(observation)
         single = observation.ndim == 1
         n = 1 if single else observation.shape[0]
-        steps = np.zeros(n, dtype=np.int64) if state is None else np.asarray(state, dtype=np.int64).copy()
-        if steps.shape != (n,):
-            raise ValueError(f"state must hold one step count per env, shape ({n},), got {steps.shape}")
+        if state is None:
+            steps = np.zeros(n, dtype=np.int64)
+        else:
+            counts = np.asarray(state, dtype=float)
+            if counts.shape != (n,):
+                raise ValueError(f"state must hold one step count per env, shape ({n},), got {counts.shape}")
+            if not np.all((counts >= 0) & (counts == np.floor(counts)) & np.isfinite(counts)):
+                raise ValueError(f"state must hold whole step counts >= 0, got {state!r}")
+            steps = counts.astype(np.int64)
         if episode_start is not None:
             steps[np.asarray(episode_start, dtype=bool).reshape(n)] = 0
         targets = self.gait.angles((steps + self.sample_fraction) * self.dt)

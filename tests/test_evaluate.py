@@ -152,3 +152,45 @@ def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
                         ("integrator=euler", "integrator"), ("robot=1", "KEY one of")):
         with pytest.raises(ValueError, match=named):
             parse_physics([spec])
+
+
+def test_a_duration_that_is_not_whole_control_steps_is_refused():
+    """0.07 s ran one 0.05 s step and divided its travel by 0.07 (29 % slow); 0.02 s ran none
+    and failed indexing the empty path."""
+    agents = {"gait1": gait_agent("gait1")}
+    for duration in (0.07, 0.02, 1.024):
+        with pytest.raises(ValueError, match="not a whole number of the env's 0.05 s control steps"):
+            run_episodes(agents, "plane", [0.0], duration)
+    assert run_episodes(agents, "plane", [0.0], 0.1)["gait1"]["times"][-1] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("flag, where, named", [
+    ("--json", "missing/r.json", "no directory"),
+    ("--markdown", "", "a directory"),
+    ("--plots", "file.txt", "is a file, not a directory"),
+])
+def test_evaluate_output_paths_are_checked_before_the_runs(tmp_path, flag, where, named, capsys):
+    from evaluate import main
+
+    (tmp_path / "file.txt").write_text("")
+    with pytest.raises(SystemExit):
+        main(["--no-policy", "--models", "plane", "--duration", "0.5", flag, str(tmp_path / where)])
+    err = capsys.readouterr()
+    assert named in err.err and "| gait1 |" not in err.out  # refused, and nothing was run
+
+
+def test_a_gait_agent_names_a_bad_sampling_point_or_step_count():
+    from agents.gaits import GaitAgent
+    from rrrobot_gym.control import table2_gait
+
+    with pytest.raises(ValueError, match="sample_fraction must be finite"):  # (NaN gave NaN actions)
+        GaitAgent(table2_gait(1), dt=0.05, sample_fraction=float("nan"))
+    with pytest.raises(ValueError, match=r"sample_fraction must be in \[0, 1\]"):
+        GaitAgent(table2_gait(1), dt=0.05, sample_fraction=1.5)
+    with pytest.raises(TypeError, match="dt must be a real number"):  # (numpy's isfinite TypeError)
+        GaitAgent(table2_gait(1), dt=None)
+    agent = gait_agent("gait1")
+    with pytest.raises(ValueError, match="whole step counts >= 0"):  # (NaN became -9.2e18 steps)
+        agent.predict(np.zeros((1, 15), dtype=np.float32), state=[np.nan])
+    action, state = agent.predict(np.zeros((2, 15), dtype=np.float32), state=[3, 4])
+    np.testing.assert_array_equal(state, [4, 5])

@@ -294,3 +294,37 @@ def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(s
     with pytest.raises(SystemExit):
         train.parse_args([arg for one in spec.split() for arg in ("--env", one)])
     assert words in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "flags, named",
+    [
+        (["--gamma", "2"], "--gamma must be in [0, 1]"),  # (trained and saved without a word)
+        (["--gae-lambda", "nan"], "--gae-lambda must be in [0, 1]"),  # (torch's "invalid values" after a rollout)
+        (["--clip-range", "-1"], "--clip-range must be a positive number"),
+        (["--ent-coef", "nan"], "--ent-coef"),
+        (["--log-std-init", "1000"], "--log-std-init must be in"),
+        (["--net-arch", "64,x"], "--net-arch"),
+        (["--net-arch=-4,4"], "--net-arch"),
+        (["--batch-size", "1"], "--batch-size must be at least 2"),  # (SB3's assertion)
+        (["--seed", "-1"], "--seed"),
+        (["--resume", "README.md"], "not a Stable-Baselines3 model zip"),
+    ],
+)
+def test_ppo_settings_that_cannot_train_are_refused_before_any_work(flags, named, capsys):
+    import train
+
+    with pytest.raises(SystemExit) as exit_info:
+        train.parse_args(flags)
+    assert exit_info.value.code == 2
+    assert named in capsys.readouterr().err
+
+
+def test_a_runs_dir_that_is_a_file_is_refused(tmp_path, capsys):
+    import train
+
+    taken = tmp_path / "runs"
+    taken.write_text("")
+    with pytest.raises(SystemExit):
+        train.parse_args(["--runs-dir", str(taken)])
+    assert "is a file, not a directory" in capsys.readouterr().err

@@ -321,3 +321,18 @@ def test_a_start_that_runs_at_once_keeps_the_running_gaits_own_ramp(tmp_path):
         obs, _, terminated, _, _ = env.step(actions)
         assert not terminated.any()
     assert list(state["at_once"]) == [True, False] and np.isnan(state["switched"][0]) and state["switched"][1] > 0.0
+
+
+@pytest.mark.parametrize("key, value, named", [("lead_s", float("nan"), "lead"), ("lead_s", -1e9, "lead"),
+                                               ("direction_offset_deg", float("nan"), "direction_offset")])
+def test_a_turn_then_run_file_with_a_nan_or_negative_lead_is_refused(tmp_path, key, value, named):
+    """A NaN lead never switched to running (scored as a gait that turns for 50 s); a NaN offset
+    gave NaN actions, refused by the env without naming the file."""
+    spec = json.loads(FILE.read_text())
+    spec[key] = value
+    bad = tmp_path / FILE.name
+    bad.write_text(json.dumps(spec))  # (NaN as JSON's NaN, which Python's json reads)
+    for gaits in FILE.parent.glob(spec["run_gait_file"]):
+        (tmp_path / gaits.name).write_text(gaits.read_text())
+    with pytest.raises(ValueError, match=f"turn-then-run file {bad}: {named} must be"):
+        load_turn_then_run_agent(bad)
