@@ -409,9 +409,11 @@ def format_travel(label: str, summary) -> str:
 
 
 def _check_directory(flag: str, path: Path) -> None:
-    """A usage error, before a run, if ``path``'s directory does not exist."""
+    """A usage error, before a run, if ``path``'s directory does not exist or ``path`` is one."""
     if path.parent and not path.parent.is_dir():
         raise UsageError(f"cannot write {flag} {path}: no directory {path.parent}")
+    if path.is_dir():
+        raise UsageError(f"cannot write {flag} {path}: it is a directory")
 
 
 def _write(path: Path, writer) -> None:

@@ -115,6 +115,10 @@ def repair(parameters) -> np.ndarray:
     """Parameters (P, 6) or (6,) clipped to :data:`BOUNDS`, amplitudes shrunk so that
     o_k +- a_k stays inside the action range (see :data:`BOUNDS`)."""
     params = np.array(parameters, dtype=float)
+    if params.shape[-1:] != (len(PARAMETER_NAMES),) or not np.all(np.isfinite(params)):
+        raise ValueError(
+            f"gait parameters must be finite, shape (6,) or (P, 6) ({', '.join(PARAMETER_NAMES)}), got {parameters!r}"
+        )
     lows, highs = _lows_highs()
     params = np.clip(params, lows, highs)
     for a, o in ((0, 2), (1, 3)):
@@ -136,6 +140,7 @@ def ramp_factor(times, ramp_s: float) -> np.ndarray:
     """The share of the amplitude at ``times`` (s): 3 u^2 - 2 u^3 with u = t / ramp_s while
     t < ramp_s (its rate starts and ends at zero), 1 after; 1 throughout for ``ramp_s`` 0."""
     t = np.asarray(times, dtype=float)
+    ramp_s = _check_ramp(ramp_s)
     if ramp_s <= 0.0:
         return np.ones_like(t)
     u = np.clip(t / ramp_s, 0.0, 1.0)
@@ -399,8 +404,7 @@ def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=
     they stay in and the further they get, the better, which keeps a slope for CMA-ES
     in a region where everything fails.
     """
-    if objective not in OBJECTIVES:
-        raise ValueError(f"unknown objective {objective!r}: expected one of {', '.join(OBJECTIVES)}")
+    _check_objective(objective, heading_deg)
     units = objective_directions(runs, objective, heading_deg)
     along = np.einsum("psk,pk->ps", runs.displacement, units) / runs.duration
     mean_speed = along.mean(axis=1)
@@ -609,6 +613,11 @@ def search(
         raise ValueError(f"sigma0 must be in (0, 1] (a step in the unit box), got {sigma0!r}")
     if robustness_seeds is not None and not (isinstance(robustness_seeds, int) and robustness_seeds >= 0):
         raise ValueError(f"robustness_seeds must be a non-negative integer, got {robustness_seeds!r}")
+    for label, seconds in (("duration", duration), ("robustness_duration", robustness_duration)):
+        # (the re-score's duration was checked only when it ran, after the whole budget)
+        if seconds is not None and not (isinstance(seconds, (int, float, np.integer, np.floating))
+                                        and not isinstance(seconds, bool) and math.isfinite(seconds) and seconds > 0):
+            raise ValueError(f"{label} must be a positive number of seconds, got {seconds!r}")
     start_seeds = tuple(int(s) for s in start_seeds)
     if any(s >= ROBUSTNESS_SEED_OFFSET for s in start_seeds):
         raise ValueError(f"start_seeds must be below {ROBUSTNESS_SEED_OFFSET} (the robustness seeds start there)")
@@ -789,10 +798,15 @@ def robustness(parameters, *, model="plane", objective="own", heading_deg=None, 
     onto another course by a different start scores low. One dict per gait (module docstring).
     """
     params = np.asarray(parameters, dtype=float)
+    _check_objective(objective, heading_deg)
+    if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
+        raise ValueError(f"seeds must be a positive whole number of starts, got {seeds!r}")
     if objective == "own":
         if directions_deg is None or len(directions_deg) != len(params):
             raise ValueError("objective 'own' needs the gaits' own directions (directions_deg) to re-score along")
         units = np.radians(np.asarray(directions_deg, dtype=float))
+        if not np.all(np.isfinite(units)):
+            raise ValueError(f"directions_deg must be finite, got {directions_deg!r}")
     else:
         units = np.full(len(params), math.radians(heading_deg))
     units = np.stack([np.cos(units), np.sin(units)], axis=1)
@@ -849,4 +863,8 @@ def load_gaits(path) -> list:
                                               ramp_s=ramp_s))  # fmt: skip
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"gait file {path}, gait {i + 1}: {exc}") from None
+    names = [gait.name for gait in out]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:  # (the agents are looked up by name: one would hide the others)
+        raise ValueError(f"gait file {path} names more than one gait {', '.join(map(repr, repeated))}")
     return out

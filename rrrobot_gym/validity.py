@@ -57,8 +57,11 @@ def friction_ratio(force, normal, tangential=None):
     if tangential is None:
         force = np.asarray(force, dtype=float)
         tangential = dynamics.tangential_force(force[..., 0], force[..., 1], force[..., 2], normal)
+    normal = np.asarray(normal, dtype=float)
     pushed = normal > 0.0
-    return np.where(pushed, tangential / np.where(pushed, normal, 1.0), np.inf)
+    # (inf where the floor would have to pull; a NaN force stays NaN, not "infinite grip")
+    beyond = np.where(np.isnan(normal), np.nan, np.inf)
+    return np.where(pushed, np.asarray(tangential, dtype=float) / np.where(pushed, normal, 1.0), beyond)
 
 
 QUADRATURES = ("rectangle", "trapezoid")
@@ -93,11 +96,15 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     """
     if quadrature not in QUADRATURES:
         raise ValueError(f"unknown quadrature {quadrature!r}: expected one of {', '.join(QUADRATURES)}")
+    if friction_coefficient is not None and not friction_coefficient > 0.0:  # (NaN too)
+        raise ValueError(f"friction_coefficient must be positive or None (unlimited), got {friction_coefficient!r}")
     samples = record.normal.shape[0]
     normal = record.normal.reshape(samples, -1)
     num_robots = normal.shape[1]
     tangential = record.tangential.reshape(samples, num_robots)
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
+    if not (lost >= 0.0).all():  # (NaN too)
+        raise ValueError(f"contact_lost must be spells of seconds >= 0, got {contact_lost!r}")
     summary = {key: np.reshape(value, num_robots) for key, value in record.summary().items()}
     # The usual case, every sample pushing: the sums below are then skipped (ms at N = 4096), and
     # the grip needed is the summary's plain quotient.

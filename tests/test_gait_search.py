@@ -439,3 +439,44 @@ def test_a_search_re_scores_distinct_gaits_and_names_their_places(monkeypatch):
     assert 2 <= len(units) <= 6 and min(gaps) >= 0.3
     ranks = [g["search_rank"] for g in result.gaits]
     assert len(ranks) == len(units) and 1 in ranks and len(set(ranks)) == len(ranks) and max(ranks) <= 25
+
+
+def test_the_scoring_helpers_name_a_nan_heading_direction_or_parameter():
+    """Each returned NaN fitness or speeds, or NaN gaits, without a word (search() checked its own)."""
+    runs = evaluate_population(np.array([GAIT1.as_array()]), duration=0.1).runs
+    with pytest.raises(ValueError, match="finite heading_deg"):
+        fitness_from_runs(runs, "heading", float("nan"))
+    with pytest.raises(ValueError, match="finite heading_deg"):
+        gait_search.robustness(np.array([GAIT1.as_array()]), objective="heading", heading_deg=float("nan"), seeds=1,
+                               duration=0.1)  # fmt: skip
+    with pytest.raises(ValueError, match="directions_deg must be finite"):
+        gait_search.robustness(np.array([GAIT1.as_array()]), directions_deg=[float("nan")], seeds=1, duration=0.1)
+    with pytest.raises(ValueError, match="seeds must be a positive whole number"):
+        gait_search.robustness(np.array([GAIT1.as_array()]), directions_deg=[0.0], seeds=0, duration=0.1)
+    with pytest.raises(ValueError, match="ramp_s"):
+        gait_search.ramp_factor(1.0, float("nan"))
+    with pytest.raises(ValueError, match="gait parameters must be finite"):
+        repair([float("nan")] * 6)
+
+
+def test_a_bad_robustness_duration_is_refused_before_the_search(tmp_path):
+    for bad in (-1.0, float("nan"), "50"):  # (named "duration", after the whole budget)
+        with pytest.raises(ValueError, match="robustness_duration must be a positive number"):
+            search(budget_evaluations=2, progress=False, robustness_duration=bad)
+
+
+def test_a_gait_file_naming_two_gaits_alike_is_refused(tmp_path):
+    """load_gait_agents kept one of three gaits named "dup", silently."""
+    data = json.loads((REPO / "agents" / "searched" / "plane_own.json").read_text())
+    for gait in data["gaits"]:
+        gait["name"] = "dup"
+    path = tmp_path / "dup.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="names more than one gait 'dup'"):
+        gait_search.load_gaits(path)
+
+
+def test_cli_out_that_is_a_directory_is_refused_before_the_search(tmp_path):
+    (tmp_path / "taken.json").mkdir()
+    result = _cli("--model", "plane", "--evaluations", "2", "--no-progress", "--out", tmp_path / "taken.json")
+    assert result.returncode == 2 and "it is a directory" in result.stderr, result.stderr

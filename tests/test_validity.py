@@ -232,3 +232,16 @@ def test_the_trapezoid_measures_equal_a_fine_grid_on_the_lines_between_samples()
             assert measures["liftoff_time"][robot] == pytest.approx(longest, abs=2 * h / fine)
             assert after[robot] == pytest.approx(runs[-1] if off[-1, robot] else 0.0, abs=2 * h / fine)
             assert measures["liftoff_fraction"][robot] == pytest.approx(off[:, robot].mean(), abs=2 / fine / samples)
+
+
+def test_measures_name_a_bad_floor_or_spell_and_a_nan_force_stays_nan():
+    record = StepRecord(times=np.zeros(2), step=0.01, torque=np.zeros((2, 2)), force=np.array([[1.0, 0.0, 2.0]] * 2),
+                        normal=np.array([2.0, -1.0]), leg_clearance=np.ones((2, 2)), leg_rates=np.zeros((2, 2)))  # fmt: skip
+    config = SimConfig()
+    for mu in (-1.0, 0.0, float("nan")):  # (-1 gave a slip of 0.57 m/s)
+        with pytest.raises(ValueError, match="friction_coefficient must be positive"):
+            validity.step_measures(record, config, mu)
+    with pytest.raises(ValueError, match="contact_lost must be spells of seconds >= 0"):  # (gave liftoff_time -5)
+        validity.step_measures(record, config, 1.0, contact_lost=[-5.0])
+    force = np.array([[1.0, 0.0, 2.0]] * 3)
+    np.testing.assert_array_equal(validity.friction_ratio(force, np.array([np.nan, 0.0, 2.0])), [np.nan, np.inf, 0.5])
