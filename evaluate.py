@@ -72,10 +72,10 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     env = RRRobotVectorEnv(
         num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
     )
-    steps = int(round(duration / env.dt))
-    if steps < 1 or abs(steps * env.dt - duration) > 1e-9 * max(1.0, duration):
-        # (speeds are travel / duration: a part step would be rounded away from one but not the other)
-        raise ValueError(f"duration {duration:g} s is not a whole number of the env's {env.dt:g} s control steps")
+    steps = int(round(duration / env.dt))  # (the nearest whole number of control steps: score divides by it)
+    if steps < 1:
+        env.close()
+        raise ValueError(f"duration {duration!r} s is under half of the env's {env.dt!r} s control step")
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
     xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
     effort = {key: [] for key in info_keys}
@@ -126,10 +126,16 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     return runs
 
 
-def score(run, headings_deg, duration):
+def score(run, headings_deg, duration=None):
     """Per heading: speed along it (m/s), lateral drift (m), and from the step record the RMS
     and peak leg torque applied (N m), the peak leg rate (rad/s) and the share of time
-    without ground contact."""
+    without ground contact. Speeds are over the time the run simulated, ``run["times"][-1]``
+    (whole control steps, the nearest to what :func:`run_episodes` was asked); ``duration``, if
+    given, must be that time."""
+    simulated = float(run["times"][-1])
+    if duration is not None and abs(duration - simulated) > 1e-9 * max(1.0, simulated):
+        raise ValueError(f"the run simulated {simulated!r} s (whole control steps), not {duration!r} s")
+    duration = simulated
     records = []
     for i, heading in enumerate(headings_deg):
         direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
@@ -234,7 +240,7 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
         headings = list(COMPASS_DEG) + list(own.values())
         for name, run in run_episodes(on_model, model, headings, duration, seed, **imposed).items():
             runs[(name, model)] = (headings, run)
-            for record in score(run, headings, duration):
+            for record in score(run, headings):
                 record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=imposed)
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
@@ -245,11 +251,11 @@ def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: in
     """The agent's speed along the compass headings at the default step and at a ``refine``
     times finer one (same control step): a learned speed that depends on the step is an
     artefact of the integrator, not locomotion."""
-    coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG, duration)
+    coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG)
     fine_run = run_episodes(
         {"agent": agent}, model, COMPASS_DEG, duration, seed, timestep=DEFAULT_TIMESTEP / refine, frame_skip=15 * refine
     )["agent"]
-    fine = score(fine_run, COMPASS_DEG, duration)
+    fine = score(fine_run, COMPASS_DEG)
     return [
         {"heading_deg": c["heading_deg"], "speed_mps": c["speed_mps"], "fine_step_speed_mps": f["speed_mps"]}
         for c, f in zip(coarse, fine)

@@ -280,12 +280,12 @@ def _check_ppo_settings(parser, args):
     if not low <= args.log_std_init <= high:
         parser.error(f"--log-std-init must be in [{low:g}, {high:g}], got {args.log_std_init}")
     sizes = args.net_arch.split(",")
-    if not all(size.strip().isdigit() and int(size) > 0 for size in sizes):
+    if not all(size.strip().isascii() and size.strip().isdigit() and int(size) > 0 for size in sizes):
         parser.error(f"--net-arch must be positive layer sizes joined by commas, e.g. 128,128, got {args.net_arch!r}")
     if args.batch_size < 2:  # (SB3 normalises each minibatch's advantages)
         parser.error(f"--batch-size must be at least 2, got {args.batch_size}")
-    if not 0 <= args.seed < 2**31:
-        parser.error(f"--seed must be in [0, 2**31), got {args.seed}")
+    if not 0 <= args.seed < 2**32 - 100_000:  # (numpy's seeds end at 2**32; the envs' are seed + 10,000 + i)
+        parser.error(f"--seed must be in [0, 2**32 - 100000), got {args.seed}")
     if Path(args.runs_dir).exists() and not Path(args.runs_dir).is_dir():
         parser.error(f"--runs-dir: {args.runs_dir} is a file, not a directory")
     if args.resume is not None and Path(args.resume).is_file():

@@ -124,9 +124,10 @@ class TurnThenRunAgent:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{label} must be a positive number of seconds, got {value}")
         # (a NaN lead never switches to running; a NaN offset gives NaN actions)
-        if isinstance(lead, bool) or not isinstance(lead, (int, float)) or not (math.isfinite(lead) and lead >= 0):
+        numbers = (int, float, np.integer, np.floating)
+        if isinstance(lead, bool) or not isinstance(lead, numbers) or not (math.isfinite(lead) and lead >= 0):
             raise ValueError(f"lead must be a number of seconds >= 0, got {lead!r}")
-        offset_ok = isinstance(direction_offset, (int, float)) and not isinstance(direction_offset, bool)
+        offset_ok = isinstance(direction_offset, numbers) and not isinstance(direction_offset, bool)
         if not (offset_ok and math.isfinite(direction_offset)):
             raise ValueError(f"direction_offset must be a finite angle, got {direction_offset!r}")
         if not (isinstance(window, int) and window >= 1):

@@ -866,5 +866,5 @@ def load_gaits(path) -> list:
     names = [gait.name for gait in out]
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:  # (the agents are looked up by name: one would hide the others)
-        raise ValueError(f"gait file {path} names more than one gait {', '.join(map(repr, repeated))}")
+        raise ValueError(f"gait file {path} gives two or more gaits the name {', '.join(map(repr, repeated))}")
     return out

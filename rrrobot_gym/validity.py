@@ -57,11 +57,9 @@ def friction_ratio(force, normal, tangential=None):
     if tangential is None:
         force = np.asarray(force, dtype=float)
         tangential = dynamics.tangential_force(force[..., 0], force[..., 1], force[..., 2], normal)
-    normal = np.asarray(normal, dtype=float)
-    pushed = normal > 0.0
-    # (inf where the floor would have to pull; a NaN force stays NaN, not "infinite grip")
-    beyond = np.where(np.isnan(normal), np.nan, np.inf)
-    return np.where(pushed, np.asarray(tangential, dtype=float) / np.where(pushed, normal, 1.0), beyond)
+    # inf where the floor would have to pull; a NaN force is not "pulled", so its ratio stays NaN
+    pulled = np.asarray(normal, dtype=float) <= 0.0
+    return np.where(pulled, np.inf, tangential / np.where(pulled, 1.0, normal))
 
 
 QUADRATURES = ("rectangle", "trapezoid")

@@ -154,14 +154,19 @@ def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
             parse_physics([spec])
 
 
-def test_a_duration_that_is_not_whole_control_steps_is_refused():
+def test_speeds_are_over_the_whole_control_steps_simulated():
     """0.07 s ran one 0.05 s step and divided its travel by 0.07 (29 % slow); 0.02 s ran none
-    and failed indexing the empty path."""
+    and failed indexing the empty path. A run is whole control steps, the nearest to the time
+    asked, and its speeds are over the time it simulated."""
     agents = {"gait1": gait_agent("gait1")}
-    for duration in (0.07, 0.02, 1.024):
-        with pytest.raises(ValueError, match="not a whole number of the env's 0.05 s control steps"):
-            run_episodes(agents, "plane", [0.0], duration)
-    assert run_episodes(agents, "plane", [0.0], 0.1)["gait1"]["times"][-1] == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="under half of the env's 0.05 s control step"):
+        run_episodes(agents, "plane", [0.0], 0.02)
+    run = run_episodes(agents, "plane", [0.0], 0.07)["gait1"]
+    assert run["times"][-1] == pytest.approx(0.05)
+    travel = run["xy"][-1, 0] - run["xy"][0, 0]
+    assert score(run, [0.0])[0]["speed_mps"] == pytest.approx(travel[0] / 0.05, rel=1e-12)
+    with pytest.raises(ValueError, match="simulated"):  # a duration that is not the run's
+        score(run, [0.0], 0.07)
 
 
 @pytest.mark.parametrize("flag, where, named", [

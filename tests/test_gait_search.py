@@ -472,7 +472,7 @@ def test_a_gait_file_naming_two_gaits_alike_is_refused(tmp_path):
         gait["name"] = "dup"
     path = tmp_path / "dup.json"
     path.write_text(json.dumps(data))
-    with pytest.raises(ValueError, match="names more than one gait 'dup'"):
+    with pytest.raises(ValueError, match="two or more gaits the name 'dup'"):
         gait_search.load_gaits(path)
 
 

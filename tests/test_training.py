@@ -306,9 +306,10 @@ def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(s
         (["--log-std-init", "1000"], "--log-std-init must be in"),
         (["--net-arch", "64,x"], "--net-arch"),
         (["--net-arch=-4,4"], "--net-arch"),
+        (["--net-arch", "\u00b2"], "--net-arch"),  # (a digit to str.isdigit, not to int())
         (["--batch-size", "1"], "--batch-size must be at least 2"),  # (SB3's assertion)
         (["--seed", "-1"], "--seed"),
-        (["--resume", "README.md"], "not a Stable-Baselines3 model zip"),
+        (["--resume", str(ROOT / "README.md")], "not a Stable-Baselines3 model zip"),
     ],
 )
 def test_ppo_settings_that_cannot_train_are_refused_before_any_work(flags, named, capsys):
