@@ -195,6 +195,8 @@ def parse_physics(specs) -> dict:
             raise ValueError(f"--physics {spec!r}: {exc}") from None
         if key not in PHYSICS_KEYWORDS or key == "robot":
             raise ValueError(f"--physics {spec!r}: expected KEY=VALUE with KEY one of {allowed}")
+        if key in chosen:  # (the last one won, silently)
+            raise ValueError(f"--physics {spec!r}: {key} is given twice")
         chosen[key] = value
     try:  # together: some keywords need others (a leg-rate limit needs a torque limit)
         make_task_config(**chosen)

@@ -106,7 +106,7 @@ class MirroredAgent:
         return self.policy.model
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        observation = np.asarray(observation)
+        observation = self.policy.check_observation(observation)
         single = observation.ndim == 1
         obs = observation[None] if single else observation
         flip = mirrored_rows(obs)

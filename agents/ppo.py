@@ -51,7 +51,21 @@ class PPOAgent:
         scaled = (observation - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon)
         return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
 
+    def check_observation(self, observation) -> np.ndarray:
+        """``observation`` as an array, or a ValueError naming what is wrong: a size other than the
+        policy's, or NaN/inf (torch would fail on either, naming neither)."""
+        observation = np.asarray(observation, dtype=np.float64)
+        size = self.model.observation_space.shape[-1]
+        if observation.ndim not in (1, 2) or observation.shape[-1] != size:
+            raise ValueError(
+                f"observations must have shape ({size},) or (n, {size}) for this policy, got {observation.shape}"
+            )
+        if not np.all(np.isfinite(observation)):
+            raise ValueError("observations contain NaN or inf")
+        return observation
+
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        observation = self.check_observation(observation)
         actions, _ = self.model.predict(self.normalize(observation), deterministic=deterministic)
         return actions, state
 

@@ -38,7 +38,10 @@ def small_oscillation_periods(model: str, params: RobotParams | None = None, eps
     differences. Its eigenvalues are the squared angular frequencies; the Z mode has
     none (gravity exerts no torque about the vertical). Returns {"x": T_x, "y": T_y}.
     """
-    params = RobotParams(**{**params.__dict__, "damping": 0.0}) if params else RobotParams(damping=0.0)
+    params = _params(params)
+    if not (math.isfinite(eps) and eps > 0):
+        raise ValueError(f"eps must be a small positive rotation (rad) for the central differences, got {eps!r}")
+    params = RobotParams(**{**params.__dict__, "damping": 0.0})
     depth = rotation_point_depth(model, params)
     stiffness = np.empty((3, 3))
     for j in range(3):
@@ -66,7 +69,7 @@ def single_axis_formulas(model: str, params: RobotParams | None = None):
     gyration about that axis, sqrt(I / M). These model the robot as one lumped mass;
     NaN where the formula has no real value (eq. 5 needs rho < r).
     """
-    params = params or RobotParams()
+    params = _params(params)
     state = initial_state()
     inertia = dynamics.mass_matrix(state, params, model)[:3, :3]
     mass, g, r = params.total_mass, params.gravity, params.radius
@@ -82,6 +85,16 @@ def single_axis_formulas(model: str, params: RobotParams | None = None):
             paper_eq = 2 * math.pi * math.sqrt(rho / g)
         out[axis] = {"compound": compound, "paper_eq": paper_eq, "rho": rho}
     return out
+
+
+def _params(params) -> RobotParams:
+    """``params`` (None: the paper's), checked: a RobotParams with gravity, or an error naming the problem."""
+    params = RobotParams() if params is None else params
+    if not isinstance(params, RobotParams):
+        raise TypeError(f"params must be a rrrobot_gym.params.RobotParams, got {type(params).__name__}")
+    if params.gravity <= 0.0:
+        raise ValueError(f"the rocking periods need gravity > 0 (without it nothing rocks back), got {params.gravity}")
+    return params
 
 
 def table1(params: RobotParams | None = None):
@@ -116,6 +129,12 @@ def period_average(times, values, period: float):
     """
     times = np.asarray(times, dtype=float)
     values = np.asarray(values, dtype=float)
+    if not (math.isfinite(period) and period > 0):
+        raise ValueError(f"period must be a positive number of seconds, got {period!r}")
+    if times.ndim != 1 or len(times) < 2 or len(values) != len(times):
+        raise ValueError(
+            f"period_average needs two or more samples, times (T,) and values (T, ...), got {times.shape} and {values.shape}"
+        )
     dt = float(np.median(np.diff(times)))
     width = max(1, int(round(period / dt)))
     if width >= len(times):

@@ -172,3 +172,18 @@ def test_start_helpers_name_their_arguments():
     batch[1, 2] = 3.0
     with pytest.raises(ValueError, match="got norm 3"):  # the bad one, not the batch's least
         check_state(batch)
+
+
+def test_the_period_analysis_names_what_it_cannot_use():
+    from rrrobot_gym import analysis
+
+    with pytest.raises(ValueError, match="need gravity > 0"):  # (ZeroDivisionError)
+        analysis.table1(RobotParams(gravity=0.0))
+    with pytest.raises(TypeError, match="must be a rrrobot_gym.params.RobotParams"):  # (AttributeError: __dict__)
+        analysis.table1({"radius": 0.1})
+    with pytest.raises(ValueError, match="eps must be a small positive rotation"):  # (LinAlgError)
+        analysis.small_oscillation_periods("plane", eps=0.0)
+    with pytest.raises(ValueError, match="two or more samples"):  # ("cannot convert float NaN to integer")
+        analysis.period_average([], [], 1.0)
+    with pytest.raises(ValueError, match="period must be a positive number"):
+        analysis.period_average([0.0, 1.0, 2.0], [0.0, 1.0, 2.0], float("nan"))

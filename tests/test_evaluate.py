@@ -199,3 +199,10 @@ def test_a_gait_agent_names_a_bad_sampling_point_or_step_count():
         agent.predict(np.zeros((1, 15), dtype=np.float32), state=[np.nan])
     action, state = agent.predict(np.zeros((2, 15), dtype=np.float32), state=[3, 4])
     np.testing.assert_array_equal(state, [4, 5])
+
+
+def test_a_physics_keyword_given_twice_is_refused():
+    from evaluate import parse_physics
+
+    with pytest.raises(ValueError, match="torque_limit is given twice"):  # (the last one won, silently)
+        parse_physics(["torque_limit=0.5", "torque_limit=0.6"])

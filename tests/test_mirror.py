@@ -197,3 +197,23 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
     assert evaluated.returncode == 0, evaluated.stderr
     assert "| ppo |" in evaluated.stdout
+
+
+@pytest.mark.parametrize("shipped", ["pretrained", "pretrained_pivot"])
+def test_a_policy_names_an_observation_it_cannot_take(shipped):
+    """Too short: an IndexError in the mirror's sine lookup; too long: a numpy broadcast error;
+    a NaN: torch's "invalid values" for the whole batch. Each is named now."""
+    from agents.ppo import load_ppo_agent
+
+    mirrored = load_ppo_agent(ROOT / "agents" / shipped / "best_model.zip")
+    size = mirrored.model.observation_space.shape[-1]
+    for agent in (mirrored, mirrored.policy):  # as shipped (mirrored), and the plain PPOAgent inside
+        for bad in (np.zeros(10), np.zeros((3, size + 1))):
+            with pytest.raises(ValueError, match=rf"shape \({size},\) or \(n, {size}\)"):
+                agent.predict(bad)
+        nan = np.zeros((2, size))
+        nan[1, 3] = np.nan
+        with pytest.raises(ValueError, match="NaN or inf"):
+            agent.predict(nan)
+        action, _ = agent.predict(np.zeros(size))
+        assert action.shape == (2,) and np.all(np.isfinite(action))
