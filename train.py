@@ -289,10 +289,34 @@ def _check_ppo_settings(parser, args):
     if Path(args.runs_dir).exists() and not Path(args.runs_dir).is_dir():
         parser.error(f"--runs-dir: {args.runs_dir} is a file, not a directory")
     if args.resume is not None and Path(args.resume).is_file():
-        import zipfile
+        _check_resumed_model(parser, args)
 
-        if not zipfile.is_zipfile(args.resume) or "data" not in zipfile.ZipFile(args.resume).namelist():
-            parser.error(f"--resume: {args.resume} is not a Stable-Baselines3 model zip")
+
+def _check_resumed_model(parser, args):
+    """The --resume zip is an SB3 model with its normalisation statistics beside it, observing as
+    many numbers as this run's env gives (SB3 found out only after the env was made, by assertion)."""
+    import zipfile
+
+    from agents.ppo import normalization_path
+    from rrrobot_gym.envs.task import make_task_config
+
+    if not zipfile.is_zipfile(args.resume) or "data" not in zipfile.ZipFile(args.resume).namelist():
+        parser.error(f"--resume: {args.resume} is not a Stable-Baselines3 model zip")
+    stats = normalization_path(args.resume)
+    if not stats.exists():
+        parser.error(f"--resume needs the normalisation statistics {stats}")
+    if args.residual_on is not None:  # (a residual policy observes its base's action too: _check_resumed_residual)
+        return
+    try:
+        shape = json.loads(zipfile.ZipFile(args.resume).read("data"))["observation_space"]["_shape"]
+    except (KeyError, TypeError, ValueError):
+        return  # (no readable shape: SB3 checks it when it loads)
+    size = make_task_config(**env_kwargs(args)).observation_size
+    if list(shape) != [size]:
+        parser.error(f"--resume: the model observes {shape[0] if len(shape) == 1 else shape} numbers, this run's env "
+                     f"{size}: an option that changes the observation (--clock-frequency, "
+                     "--env exclude_current_positions_from_observation=...) differs from the model's run "
+                     "(its env_kwargs.json)")
 
 
 def _check_resumed_residual(parser, args):
@@ -503,10 +527,7 @@ def main(argv=None) -> Path:
     if args.resume:
         from agents.ppo import normalization_path
 
-        stats = normalization_path(args.resume)
-        if not stats.exists():
-            raise SystemExit(f"train.py: error: --resume needs the normalisation statistics {stats}")
-        train_env = VecNormalize.load(str(stats), train_env)
+        train_env = VecNormalize.load(str(normalization_path(args.resume)), train_env)  # (parse_args found it)
         train_env.training = True
         overrides = resume_overrides(args, argv)
         model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir), **overrides)

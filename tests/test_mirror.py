@@ -150,7 +150,8 @@ def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path):
 
     import train
 
-    shutil.copy(ROOT / "agents" / "pretrained" / "best_model.zip", tmp_path / "best_model.zip")  # no mirror.json
+    for name in ("best_model.zip", "vecnormalize.pkl"):  # no mirror.json
+        shutil.copy(ROOT / "agents" / "pretrained" / name, tmp_path / name)
     assert not train.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
     assert train.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--mirror"]).mirror  # turned on
 

@@ -329,3 +329,26 @@ def test_a_runs_dir_that_is_a_file_is_refused(tmp_path, capsys):
     with pytest.raises(SystemExit):
         train.parse_args(["--runs-dir", str(taken)])
     assert "is a file, not a directory" in capsys.readouterr().err
+
+
+def test_a_resume_is_checked_against_its_statistics_and_this_runs_observation(tmp_path, capsys):
+    """Both failed once the envs were made: the statistics with exit status 1, the observation in
+    SB3's assertion 'spaces must have the same shape'."""
+    import shutil
+
+    import train
+
+    shipped = ROOT / "agents" / "pretrained" / "best_model.zip"
+    for flags, named in (
+        (["--clock-frequency", "8"], "the model observes 15 numbers, this run's env 17"),
+        (["--env", "exclude_current_positions_from_observation=false"], "the model observes 15 numbers, this run's env 17"),
+    ):
+        with pytest.raises(SystemExit) as exit_info:
+            train.parse_args(["--resume", str(shipped), *flags])
+        assert exit_info.value.code == 2 and named in capsys.readouterr().err
+    alone = tmp_path / "best_model.zip"
+    shutil.copy(shipped, alone)
+    (tmp_path / "mirror.json").write_text((shipped.parent / "mirror.json").read_text())
+    with pytest.raises(SystemExit) as exit_info:
+        train.parse_args(["--resume", str(alone)])
+    assert exit_info.value.code == 2 and "needs the normalisation statistics" in capsys.readouterr().err
