@@ -1280,6 +1280,11 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
                       f"{leg_rate:.3g} rad/s; h x rate = {h * fastest:.2g}, keep it below ~1)")  # fmt: skip
     if tilt >= dynamics.TILT_LIMIT:
         causes.append(f"the tilt {math.degrees(tilt):.1f} deg is past the rim limit of 90 deg, where the model ends")
+    with np.errstate(all="ignore"):
+        eig = np.linalg.eigvalsh(dynamics.mass_matrix(state, config.robot, config.model))
+    if not np.all(eig[:, 0] > 1e-9 * eig[:, -1]):  # (as _effective_leg_inverse_inertia tells a singular one)
+        causes.append("the generalised mass matrix is singular at the start state: some motion there moves no mass "
+                      "(e.g. with mass_bottom = mass_pin = 0 and the legs upright), so the dynamics is undefined")
     if not causes:
         causes.append("no single cause found: try a smaller timestep; check masses and gains for extreme ratios")
     return (

@@ -187,3 +187,14 @@ def test_the_period_analysis_names_what_it_cannot_use():
         analysis.period_average([], [], 1.0)
     with pytest.raises(ValueError, match="period must be a positive number"):
         analysis.period_average([0.0, 1.0, 2.0], [0.0, 1.0, 2.0], float("nan"))
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_a_blow_up_from_a_singular_mass_matrix_says_so(backend):
+    """No bottom or pin mass: the plane's mass matrix is regular in most configurations (so
+    SimConfig takes it) but singular upright, where the run starts; it blew up as 'no single cause'."""
+    from rrrobot_gym.simulation import NumericalFailure
+
+    config = SimConfig(robot=RobotParams(mass_bottom=0.0, mass_pin=0.0), timestep="auto", backend=backend)
+    with pytest.raises(NumericalFailure, match="mass matrix is singular at the start state"):
+        simulate(config, table2_gait(1), 0.1)
