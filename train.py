@@ -258,6 +258,7 @@ def parse_args(argv=None) -> Args:
         if resumed_mirrored and not args.mirror:
             parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
                          "give --mirror")
+        _check_resumed_model(parser, args)
     return args
 
 
@@ -288,8 +289,6 @@ def _check_ppo_settings(parser, args):
         parser.error(f"--seed must be in [0, 2**32 - 100000), got {args.seed}")
     if Path(args.runs_dir).exists() and not Path(args.runs_dir).is_dir():
         parser.error(f"--runs-dir: {args.runs_dir} is a file, not a directory")
-    if args.resume is not None and Path(args.resume).is_file():
-        _check_resumed_model(parser, args)
 
 
 def _check_resumed_model(parser, args):
@@ -298,6 +297,7 @@ def _check_resumed_model(parser, args):
     import zipfile
 
     from agents.ppo import normalization_path
+    from agents.residual import FEATURES
     from rrrobot_gym.envs.task import make_task_config
 
     if not zipfile.is_zipfile(args.resume) or "data" not in zipfile.ZipFile(args.resume).namelist():
@@ -305,13 +305,12 @@ def _check_resumed_model(parser, args):
     stats = normalization_path(args.resume)
     if not stats.exists():
         parser.error(f"--resume needs the normalisation statistics {stats}")
-    if args.residual_on is not None:  # (a residual policy observes its base's action too: _check_resumed_residual)
-        return
     try:
         shape = json.loads(zipfile.ZipFile(args.resume).read("data"))["observation_space"]["_shape"]
     except (KeyError, TypeError, ValueError):
         return  # (no readable shape: SB3 checks it when it loads)
-    size = make_task_config(**env_kwargs(args)).observation_size
+    # (a residual policy, which _check_resumed_residual has matched to --residual-on, observes its base too)
+    size = make_task_config(**env_kwargs(args)).observation_size + (len(FEATURES) if args.residual_on is not None else 0)
     if list(shape) != [size]:
         parser.error(f"--resume: the model observes {shape[0] if len(shape) == 1 else shape} numbers, this run's env "
                      f"{size}: an option that changes the observation (--clock-frequency, "

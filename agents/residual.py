@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rrrobot_gym.envs.task import make_task_config
+
 from .turn_then_run import RUN, TURN, load_turn_then_run_agent
 
 FEATURES = ("base_action_1", "base_action_2", "base_clock_sin", "base_clock_cos", "base_turning", "base_running")
@@ -111,9 +113,15 @@ class ResidualAgent:
     def __init__(self, policy, base, scale):
         self.policy, self.base, self.scale = policy, base, check_scale(scale)
         self.env_config, self.env_kwargs = policy.env_config, policy.env_kwargs
+        self.observation_size = make_task_config(**self.env_config).observation_size  # (the env's, before FEATURES)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        observation = np.asarray(observation)
+        size = self.observation_size
+        observation = np.asarray(observation, dtype=np.float64)
+        if observation.ndim not in (1, 2) or observation.shape[-1] != size:
+            raise ValueError(
+                f"observations must have shape ({size},) or (n, {size}) for this policy, got {observation.shape}"
+            )
         single = observation.ndim == 1
         obs = observation[None] if single else observation
         base_actions, state = self.base.predict(obs, state=state, episode_start=episode_start)

@@ -1281,7 +1281,9 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
     if tilt >= dynamics.TILT_LIMIT:
         causes.append(f"the tilt {math.degrees(tilt):.1f} deg is past the rim limit of 90 deg, where the model ends")
     with np.errstate(all="ignore"):
-        eig = np.linalg.eigvalsh(dynamics.mass_matrix(state, config.robot, config.model))
+        mass = dynamics.mass_matrix(state, config.robot, config.model)
+    mass = mass[np.isfinite(mass).all(axis=(1, 2))]  # (eigvalsh fails on a non-finite one)
+    eig = np.linalg.eigvalsh(mass) if len(mass) else np.ones((0, 2))
     if not np.all(eig[:, 0] > 1e-9 * eig[:, -1]):  # (as _effective_leg_inverse_inertia tells a singular one)
         causes.append("the generalised mass matrix is singular at the start state: some motion there moves no mass "
                       "(e.g. with mass_bottom = mass_pin = 0 and the legs upright), so the dynamics is undefined")

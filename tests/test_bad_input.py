@@ -198,3 +198,15 @@ def test_a_blow_up_from_a_singular_mass_matrix_says_so(backend):
     config = SimConfig(robot=RobotParams(mass_bottom=0.0, mass_pin=0.0), timestep="auto", backend=backend)
     with pytest.raises(NumericalFailure, match="mass matrix is singular at the start state"):
         simulate(config, table2_gait(1), 0.1)
+
+
+def test_a_blow_up_from_a_non_finite_start_is_still_a_numerical_failure():
+    """The singular-matrix diagnosis must not fail itself (eigvalsh on a NaN matrix) and replace
+    the NumericalFailure with numpy's LinAlgError."""
+    from rrrobot_gym.simulation import NumericalFailure
+
+    state = initial_state()
+    state[3] = np.nan
+    for backend in ("numpy", "auto"):
+        with pytest.raises(NumericalFailure):
+            advance(SimConfig(backend=backend), state, 0.0, 0.05, HeldTargets((1.5, 1.5)), check=False)

@@ -127,7 +127,7 @@ SHIPPED_PLAIN = ROOT / "agents" / "pretrained" / "best_model.zip"
 
 
 @pytest.mark.parametrize("argv, named", [
-    (["--resume", str(SHIPPED_RESIDUAL)], "--residual-on"),
+    (["--resume", str(SHIPPED_RESIDUAL)], "is a residual policy"),  # (not "--residual-on": the usage line has it)
     (["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.1"], "scale 0.05"),
     (["--resume", str(SHIPPED_PLAIN), "--residual-on", str(BASE)], "not a residual policy"),
 ])
@@ -193,8 +193,28 @@ def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_
     (run_dir / "checkpoints").mkdir()
     checkpoint = run_dir / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(SHIPPED_RESIDUAL, checkpoint)
+    shutil.copy(shipped / "vecnormalize.pkl", run_dir / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
     agent = load_ppo_agent(checkpoint)
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
     with pytest.raises(SystemExit):
         train.parse_args(["--resume", str(checkpoint)])
-    assert "--residual-on" in capsys.readouterr().err
+    assert "is a residual policy" in capsys.readouterr().err
+
+
+def test_a_residual_resume_is_checked_against_this_runs_observation_too(capsys):
+    """The residual's own observation (the env's and its base's features) against this run's env:
+    with a clock the resume passed parse_args and failed in SB3's assertion."""
+    import train
+
+    with pytest.raises(SystemExit):
+        train.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05",
+                          "--clock-frequency", "8"])  # fmt: skip
+    assert "the model observes 21 numbers, this run's env 23" in capsys.readouterr().err
+
+
+def test_a_residual_agent_names_an_observation_it_cannot_take():
+    from agents import load_ppo_agent
+
+    agent = load_ppo_agent(SHIPPED_RESIDUAL)
+    with pytest.raises(ValueError, match=r"shape \(15,\) or \(n, 15\) for this policy, got \(17,\)"):
+        agent.predict(np.zeros(17))  # (named the extended (1, 23) and the policy's 21 before)
