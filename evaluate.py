@@ -437,10 +437,14 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
+    from rrrobot_gym.cli import UsageError, check_output_path
+
     for flag, path in (("--json", args.json), ("--markdown", args.markdown)):  # before the runs, not after them
-        if path is not None and (path.is_dir() or not path.parent.is_dir()):
-            problem = "a directory" if path.is_dir() else f"no directory {path.parent}"
-            parser.error(f"{flag}: cannot write {path}: {problem}")
+        if path is not None:
+            try:
+                check_output_path(flag, path)
+            except UsageError as exc:
+                parser.error(str(exc))
     if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
         parser.error(f"--plots: {args.plots} is a file, not a directory")
     if args.seed < 0:

@@ -300,13 +300,17 @@ def _check_resumed_model(parser, args):
     from agents.residual import FEATURES
     from rrrobot_gym.envs.task import make_task_config
 
-    if not zipfile.is_zipfile(args.resume) or "data" not in zipfile.ZipFile(args.resume).namelist():
+    data = None
+    if zipfile.is_zipfile(args.resume):
+        with zipfile.ZipFile(args.resume) as archive:
+            data = archive.read("data") if "data" in archive.namelist() else None
+    if data is None:
         parser.error(f"--resume: {args.resume} is not a Stable-Baselines3 model zip")
     stats = normalization_path(args.resume)
     if not stats.exists():
         parser.error(f"--resume needs the normalisation statistics {stats}")
     try:
-        shape = json.loads(zipfile.ZipFile(args.resume).read("data"))["observation_space"]["_shape"]
+        shape = json.loads(data)["observation_space"]["_shape"]
     except (KeyError, TypeError, ValueError):
         return  # (no readable shape: SB3 checks it when it loads)
     # (a residual policy, which _check_resumed_residual has matched to --residual-on, observes its base too)

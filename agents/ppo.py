@@ -53,16 +53,10 @@ class PPOAgent:
 
     def check_observation(self, observation) -> np.ndarray:
         """``observation`` as an array, or a ValueError naming what is wrong: a size other than the
-        policy's, or NaN/inf (torch would fail on either, naming neither)."""
-        observation = np.asarray(observation, dtype=np.float64)
-        size = self.model.observation_space.shape[-1]
-        if observation.ndim not in (1, 2) or observation.shape[-1] != size:
-            raise ValueError(
-                f"observations must have shape ({size},) or (n, {size}) for this policy, got {observation.shape}"
-            )
-        if not np.all(np.isfinite(observation)):
-            raise ValueError("observations contain NaN or inf")
-        return observation
+        policy's, or NaN/inf (:func:`rrrobot_gym.envs.task.check_observations`)."""
+        from rrrobot_gym.envs.task import check_observations
+
+        return check_observations(observation, self.model.observation_space.shape[-1])
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
         observation = self.check_observation(observation)

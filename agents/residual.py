@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.envs.task import make_task_config
+from rrrobot_gym.envs.task import check_observations, make_task_config
 
 from .turn_then_run import RUN, TURN, load_turn_then_run_agent
 
@@ -116,12 +116,7 @@ class ResidualAgent:
         self.observation_size = make_task_config(**self.env_config).observation_size  # (the env's, before FEATURES)
 
     def predict(self, observation, state=None, episode_start=None, deterministic=True):
-        size = self.observation_size
-        observation = np.asarray(observation, dtype=np.float64)
-        if observation.ndim not in (1, 2) or observation.shape[-1] != size:
-            raise ValueError(
-                f"observations must have shape ({size},) or (n, {size}) for this policy, got {observation.shape}"
-            )
+        observation = check_observations(observation, self.observation_size)
         single = observation.ndim == 1
         obs = observation[None] if single else observation
         base_actions, state = self.base.predict(obs, state=state, episode_start=episode_start)

@@ -408,8 +408,9 @@ def format_travel(label: str, summary) -> str:
     )
 
 
-def _check_directory(flag: str, path: Path) -> None:
-    """A usage error, before a run, if ``path``'s directory does not exist or ``path`` is one."""
+def check_output_path(flag: str, path: Path) -> None:
+    """A usage error, before a run, if ``path``'s directory does not exist or ``path`` is one
+    (``flag`` names the option; evaluate.py's outputs too)."""
     if path.parent and not path.parent.is_dir():
         raise UsageError(f"cannot write {flag} {path}: no directory {path.parent}")
     if path.is_dir():
@@ -426,14 +427,14 @@ def _write(path: Path, writer) -> None:
 def run_simulate(args) -> None:
     if args.out.suffix != ".npz":
         raise UsageError(f"--out must name an .npz file, got {str(args.out)!r}")
-    _check_directory("--out", args.out)
+    check_output_path("--out", args.out)
     config = sim_config(args, args.model)
     if args.plot:  # before the run, not after it
         try:
             plotting.check_figure_path(args.plot)
         except ValueError as exc:
             raise UsageError(f"--plot: {exc}") from None
-        _check_directory("--plot", args.plot)
+        check_output_path("--plot", args.plot)
     gait = table2_gait(args.gait, swapped=args.swap_phase)
     traj = _run_gait(config, gait, args)
     arrays = trajectory_arrays(traj)
@@ -547,7 +548,7 @@ def run_gait_search(args) -> None:
         raise UsageError("--heading-deg needs --objective heading (objective own follows the gait's own direction)")
     if args.popsize < 2:
         raise UsageError(f"--popsize must be at least 2 for CMA-ES, got {args.popsize}")
-    _check_directory("--out", args.out)
+    check_output_path("--out", args.out)
     env_kwargs = dict(args.env)
     for module, extra in (("cma", "search"), ("tqdm", "search")) + ((("ray", "distributed"),) if args.ray_address else ()):
         try:

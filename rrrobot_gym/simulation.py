@@ -242,6 +242,13 @@ def check_state(state):
 # The scene's time scales: a step derived from gains, masses and model.
 
 
+def _regular(mass) -> np.ndarray:
+    """(K,) bool: which of the finite mass matrices (K, 5, 5) are regular, their least eigenvalue
+    above 1e-9 of their largest (a singular one: some motion moves no mass)."""
+    eig = np.linalg.eigvalsh(mass)
+    return eig[:, 0] > 1e-9 * eig[:, -1]
+
+
 @functools.lru_cache(maxsize=64)
 def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
     """1/kg m^2, the largest eigenvalue of the legs' block of M^-1 over attitudes and leg angles.
@@ -267,8 +274,7 @@ def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
         )
     # Skip configurations where M is singular (e.g. no bottom mass and every mass on one
     # line): the dynamics is undefined there and no step size helps.
-    eig = np.linalg.eigvalsh(mass)
-    regular = eig[:, 0] > 1e-9 * eig[:, -1]
+    regular = _regular(mass)
     if not np.any(regular):
         raise ValueError(
             f"the generalised mass matrix of {robot} ({model} model) is singular in every configuration: "
@@ -1283,8 +1289,7 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
     with np.errstate(all="ignore"):
         mass = dynamics.mass_matrix(state, config.robot, config.model)
     mass = mass[np.isfinite(mass).all(axis=(1, 2))]  # (eigvalsh fails on a non-finite one)
-    eig = np.linalg.eigvalsh(mass) if len(mass) else np.ones((0, 2))
-    if not np.all(eig[:, 0] > 1e-9 * eig[:, -1]):  # (as _effective_leg_inverse_inertia tells a singular one)
+    if len(mass) and not np.all(_regular(mass)):
         causes.append("the generalised mass matrix is singular at the start state: some motion there moves no mass "
                       "(e.g. with mass_bottom = mass_pin = 0 and the legs upright), so the dynamics is undefined")
     if not causes:

@@ -414,6 +414,19 @@ def check_actions(action, shape) -> np.ndarray:
     return arr.clip(-1.0, 1.0)
 
 
+def check_observations(observation, size: int) -> np.ndarray:
+    """``observation`` ((size,) or (n, size)) as float64, or a ValueError naming a wrong shape or a
+    NaN/inf entry: what a policy of ``size`` inputs is given (torch would fail on either, naming neither)."""
+    observation = np.asarray(observation, dtype=np.float64)
+    if observation.ndim not in (1, 2) or observation.shape[-1] != size:
+        raise ValueError(
+            f"observations must have shape ({size},) or (n, {size}) for this policy, got {observation.shape}"
+        )
+    if not np.all(np.isfinite(observation)):
+        raise ValueError("observations contain NaN or inf")
+    return observation
+
+
 def action_to_leg_targets(action):
     """rad, the leg target angles of actions in [-1, 1] (affine: -1 -> -pi/4, 0 -> pi/2, +1 -> 5pi/4)."""
     return _LEG_TARGET_MID + _LEG_TARGET_HALF_RANGE * np.asarray(action, dtype=np.float64)
