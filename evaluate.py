@@ -35,7 +35,7 @@ import numpy as np
 
 from agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
 from agents.turn_then_run import load_turn_then_run_agent
-from rrrobot_gym.envs.task import action_to_leg_targets
+from rrrobot_gym.envs.task import action_to_leg_targets, control_steps
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import DEFAULT_TIMESTEP
 
@@ -72,10 +72,11 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     env = RRRobotVectorEnv(
         num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
     )
-    steps = int(round(duration / env.dt))  # (the nearest whole number of control steps: score divides by it)
-    if steps < 1:
+    try:  # (the nearest whole number of control steps: score divides by their time)
+        steps = control_steps("duration", duration, env.dt)
+    except ValueError:
         env.close()
-        raise ValueError(f"duration {duration!r} s is under half of the env's {env.dt!r} s control step")
+        raise
     obs, _ = env.reset(seed=seed, options={"target_direction": headings})
     xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
     effort = {key: [] for key in info_keys}
@@ -449,6 +450,8 @@ def main(argv=None):
         parser.error(f"--plots: {args.plots} is a file, not a directory")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
+    if len(set(args.models)) < len(args.models):  # (each was evaluated, and reported, as often as named)
+        parser.error(f"--models names a model twice: {' '.join(args.models)}")
     try:
         physics = parse_physics(args.physics)
     except ValueError as exc:

@@ -65,7 +65,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, leg_targets_to_action
+from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action
 from .analysis import json_safe
 from .control import TARGETS_SINUSOID, sinusoid_targets
 from .params import whole_number
@@ -324,7 +324,11 @@ def rollout_population(
         reset_noise_scale=reset_noise_scale,
         **env_kwargs,
     )
-    steps = max(1, int(round(duration / env.dt)))
+    try:
+        steps = control_steps("duration", duration, env.dt)
+    except ValueError:
+        env.close()
+        raise
     rows = np.repeat(params, n_starts, axis=0)
     env.reset(seed=seeds * n_gaits)
     start_xy = env.states[:, 0:2].copy()
@@ -628,7 +632,11 @@ def search(
     # Fail on a bad env keyword now, not after the first population.
     from .envs.vector import RRRobotVectorEnv
 
-    RRRobotVectorEnv(num_envs=1, model=model, reset_noise_scale=reset_noise_scale, **env_kwargs).close()
+    probe = RRRobotVectorEnv(num_envs=1, model=model, reset_noise_scale=reset_noise_scale, **env_kwargs)
+    probe.close()
+    scored = control_steps("duration", duration, probe.dt) * probe.dt  # (the time each run simulates)
+    if robustness_duration is not None:
+        control_steps("robustness_duration", robustness_duration, probe.dt)
 
     lows, highs = _lows_highs()
     to_params = lambda unit: repair(lows + np.asarray(unit) * (highs - lows))  # noqa: E731
@@ -744,7 +752,7 @@ def search(
     gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits, start=1)]
     settings = {
         "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": dict(env_kwargs),
-        "reset_noise_scale": reset_noise_scale, "ramp_s": ramp_s, "duration_s": float(duration),
+        "reset_noise_scale": reset_noise_scale, "ramp_s": ramp_s, "duration_s": float(scored),
         "start_seeds": list(start_seeds),
         "seed": int(seed), "budget": {"evaluations": budget_evaluations, "seconds": budget_seconds},
         "popsize": popsize, "screen": int(screen), "sigma0": float(sigma0), "command": command,

@@ -17,8 +17,11 @@ MODELS = ("plane", "pivot")
 
 
 def real_number(label: str, value) -> float:
-    """``float(value)``, or an error naming ``label``: TypeError if it is not a real number,
-    ValueError if it is NaN or infinite."""
+    """``float(value)``, or an error naming ``label``: TypeError if it is not a real number (a bool
+    or a string of digits is not one: ``float`` would take both), ValueError if it is NaN or
+    infinite."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"{label} must be a real number, got {value!r}")
     try:
         number = float(value)
     except (TypeError, ValueError):

@@ -24,9 +24,15 @@ def test_invalid_robot_parameters_are_named(kwargs, words):
         RobotParams(**kwargs)
 
 
-def test_non_numeric_parameter_is_a_type_error():
-    with pytest.raises(TypeError, match="radius"):
-        RobotParams(radius="big")
+@pytest.mark.parametrize("value", ["big", "0.12", True, np.bool_(False)])
+def test_non_numeric_parameter_is_a_type_error(value):
+    # (float() takes a string of digits and a bool: neither is a radius, a gain or a weight)
+    with pytest.raises(TypeError, match="radius must be a real number"):
+        RobotParams(radius=value)
+    with pytest.raises(TypeError, match="kp must be a real number"):
+        PDGains(kp=value)
+    with pytest.raises(TypeError, match="torque_limit must be a real number"):
+        SimConfig(torque_limit=value)
 
 
 @pytest.mark.parametrize("kwargs, words", [({"kp": 0.0}, "kp"), ({"kd": -1.0}, "kd"), ({"kp": float("inf")}, "kp")])

@@ -184,6 +184,15 @@ def test_evaluate_output_paths_are_checked_before_the_runs(tmp_path, flag, where
     assert named in err.err and "| gait1 |" not in err.out  # refused, and nothing was run
 
 
+def test_a_model_named_twice_is_refused_before_the_runs(capsys):
+    from evaluate import main
+
+    with pytest.raises(SystemExit):  # (it was evaluated and reported twice)
+        main(["--no-policy", "--models", "plane", "plane", "--duration", "0.5"])
+    err = capsys.readouterr()
+    assert "names a model twice" in err.err and "| gait1 |" not in err.out
+
+
 def test_a_gait_agent_names_a_bad_sampling_point_or_step_count():
     from agents.gaits import GaitAgent
     from rrrobot_gym.control import table2_gait

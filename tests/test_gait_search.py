@@ -465,6 +465,18 @@ def test_a_bad_robustness_duration_is_refused_before_the_search(tmp_path):
             search(budget_evaluations=2, progress=False, robustness_duration=bad)
 
 
+def test_a_duration_under_half_a_control_step_is_refused_and_the_time_scored_is_recorded():
+    # (under half a step scored one 0.05 s step, and the file recorded the duration asked)
+    for label, kwargs in (("duration", {"duration": 0.01}), ("robustness_duration", {"robustness_duration": 0.02})):
+        with pytest.raises(ValueError, match=f"{label} 0.0[12] s is under half of the env's 0.05 s control step"):
+            search(budget_evaluations=2, progress=False, **kwargs)
+    with pytest.raises(ValueError, match="under half"):
+        evaluate_population(np.array([GAIT1.as_array()]), duration=0.01)
+    result = search(budget_evaluations=2, popsize=2, screen=0, start=GAIT1, duration=0.07, robustness_seeds=0,
+                    progress=False)  # fmt: skip
+    assert result.settings["duration_s"] == pytest.approx(0.05)  # one step, the nearest
+
+
 def test_a_gait_file_naming_two_gaits_alike_is_refused(tmp_path):
     """load_gait_agents kept one of three gaits named "dup", silently."""
     data = json.loads((REPO / "agents" / "searched" / "plane_own.json").read_text())

@@ -213,6 +213,17 @@ def test_bad_construction_and_reset_arguments_raise_naming_the_problem(call, err
         call()
 
 
+@pytest.mark.parametrize("name", ["forward_reward_weight", "ctrl_cost_weight", "healthy_reward"])
+def test_a_reward_weight_that_would_overflow_the_reward_is_refused(name):
+    # (1e308 times a step's velocity or effort was an inf reward, and inf - inf a NaN, without a word)
+    with pytest.raises(ValueError, match=f"{name} must be at most 1e\\+100 in size"):
+        RRRobotVectorEnv(num_envs=2, **{name: 1e308})
+    env = RRRobotVectorEnv(num_envs=2, **{name: 1e100})  # the largest taken: its rewards stay finite
+    env.reset(seed=0)
+    rewards = np.array([env.step(np.ones((2, 2)))[1] for _ in range(6)])  # (past the start-up grace)
+    assert np.isfinite(rewards).all() and np.abs(rewards).max() > 1e90
+
+
 @pytest.mark.parametrize(
     "action, message",
     [

@@ -96,15 +96,32 @@ ValueError ("math domain error" from math.sin(inf)). The envs validate every inp
 calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
 
 
-def _real(name, value, *, minimum=None, positive=False):
-    if isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
+REWARD_WEIGHT_LIMIT = 1e100
+"""The largest reward weight (in size) the env takes: a weight near float's range (1e308)
+times a step's velocity or effort overflows the reward to inf (and inf - inf to NaN), which
+would reach the learner without a word; 1e100 leaves room for any velocity of a finite step."""
+
+
+def _real(name, value, *, minimum=None, positive=False, weight=False):
     number = real_number(name, value)
     if positive and number <= 0.0:
         raise ValueError(f"{name} must be positive, got {value!r}")
     if minimum is not None and number < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
+    if weight and abs(number) > REWARD_WEIGHT_LIMIT:
+        raise ValueError(f"{name} must be at most {REWARD_WEIGHT_LIMIT:g} in size (a reward weight near float's range "
+                         f"overflows the reward to inf or NaN), got {value!r}")
     return number
+
+
+def control_steps(label: str, duration: float, dt: float) -> int:
+    """The whole number of control steps of ``dt`` s nearest to ``duration`` s (a run simulates
+    that many, and its speed divides by their time), or a ValueError naming ``label`` if it is
+    under half a step (which scored one step for a duration asked, without a word)."""
+    steps = int(round(duration / dt))
+    if steps < 1:
+        raise ValueError(f"{label} {duration!r} s is under half of the env's {dt!r} s control step")
+    return steps
 
 
 ACTION_HOLDS = ("linear", "zero_order")
@@ -250,8 +267,8 @@ class TaskConfig:
             start_halves=self.start_halves,
         )
         put("_sim", sim)
-        put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight))
-        put("ctrl_cost_weight", _real("ctrl_cost_weight", self.ctrl_cost_weight, minimum=0.0))
+        put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight, weight=True))
+        put("ctrl_cost_weight", _real("ctrl_cost_weight", self.ctrl_cost_weight, minimum=0.0, weight=True))
         put("reset_noise_scale", _real("reset_noise_scale", self.reset_noise_scale, minimum=0.0))
         if self.reset_noise_scale >= dynamics.TILT_LIMIT:  # (a tilt is below pi/2 while both tilting angles are)
             raise ValueError(
@@ -264,7 +281,7 @@ class TaskConfig:
             put("friction_coefficient", _real("friction_coefficient", self.friction_coefficient, positive=True))
         put("max_slip_velocity", _real("max_slip_velocity", self.max_slip_velocity, positive=True))
         put("max_liftoff_time", _real("max_liftoff_time", self.max_liftoff_time, minimum=0.0))
-        put("healthy_reward", _real("healthy_reward", self.healthy_reward, minimum=0.0))
+        put("healthy_reward", _real("healthy_reward", self.healthy_reward, minimum=0.0, weight=True))
         if self.clock_frequency is not None:
             put("clock_frequency", _real("clock_frequency", self.clock_frequency, positive=True))
             if self.clock_frequency >= math.pi / self.dt:
