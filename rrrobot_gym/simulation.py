@@ -1317,10 +1317,12 @@ def advance(
     over ``duration`` (for held targets: onto the held angles, at rest). The body
     reacts to whatever torque that takes; only the body's equations are integrated.
 
-    ``workers`` > 1 splits a batch into that many blocks of robots, one integrated here and the
-    others in worker processes (threads do not pay: numpy's per-call work holds the GIL); the robots are
-    independent and the step is chosen for the whole batch first, so the result is
-    bit-identical to one process. Worth it for large batches (``benchmarks.throughput``).
+    ``workers`` > 1 splits a batch into that many blocks of robots: with numba, among that many
+    of numba's threads (the compiled loop holds no GIL); on numpy, one block integrated here and
+    the others in worker processes (threads do not pay there: numpy's per-call work holds the
+    GIL), kept for later calls until :func:`close_workers`. The robots are independent and the
+    step is chosen for the whole batch first, so the result is bit-identical to one worker.
+    Worth it for large batches (``benchmarks.throughput``).
 
     ``check`` validates the state (:func:`check_state`) and the targets against it
     (:func:`check_targets`); callers that made both themselves, as the envs do, pass False.
@@ -1587,14 +1589,29 @@ class _RowsOf:
         return tuple(tuple(self._cast(_take(v, self._rows)) for v in triple) for triple in triples)
 
 
-@functools.lru_cache(maxsize=None)
+_POOLS = {}
+"""{workers: ProcessPoolExecutor}: the numpy path's worker processes, made at first use and
+kept (a fork costs more than a step) until :func:`close_workers`."""
+
+
 def _process_pool(workers: int):
     """Worker processes for :func:`advance`'s blocks (forked where the platform allows)."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    pool = _POOLS.get(workers)
+    if pool is None:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method))
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        pool = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method))
+    return pool
+
+
+def close_workers() -> None:
+    """Stop the worker processes :func:`advance` started for ``workers`` > 1 on the numpy path
+    (numba's threads need no stopping). A later call with workers starts new ones, so this is
+    safe while other batches still run; a vector env made with workers calls it on close()."""
+    while _POOLS:
+        _POOLS.popitem()[1].shutdown(wait=True)
 
 
 @dataclass(frozen=True)

@@ -356,10 +356,22 @@ def test_a_start_whose_observation_overflows_float32_is_refused_at_reset(vector)
     start[dynamics.BODY_RATE.start] = 1e39
     env = RRRobotVectorEnv(num_envs=3) if vector else gymnasium.make("RRRobot-v0").unwrapped
     env.reset(seed=0)
+    expected, _ = env.reset()  # the next unseeded start
+    env.reset(seed=0)
     kept = (env.states if vector else env.state).copy()
-    with pytest.raises(ValueError, match="non-finite observation"):
-        env.reset(options={"state": start})
-    np.testing.assert_array_equal(env.states if vector else env.state, kept)  # a refused reset changes nothing
+    for seed in (None, 5):
+        with pytest.raises(ValueError, match="non-finite observation"):
+            env.reset(seed=seed, options={"state": start})
+    np.testing.assert_array_equal(env.states if vector else env.state, kept)  # a refused reset changes nothing,
+    assert env.np_random_seed == 0
+    np.testing.assert_array_equal(env.reset()[0], expected)  # its random generators included (it drew, or reseeded)
+
+
+def test_a_numpy_integer_seed_seeds_the_vector_env_as_an_int():
+    # (the sub-envs took it, then Gymnasium's own seeding refused it: "Seed must be a python integer")
+    env = RRRobotVectorEnv(num_envs=2)
+    np.testing.assert_array_equal(env.reset(seed=np.int64(3))[0], env.reset(seed=3)[0])
+    assert env.np_random_seed == 3
 
 
 def test_headings_written_by_a_caller_are_checked():

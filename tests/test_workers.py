@@ -69,6 +69,26 @@ def test_make_vec_with_workers_steps_exactly_as_with_one():
         gymnasium.make_vec("RRRobot-v0", num_envs=2, workers=0)
 
 
+def test_closing_a_vector_env_stops_the_worker_processes_and_another_env_goes_on():
+    """The numpy path's worker processes outlived the env that started them (a module-wide pool)."""
+    import multiprocessing
+
+    import gymnasium
+
+    import rrrobot_gym  # noqa: F401
+
+    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=32, workers=3, backend="numpy") for _ in range(2)]
+    for env in envs:
+        env.reset(seed=0)
+        env.step(np.zeros((32, 2)))
+    assert multiprocessing.active_children()  # (with the pools of earlier advance calls, if any)
+    envs[0].close()
+    assert multiprocessing.active_children() == []
+    envs[1].step(np.zeros((32, 2)))  # starts its workers again
+    envs[1].close()
+    assert multiprocessing.active_children() == []
+
+
 @pytest.mark.parametrize(
     "config",
     [SimConfig(torque_limit=0.3, leg_rate_limit=8.0), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),

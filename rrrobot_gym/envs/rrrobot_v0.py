@@ -117,7 +117,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
       step, small next to the forward term; action 0 holds both legs vertical, the rest
       pose and the middle of their range).
     - *healthy_reward* (`info["reward_survive"]`): `healthy_reward` (default 0; `train.py` uses 1)
-      for each step that does not end the episode, 0 on the step that does.
+      for each step that does not terminate the episode, 0 on the step that does (a step
+      truncated by the time limit earns it).
 
     `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
     `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
@@ -149,7 +150,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     2. A numerical failure: the integration produced a non-finite state (a step too large
        for the chosen gains or timestep). The episode ends with `info["numerical_failure"]`
        True, reward 0, and the last finite observation (the state is not advanced): the
-       env never returns NaN.
+       env never returns a NaN observation or reward (that step's measures in `info` are NaN:
+       there was no step to measure).
 
     3. The robot left the model (`info["outside_model"]`, when `terminate_outside_model` is
        True, the default): a leg tip reached the ground (leg-ground contact is not
@@ -229,13 +231,14 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return self.config.dt
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
         option_state, option_target = task.parse_reset_options(options, None)
+        if option_state is not None:  # (before anything changes, the generator too: a refused reset keeps the env)
+            task.check_start_states(option_state[None], self.config)
+        super().reset(seed=seed)
         noise, target = task.draw_start(self.np_random, self.config)
         state = task.start_states(noise[None])[0] if option_state is None else option_state
         heading = target if option_target is None else option_target
         observation = task.observe(state[None], np.array([heading]), self.config, np.zeros(1))[0]
-        task.check_start_observations(observation)  # (before anything changes: a refused reset keeps the env as it was)
         self.state = state
         self.episode_target_direction = heading
         self.time = 0.0

@@ -216,7 +216,7 @@ class TaskConfig:
         '`"trapezoid"`, the force a line between samples, which converges with the step '
         "(`rrrobot_gym.validity.QUADRATURES`)"
     )
-    healthy_reward: float = _keyword(0.0, "reward for each step that does not end the episode (`reward_survive`, >= 0)")
+    healthy_reward: float = _keyword(0.0, "reward for each step that does not terminate the episode (`reward_survive`, >= 0)")
     clock_frequency: float | None = _keyword(
         None, "rad/s: append (sin, cos)(clock_frequency t), t the episode time, to the observation; None: no clock. "
         "Below pi / `dt` (a faster clock, seen once a step, aliases to a slower one)"
@@ -544,12 +544,14 @@ def headings(label: str, value, num_envs: int) -> np.ndarray:
     return np.array(np.broadcast_to(array, (num_envs,)))
 
 
-def check_start_observations(observations) -> None:
-    """Raise ValueError where a start's float32 observation ((size,) or (N, size)) is not finite:
-    a reset state whose finite float64 values overflow float32 (a drawn start never does)."""
-    bad = np.flatnonzero(~np.isfinite(np.atleast_2d(observations)).all(axis=1))
+def check_start_states(states, config: TaskConfig) -> None:
+    """Raise ValueError where a reset's ``options['state']`` ((1, 13) for the single env, (N, 13))
+    gives a float32 observation that is not finite: finite float64 values beyond float32's range
+    (a drawn start never does; the heading, which the check leaves at 0, cannot)."""
+    observations = observe(states, np.zeros(len(states)), config, np.zeros(len(states)))
+    bad = np.flatnonzero(~np.isfinite(observations).all(axis=1))
     if bad.size:
-        which = "" if np.ndim(observations) == 1 else f" of sub-env(s) {bad.tolist()}"
+        which = "" if len(states) == 1 else f" of sub-env(s) {bad.tolist()}"
         raise ValueError(
             f"options['state']{which} gives a non-finite observation: a value beyond float32's range (3.4e38)"
         )

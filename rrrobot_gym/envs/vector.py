@@ -24,6 +24,7 @@ from gymnasium.utils import EzPickle, seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from .. import simulation
 from ..params import whole_number
 from . import render, task
 
@@ -33,9 +34,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
     :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
     episode end) plus ``num_envs``, ``max_episode_steps`` (control steps before truncation;
-    None never truncates) and ``workers`` (integrate the batch in that many blocks in worker
-    processes, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; it pays for
-    large batches, ``python -m benchmarks.throughput``).
+    None never truncates) and ``workers`` (integrate the batch in that many blocks, on numba's
+    threads or, on numpy, in worker processes that close() stops; bit-identical to one:
+    :func:`rrrobot_gym.simulation.advance`; it pays for large batches, ``python -m
+    benchmarks.throughput``).
     ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
@@ -140,8 +142,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
     def reset(self, *, seed=None, options=None):
         seeds = self._seed_list(seed)
-        super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
         option_states, option_targets = task.parse_reset_options(options, self.num_envs)
+        if option_states is not None:  # (before anything changes, the generators too: a refused reset keeps the env)
+            task.check_start_states(option_states, self.config)
+        super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)  # (Gymnasium takes ints only)
         for i, sub_seed in enumerate(seeds):
             if sub_seed is not None or self._generators[i] is None:
                 self._generators[i], _ = seeding.np_random(sub_seed)
@@ -149,7 +153,6 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         states = states if option_states is None else option_states
         targets = targets if option_targets is None else option_targets
         observations = task.observe(states, targets, self.config, np.zeros(self.num_envs))
-        task.check_start_observations(observations)  # (before anything changes: a refused reset keeps the env as it was)
         self.states = states
         self.leg_targets = self.states[:, 6:8].copy()
         self.contact_lost = np.zeros(self.num_envs)
@@ -314,6 +317,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         return observations
 
     # ------------------------------------------------------------------
+
+    def close_extras(self, **kwargs):
+        if self.workers > 1:  # (the numpy path's worker processes outlived the env)
+            simulation.close_workers()
 
     def render(self):
         if self.render_mode is None:
