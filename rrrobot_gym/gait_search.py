@@ -449,6 +449,30 @@ def ray_runtime_env() -> dict:
     return {"py_modules": [str(Path(__file__).resolve().parent)]}
 
 
+RAY_CONNECT_SECONDS = 10.0
+"""How long :func:`check_ray_address` waits for a Ray head to answer."""
+
+
+def check_ray_address(address: str) -> None:
+    """Raise ConnectionError naming ``address`` (host:port or ray://host:port) if nothing
+    answers there within :data:`RAY_CONNECT_SECONDS`: ``ray.init`` retries such an address for
+    minutes without a word. "auto", "local" and an address without a port are left to Ray."""
+    import socket
+
+    if not isinstance(address, str):
+        raise TypeError(f"ray_address must be a string (host:port, ray://host:port, 'auto' or 'local'), got {address!r}")
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=RAY_CONNECT_SECONDS).close()
+    except OSError as exc:
+        raise ConnectionError(
+            f"ray_address {address!r}: nothing answers at {host}:{port} ({exc}); start a head there "
+            "('ray start --head') or pass 'local' for a Ray on this machine"
+        ) from None
+
+
 def _ray_rollout(params, settings, ray_address, ray_chunks):
     """rollout_population split into chunks of rows, each a Ray task with its own env."""
     try:
@@ -456,6 +480,7 @@ def _ray_rollout(params, settings, ray_address, ray_chunks):
     except ImportError:  # pragma: no cover - depends on the install
         raise ImportError("ray_address needs Ray: pip install 'rrrobot_gym[distributed]'") from None
     if not ray.is_initialized():
+        check_ray_address(ray_address)
         ray.init(address=ray_address, runtime_env=ray_runtime_env(), include_dashboard=False, log_to_driver=False)
     if ray_chunks is None:
         ray_chunks = max(1, int(ray.cluster_resources().get("CPU", 1)))

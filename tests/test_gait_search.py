@@ -265,6 +265,14 @@ def test_ray_evaluation_equals_local_evaluation():
     np.testing.assert_allclose(remote.fitness, local.fitness, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("address", ["127.0.0.1:1", "ray://127.0.0.1:1"])
+def test_a_ray_address_where_nothing_answers_is_named(address):
+    # (ray.init retried it for minutes without a word; port 1 refuses at once)
+    pytest.importorskip("ray")
+    with pytest.raises(ConnectionError, match=f"ray_address '{address}': nothing answers at 127.0.0.1:1"):
+        evaluate_population(np.array([GAIT1.as_array()]), duration=0.1, ray_address=address)
+
+
 def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
