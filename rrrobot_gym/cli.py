@@ -48,11 +48,19 @@ class UsageError(Exception):
 # ---------------------------------------------------------------- argument types
 
 
+def _read_number(text: str) -> float:
+    """``float(text)``, a fraction such as 1/300 included; ValueError if it is not a number."""
+    try:
+        return float(Fraction(text.strip())) if "/" in text else float(text)
+    except ZeroDivisionError:
+        raise ValueError(f"not a number: {text!r}") from None
+
+
 def _number(text: str) -> float:
     """A finite real number; a fraction such as 1/300 is accepted too."""
     try:
-        value = float(Fraction(text.strip())) if "/" in text else float(text)
-    except (ValueError, ZeroDivisionError):
+        value = _read_number(text)
+    except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
@@ -99,7 +107,8 @@ ENV_KEYWORDS_WITH_OPTIONS = {"model": "--model", "reset_noise_scale": "--reset-n
 
 def keyword_value(text: str):
     """(name, value) of a KEY=VALUE env keyword (dashes in KEY read as underscores); VALUE is read
-    as JSON (1.5, true, null), None/none as None, else as a string. Raises ValueError naming the
+    as JSON (1.5, true, null), None/none as None, else as a number if it is one (.5, +20,
+    1/300), else as a string. Raises ValueError naming the
     problem: no KEY=VALUE, or a value that is not finite. Shared by ``gait-search --env`` and
     ``evaluate.py --physics``."""
     name, sep, raw = text.partition("=")
@@ -112,7 +121,10 @@ def keyword_value(text: str):
     try:
         value = json.loads(raw)
     except json.JSONDecodeError:
-        value = raw
+        try:  # (numbers JSON does not read: .5, +20, 1., 1/300)
+            value = _read_number(raw)
+        except ValueError:
+            value = raw
     if isinstance(value, float) and not math.isfinite(value):
         raise ValueError(f"{name}: must be finite, got {raw!r}")
     return name, value

@@ -17,10 +17,12 @@ MODELS = ("plane", "pivot")
 
 
 def real_number(label: str, value) -> float:
-    """``float(value)``, or an error naming ``label``: TypeError if it is not a real number (a bool
-    or a string of digits is not one: ``float`` would take both), ValueError if it is NaN or
-    infinite."""
-    if isinstance(value, (bool, np.bool_, str, bytes)):
+    """``float(value)``, or an error naming ``label``: TypeError if it is not a real number (a
+    bool, a string of digits or a complex number is not one, though ``float`` takes each),
+    ValueError if it is NaN or infinite."""
+    if isinstance(value, (bool, np.bool_, str, bytes, np.complexfloating)) or (
+        isinstance(value, np.ndarray) and value.dtype.kind in "bcUSO"
+    ):  # (float() takes each of these, the complex ones dropping their imaginary part)
         raise TypeError(f"{label} must be a real number, got {value!r}")
     try:
         number = float(value)

@@ -22,6 +22,7 @@ import cmath
 import ctypes
 import functools
 import math
+import threading
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -1424,7 +1425,8 @@ def _advance_rows(config: SimConfig, state, t0, targets, blend, record, workers,
                     for b in blocks]  # fmt: skip
             # This process integrates the first block itself while the workers do the others: one
             # block fewer to send and receive, and no process idles on a core while others work.
-            others = _process_pool(len(blocks) - 1).map(_integrate_block, jobs[1:])
+            with _POOLS_LOCK:  # (map submits every job at once: a close_workers elsewhere then waits for them)
+                others = _process_pool(len(blocks) - 1).map(_integrate_block, jobs[1:])
             results = [_integrate_block(jobs[0]), *others]
         out = np.concatenate([block for block, _ in results]) if len(results) > 1 else results[0][0]
         records = [rows for _, rows in results]
@@ -1592,6 +1594,9 @@ class _RowsOf:
 _POOLS = {}
 """{workers: ProcessPoolExecutor}: the numpy path's worker processes, made at first use and
 kept (a fork costs more than a step) until :func:`close_workers`."""
+_POOLS_LOCK = threading.Lock()
+"""Held while a pool is made or given its jobs, and while :func:`close_workers` takes the pools
+away: so a batch stepping in one thread never meets a pool another thread has shut down."""
 
 
 def _process_pool(workers: int):
@@ -1608,10 +1613,14 @@ def _process_pool(workers: int):
 
 def close_workers() -> None:
     """Stop the worker processes :func:`advance` started for ``workers`` > 1 on the numpy path
-    (numba's threads need no stopping). A later call with workers starts new ones, so this is
-    safe while other batches still run; a vector env made with workers calls it on close()."""
-    while _POOLS:
-        _POOLS.popitem()[1].shutdown(wait=True)
+    (numba's threads need no stopping); a vector env made with workers calls it on close(). Jobs
+    already given to them finish first, and a later call with workers starts new ones, so this
+    is safe while other batches step, in this thread or another."""
+    with _POOLS_LOCK:
+        pools = list(_POOLS.values())
+        _POOLS.clear()
+    for pool in pools:
+        pool.shutdown(wait=True)
 
 
 @dataclass(frozen=True)

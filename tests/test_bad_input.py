@@ -24,7 +24,8 @@ def test_invalid_robot_parameters_are_named(kwargs, words):
         RobotParams(**kwargs)
 
 
-@pytest.mark.parametrize("value", ["big", "0.12", True, np.bool_(False)])
+@pytest.mark.parametrize("value", ["big", "0.12", True, np.bool_(False), np.array(True), np.array("0.12"),
+                                   np.complex128(0.12 + 1j)])
 def test_non_numeric_parameter_is_a_type_error(value):
     # (float() takes a string of digits and a bool: neither is a radius, a gain or a weight)
     with pytest.raises(TypeError, match="radius must be a real number"):

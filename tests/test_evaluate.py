@@ -215,3 +215,14 @@ def test_a_physics_keyword_given_twice_is_refused():
 
     with pytest.raises(ValueError, match="torque_limit is given twice"):  # (the last one won, silently)
         parse_physics(["torque_limit=0.5", "torque_limit=0.6"])
+
+
+def test_a_physics_number_json_does_not_read_is_still_a_number():
+    # (".5" was a string, and real_number, which no longer takes strings of digits, refused it)
+    from evaluate import parse_physics
+
+    assert parse_physics(["torque_limit=.3", "timestep=1/600", "frame_skip=30"]) == {
+        "torque_limit": 0.3, "timestep": 1 / 600, "frame_skip": 30}
+    assert parse_physics(["integrator=rk3"]) == {"integrator": "rk3"}
+    with pytest.raises(ValueError, match="must be finite"):
+        parse_physics(["torque_limit=inf"])

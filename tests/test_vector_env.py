@@ -216,12 +216,16 @@ def test_bad_construction_and_reset_arguments_raise_naming_the_problem(call, err
 @pytest.mark.parametrize("name", ["forward_reward_weight", "ctrl_cost_weight", "healthy_reward"])
 def test_a_reward_weight_that_would_overflow_the_reward_is_refused(name):
     # (1e308 times a step's velocity or effort was an inf reward, and inf - inf a NaN, without a word)
-    with pytest.raises(ValueError, match=f"{name} must be at most 1e\\+100 in size"):
-        RRRobotVectorEnv(num_envs=2, **{name: 1e308})
-    env = RRRobotVectorEnv(num_envs=2, **{name: 1e100})  # the largest taken: its rewards stay finite
-    env.reset(seed=0)
+    # (and SB3's adapter casts rewards to float32: 1e100 gave inf there)
+    from rrrobot_gym.envs import RRRobotSB3VecEnv
+
+    for too_large in (1e308, 1e100):
+        with pytest.raises(ValueError, match=f"{name} must be at most 1e\\+30 in size"):
+            RRRobotVectorEnv(num_envs=2, **{name: too_large})
+    env = RRRobotSB3VecEnv(num_envs=2, **{name: 1e30})  # the largest taken: its float32 rewards stay finite
+    env.reset()
     rewards = np.array([env.step(np.ones((2, 2)))[1] for _ in range(6)])  # (past the start-up grace)
-    assert np.isfinite(rewards).all() and np.abs(rewards).max() > 1e90
+    assert rewards.dtype == np.float32 and np.isfinite(rewards).all() and np.abs(rewards).max() > 1e25
 
 
 @pytest.mark.parametrize(
@@ -367,11 +371,19 @@ def test_a_start_whose_observation_overflows_float32_is_refused_at_reset(vector)
     np.testing.assert_array_equal(env.reset()[0], expected)  # its random generators included (it drew, or reseeded)
 
 
-def test_a_numpy_integer_seed_seeds_the_vector_env_as_an_int():
+def test_numpy_integer_seeds_seed_the_vector_env_as_ints_and_a_bad_one_changes_nothing():
     # (the sub-envs took it, then Gymnasium's own seeding refused it: "Seed must be a python integer")
     env = RRRobotVectorEnv(num_envs=2)
     np.testing.assert_array_equal(env.reset(seed=np.int64(3))[0], env.reset(seed=3)[0])
     assert env.np_random_seed == 3
+    np.testing.assert_array_equal(env.reset(seed=np.arange(3, 5))[0], env.reset(seed=[3, 4])[0])
+    env.reset(seed=0)
+    expected, _ = env.reset()
+    env.reset(seed=0)
+    for bad in ([5, -1], [5, 2.5], -1):  # (refused part-way: sub-env 0 had been reseeded with 5)
+        with pytest.raises(ValueError, match="seed"):
+            env.reset(seed=bad)
+    np.testing.assert_array_equal(env.reset()[0], expected)
 
 
 def test_headings_written_by_a_caller_are_checked():

@@ -89,6 +89,39 @@ def test_closing_a_vector_env_stops_the_worker_processes_and_another_env_goes_on
     assert multiprocessing.active_children() == []
 
 
+def test_closing_one_env_while_another_steps_in_a_thread_costs_the_other_nothing():
+    """close() stops the module's worker pools; a batch stepping in another thread had fetched a
+    pool and then met it shut down ("cannot schedule new futures after shutdown", 47 of ~100 steps)."""
+    import threading
+
+    from rrrobot_gym.envs.vector import RRRobotVectorEnv
+
+    kwargs = dict(num_envs=32, workers=3, backend="numpy", max_episode_steps=None)
+    stepping, other = RRRobotVectorEnv(**kwargs), RRRobotVectorEnv(**kwargs)
+    stepping.reset(seed=0)
+    errors, steps = [], []
+
+    def step():
+        for _ in range(40):
+            try:
+                steps.append(stepping.step(np.zeros((32, 2)))[0])
+            except Exception as exc:  # noqa: BLE001 - any error is the failure
+                errors.append(repr(exc))
+
+    thread = threading.Thread(target=step)
+    thread.start()
+    closes = 0
+    while thread.is_alive():
+        other = RRRobotVectorEnv(**kwargs)
+        other.reset(seed=1)
+        other.step(np.zeros((32, 2)))
+        other.close()
+        closes += 1
+    thread.join()
+    stepping.close()
+    assert errors == [] and len(steps) == 40 and closes > 1
+
+
 @pytest.mark.parametrize(
     "config",
     [SimConfig(torque_limit=0.3, leg_rate_limit=8.0), SimConfig(model="pivot", integrator="rosw", timestep=1 / 600),

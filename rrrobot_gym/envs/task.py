@@ -96,10 +96,11 @@ ValueError ("math domain error" from math.sin(inf)). The envs validate every inp
 calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
 
 
-REWARD_WEIGHT_LIMIT = 1e100
+REWARD_WEIGHT_LIMIT = 1e30
 """The largest reward weight (in size) the env takes: a weight near float's range (1e308)
 times a step's velocity or effort overflows the reward to inf (and inf - inf to NaN), which
-would reach the learner without a word; 1e100 leaves room for any velocity of a finite step."""
+would reach the learner without a word, and SB3's adapter hands rewards on as float32 (3.4e38
+at most); 1e30 leaves room for any velocity of a finite step in either."""
 
 
 def _real(name, value, *, minimum=None, positive=False, weight=False):
@@ -109,8 +110,8 @@ def _real(name, value, *, minimum=None, positive=False, weight=False):
     if minimum is not None and number < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value!r}")
     if weight and abs(number) > REWARD_WEIGHT_LIMIT:
-        raise ValueError(f"{name} must be at most {REWARD_WEIGHT_LIMIT:g} in size (a reward weight near float's range "
-                         f"overflows the reward to inf or NaN), got {value!r}")
+        raise ValueError(f"{name} must be at most {REWARD_WEIGHT_LIMIT:g} in size (a larger reward weight can "
+                         f"overflow the reward, a float32 for SB3, to inf or NaN), got {value!r}")
     return number
 
 

@@ -170,14 +170,15 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if seed is None:
             return [None] * self.num_envs
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            return [int(seed) + i for i in range(self.num_envs)]
+            return [whole_number("seed", seed, minimum=0) + i for i in range(self.num_envs)]
         try:
             seeds = list(seed)
         except TypeError:
             raise TypeError(f"seed must be None, an int or a list of {self.num_envs} ints, got {seed!r}") from None
         if len(seeds) != self.num_envs:
             raise ValueError(f"seed list must have num_envs={self.num_envs} entries, got {len(seeds)}")
-        return seeds
+        # (checked before any generator is reseeded; numpy integers become ints, as Gymnasium's seeding wants)
+        return [None if s is None else whole_number(f"seed[{i}] (or None)", s, minimum=0) for i, s in enumerate(seeds)]
 
     def _draw_starts(self, indices):
         """Start states (len, 13) and headings (len,) for the sub-envs ``indices``, each from its own generator."""
