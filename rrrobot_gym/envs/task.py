@@ -33,7 +33,7 @@ from gymnasium import spaces
 from .. import dynamics, validity
 from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
-from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, NumericalFailure, SimConfig, advance, check_state
+from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, MAX_SAMPLES, NumericalFailure, SimConfig, advance, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
 """rad, leg target of action -1: 45 degrees below horizontal, pointing forward (body +X) and down
@@ -236,6 +236,11 @@ class TaskConfig:
             raise TypeError(f"frame_skip must be an integer, got {frame_skip!r}")
         if frame_skip < 1:
             raise ValueError(f"frame_skip must be a positive integer, got {frame_skip}")
+        if frame_skip > MAX_SAMPLES:  # (the first step failed allocating its record: 80 TiB at 10**12)
+            raise ValueError(
+                f"frame_skip must be at most {MAX_SAMPLES:.0e}, got {frame_skip}: a step's record keeps "
+                "every integration step, as simulate keeps at most that many samples"
+            )
         put("frame_skip", int(frame_skip))
         if self.robot is None:
             put("robot", RobotParams())
