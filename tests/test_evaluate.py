@@ -124,7 +124,7 @@ def test_physics_holds_gaits_to_motor_limits_without_a_policy():
 
 
 def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move():
-    # The graded schedule at the default's cost (README, "At the default's cost"): 13 substeps, the
+    # The graded schedule at the default's cost (docs/benchmarks.md, "At the default's cost"): 13 substeps, the
     # first two in halves, the same 0.05 s control step. The same physics integrated otherwise:
     # every gait's speed must agree with the default's to well under a mm/s, and not to the bit.
     from evaluate import main

@@ -194,7 +194,7 @@ def test_the_exponential_probes_orders_and_what_their_linear_part_must_be():
 
 
 def test_the_servo_linear_parts_phi_functions_come_from_its_5x5_block():
-    """What a compiled exponential step would use (README, the exponential probe): the free servo
+    """What a compiled exponential step would use (docs/benchmarks.md, the exponential probe): the free servo
     Jacobian has non-zero columns only at the leg angles, leg rates and time, so phi_j(hA) is
     I/j! + h A[:, S] phi_{j+1}(h A[S, S]); checked against scipy's expm of the whole matrix."""
     import math
@@ -343,7 +343,7 @@ def test_the_exponential_step_holds_every_gait_within_a_millimetre_at_16_evaluat
     """Issue 10's aim on the six gait cases: 4 steps of 1/80 s (16 evaluations) an env step, after a
     first env step of 12 steps (48 evaluations, once: the legs start from rest onto moving targets),
     within 1 mm of the rtol 1e-10 reference for 50 s. Without the finer first step plane Gait 2 errs
-    1.3 mm, so that step is part of the recipe, not decoration. The README's recipe with every env
+    1.3 mm, so that step is part of the recipe, not decoration. The recipe in docs/benchmarks.md with every env
     step alike is held to the same: 3 steps of 1/60 s, the first in halves (``start_halves=1``, 16
     evaluations; 0.31 mm at worst in the benchmark)."""
     config = SimConfig(model=model, integrator="etdrk4b", timestep=1 / 80)
@@ -435,7 +435,7 @@ def test_the_exponential_step_is_the_probes_with_full_matrices_and_expm(targets)
 )
 def test_the_probes_graded_schedules_are_the_shipped_start_halves_steps(step, halves, weights):
     """benchmarks.graded_schedule compares schedules of the probe's ETDRK4-B (in the locked rate)
-    and the README names four of its rows shipped settings, the 16-evaluation one 1:1:2:2; each must
+    and docs/benchmarks.md names four of its rows shipped settings, the 16-evaluation one 1:1:2:2; each must
     be a row of the benchmark's table and what its ``timestep`` and ``start_halves`` integrate: one
     control step of a ramp from a state far off its targets, the shipped step against the probe's
     (matrices and expm, sharing only the equations), and the benchmark's replay of two ramps (a
@@ -632,7 +632,7 @@ def test_the_exponential_step_follows_new_targets_far_more_closely_at_the_defaul
     assert error(SimConfig(integrator="etdrk4b", timestep=1 / 220, start_halves=4)) < rk4 / 200.0
     assert error(SimConfig(integrator="etdrk4b", timestep=1 / 80)) < rk4
     assert error(SimConfig(integrator="etdrk4b", timestep=1 / 60, start_halves=1)) < rk4 / 2.5
-    # at RK4's cost in batches (36 evaluations, graded: README, benchmarks.exponential_step); the
+    # at RK4's cost in batches (36 evaluations, graded: docs/benchmarks.md, benchmarks.exponential_step); the
     # grading is most of it: the same 1/120 s uniform is 3.5x closer than RK4
     assert error(SimConfig(integrator="etdrk4b", timestep=0.05 / 6, start_halves=3)) < rk4 / 20.0
     assert error(SimConfig(integrator="etdrk4b", timestep=0.05 / 6)) > rk4 / 5.0
