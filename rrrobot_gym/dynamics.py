@@ -675,6 +675,38 @@ def energy_components(c, params: RobotParams, depth: float):
 # Array helpers: states shaped (..., 13), leading axes are batch axes.
 
 
+def _shaped(values, size: int, what: str) -> np.ndarray:
+    """``values`` as a float array shaped (..., size), or an error naming ``what``: these helpers
+    index the last axis, so a wrong length would fail inside numpy or, worse, read other numbers."""
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{what} must be numbers shaped (..., {size}), got {type(values).__name__}") from None
+    if array.ndim == 0 or array.shape[-1] != size:
+        raise ValueError(f"{what} must have shape (..., {size}), got shape {array.shape}")
+    return array
+
+
+def _unit_quaternions(quat, what: str) -> np.ndarray:
+    """Quaternions (..., 4) checked as :func:`rrrobot_gym.simulation.check_state` checks a state's:
+    a finite norm outside [0.5, 2] is no attitude (a zero quaternion gave the identity). NaN and inf
+    pass, as in any arithmetic: the diagnosis of a failed run still reads its attitude."""
+    quat = _shaped(quat, 4, what)
+    with np.errstate(over="ignore", invalid="ignore"):
+        norm = np.sqrt(np.sum(quat * quat, axis=-1))
+    off = np.isfinite(norm) & ((norm < 0.5) | (norm > 2.0))
+    if np.any(off):
+        raise ValueError(f"{what} must be unit quaternions (w, x, y, z), got norm {np.asarray(norm)[off].flat[0]:.3g}")
+    return quat
+
+
+def _states(state, what: str = "state") -> np.ndarray:
+    """States (..., 13), their quaternions checked (:func:`_unit_quaternions`)."""
+    state = _shaped(state, STATE_SIZE, what)
+    _unit_quaternions(state[..., QUAT], f"{what}'s entries 2:6")
+    return state
+
+
 def _components(state):
     """View a (..., 13) state as a list of 13 component arrays."""
     return [state[..., i] for i in range(STATE_SIZE)]
@@ -682,7 +714,7 @@ def _components(state):
 
 def mass_matrix(state, params: RobotParams, model: str):
     """The 5x5 generalised mass matrix for the speeds (Omega, phi_1dot, phi_2dot), shape (..., 5, 5)."""
-    state = np.asarray(state, dtype=float)
+    state = _states(state)
     comps = _components(state)
     k = constants(params, rotation_point_depth(model, params))
     n = _up_vector(comps[2], comps[3], comps[4], comps[5])
@@ -702,14 +734,14 @@ def mass_matrix(state, params: RobotParams, model: str):
 
 def total_energy(state, params: RobotParams, model: str):
     """Kinetic plus potential energy (J) of each robot, shape (...)."""
-    state = np.asarray(state, dtype=float)
+    state = _states(state)
     kin, pot = energy_components(_components(state), params, rotation_point_depth(model, params))
     return np.asarray(kin + pot)
 
 
 def rotation_matrix(quat):
     """R (body to world) from unit quaternions (..., 4) in (w, x, y, z) order, shape (..., 3, 3)."""
-    quat = np.asarray(quat, dtype=float)
+    quat = _unit_quaternions(quat, "quat")
     rows = rotation_rows(quat[..., 0], quat[..., 1], quat[..., 2], quat[..., 3])
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
@@ -730,7 +762,7 @@ def paper_angles(quat):
 
 def quat_from_paper_angles(theta):
     """Unit quaternion (w, x, y, z) of R = Ry(theta_3) Rx(theta_1) Rz(theta_2), shape (..., 4)."""
-    theta = np.asarray(theta, dtype=float)
+    theta = _shaped(theta, 3, "theta (the paper's angles)")
     half = 0.5 * theta
     qx = np.stack([np.cos(half[..., 0]), np.sin(half[..., 0]), 0 * half[..., 0], 0 * half[..., 0]], -1)
     qz = np.stack([np.cos(half[..., 1]), 0 * half[..., 1], 0 * half[..., 1], np.sin(half[..., 1])], -1)
@@ -740,8 +772,8 @@ def quat_from_paper_angles(theta):
 
 def quat_multiply(p, q):
     """Hamilton product p (x) q of quaternions (..., 4), (w, x, y, z) order."""
-    p = np.asarray(p, dtype=float)
-    q = np.asarray(q, dtype=float)
+    p = _shaped(p, 4, "p")
+    q = _shaped(q, 4, "q")
     pw, pv = p[..., 0], p[..., 1:]
     qw, qv = q[..., 0], q[..., 1:]
     w = pw * qw - np.sum(pv * qv, axis=-1)
@@ -751,13 +783,13 @@ def quat_multiply(p, q):
 
 def world_body_rate(state):
     """World-frame angular velocity w = R Omega, shape (..., 3), rad/s."""
-    state = np.asarray(state, dtype=float)
+    state = _states(state)
     return np.einsum("...ij,...j->...i", rotation_matrix(state[..., QUAT]), state[..., BODY_RATE])
 
 
 def tilt(state):
     """Angle between the body z axis and the world z axis, shape (...), rad."""
-    state = np.asarray(state, dtype=float)
+    state = _states(state)
     q = state[..., QUAT]
     nz = 1.0 - 2.0 * (q[..., 1] ** 2 + q[..., 2] ** 2)
     return np.arccos(np.clip(nz, -1.0, 1.0))
@@ -782,7 +814,7 @@ def mirror_states(states):
     pseudovector, becomes -M w (x and z change sign); the leg angles and rates are
     exchanged, unchanged in value.
     """
-    states = np.asarray(states, dtype=float)
+    states = _shaped(states, STATE_SIZE, "states")
     out = states * MIRROR_STATE_SIGNS
     out[..., LEG_ANGLES] = states[..., LEG_ANGLES][..., ::-1]
     out[..., LEG_RATES] = states[..., LEG_RATES][..., ::-1]

@@ -217,3 +217,40 @@ def test_a_blow_up_from_a_non_finite_start_is_still_a_numerical_failure():
     for backend in ("numpy", "auto"):
         with pytest.raises(NumericalFailure):
             advance(SimConfig(backend=backend), state, 0.0, 0.05, HeldTargets((1.5, 1.5)), check=False)
+
+
+_UPRIGHT = initial_state()
+
+
+@pytest.mark.parametrize(
+    "call, error, words",
+    [
+        # (each of these returned a number for the wrong input, or failed inside numpy)
+        (lambda d: d.tilt(_UPRIGHT[:12]), ValueError, r"state must have shape \(\.\.\., 13\), got shape \(12,\)"),
+        (lambda d: d.paper_angles(np.ones(5)), ValueError, r"quat must have shape \(\.\.\., 4\), got shape \(5,\)"),
+        (lambda d: d.rotation_matrix([1.0, 0.0, 0.0]), ValueError, r"quat must have shape \(\.\.\., 4\)"),
+        (lambda d: d.rotation_matrix("wxyz"), TypeError, "quat must be numbers"),
+        (lambda d: d.rotation_matrix(np.zeros(4)), ValueError, "quat must be unit quaternions .* norm 0"),
+        (lambda d: d.world_body_rate(_UPRIGHT[:2]), ValueError, r"state must have shape \(\.\.\., 13\)"),
+        (lambda d: d.world_body_rate(np.r_[_UPRIGHT[:2], 3.0, _UPRIGHT[3:]]), ValueError, "entries 2:6 must be unit"),
+        (lambda d: d.mass_matrix(np.ones((3, 12)), RobotParams(), "plane"), ValueError, r"got shape \(3, 12\)"),
+        (lambda d: d.total_energy(_UPRIGHT[None, :12], RobotParams(), "pivot"), ValueError, r"\(\.\.\., 13\)"),
+        (lambda d: d.quat_from_paper_angles([0.1, 0.2]), ValueError, r"theta \(the paper's angles\) must have shape"),
+        (lambda d: d.quat_multiply(np.ones(3), np.ones(4)), ValueError, r"p must have shape \(\.\.\., 4\)"),
+        (lambda d: d.mirror_states(np.ones(4)), ValueError, r"states must have shape \(\.\.\., 13\)"),
+    ],
+)
+def test_the_dynamics_array_helpers_name_a_wrong_shape_or_a_quaternion_that_is_none(call, error, words):
+    from rrrobot_gym import dynamics
+
+    with pytest.raises(error, match=words):
+        call(dynamics)
+
+
+def test_the_dynamics_array_helpers_still_pass_nan_through():
+    # (the blow-up diagnosis reads a failed run's attitude: NaN in, NaN out, as arithmetic does)
+    from rrrobot_gym import dynamics
+
+    assert np.isnan(dynamics.tilt(np.full(13, np.nan)))
+    assert np.isnan(dynamics.rotation_matrix(np.full(4, np.nan))).all()
+    np.testing.assert_allclose(dynamics.tilt(np.stack([_UPRIGHT, _UPRIGHT])), 0.0)
