@@ -116,7 +116,11 @@ class Args:
         metadata={"help": "which evaluation picks best_model.zip: mean (the headings' mean return) or worst "
                           "(the worst heading's return)"},
     )
-    torch_threads: int = field(default=1, metadata={"help": "torch CPU threads (the env uses the other core)"})
+    torch_threads: int = field(
+        default=2,
+        metadata={"help": "torch CPU threads for PPO's updates; the model's construction, the rollouts and the "
+                          "evaluations run on one (the env steps between updates, so its core is free then)"},
+    )
 
 
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
@@ -492,6 +496,32 @@ def stop_on_ctrl_c():
     return Stop()
 
 
+def threads_for_updates(threads: int):
+    """An SB3 callback that runs torch on ``threads`` CPU threads while PPO updates and on one while
+    it collects a rollout. The two phases take turns, so the core the env used is idle during the
+    update, where minibatches of 4096 give torch's matrix products work to share (--torch-threads 2:
+    about 0.7x the wall time of one thread, ``python -m benchmarks.train_time --threads``). Rollouts
+    stay on one thread (their forward passes are 64 rows, which a second thread only slows), and so
+    does the model's construction: its orthogonal initial weights come from a QR factorisation whose
+    bits depend on the thread count. The updates' sums are below torch's grain for splitting, and on
+    our machine a run's model came out the same to the bit on one thread or two (the benchmark
+    checks it); on others that is likely, not promised."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class ThreadsForUpdates(BaseCallback):
+        def _on_rollout_start(self) -> None:
+            torch.set_num_threads(1)
+
+        def _on_rollout_end(self) -> None:
+            torch.set_num_threads(threads)
+
+        def _on_step(self) -> bool:
+            return True
+
+    return ThreadsForUpdates()
+
+
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -506,7 +536,7 @@ def main(argv=None) -> Path:
 
     import rrrobot_gym  # noqa: F401  (registers the env)
 
-    torch.set_num_threads(args.torch_threads)
+    torch.set_num_threads(1)  # (until the first update: ThreadsForUpdates)
     random.seed(args.seed)
     np.random.seed(args.seed)
     set_random_seed(args.seed)
@@ -606,7 +636,7 @@ def main(argv=None) -> Path:
         with stop.handling_ctrl_c():
             model.learn(
                 total_timesteps=total_timesteps,
-                callback=CallbackList([stop, evaluation, checkpoints]),
+                callback=CallbackList([stop, evaluation, checkpoints, threads_for_updates(args.torch_threads)]),
                 progress_bar=args.progress_bar,
                 reset_num_timesteps=args.resume is None,
                 tb_log_name="tb",

@@ -352,3 +352,34 @@ def test_a_resume_is_checked_against_its_statistics_and_this_runs_observation(tm
     with pytest.raises(SystemExit) as exit_info:
         train.parse_args(["--resume", str(alone)])
     assert exit_info.value.code == 2 and "needs the normalisation statistics" in capsys.readouterr().err
+
+
+def test_ppo_updates_on_the_torch_threads_asked_and_rollouts_on_one(tmp_path, monkeypatch):
+    # (the env steps between updates, so its core is free for torch's matrix products then; the
+    # rollouts' 64-row forward passes and the model's construction stay on one thread)
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    import train
+
+    seen = {"update": set(), "rollout": set()}
+    update, forward = PPO.train, ActorCriticPolicy.forward
+
+    def recorded_update(self, *args, **kwargs):
+        seen["update"].add(torch.get_num_threads())
+        return update(self, *args, **kwargs)
+
+    def recorded_forward(self, *args, **kwargs):
+        seen["rollout"].add(torch.get_num_threads())
+        return forward(self, *args, **kwargs)
+
+    monkeypatch.setattr(PPO, "train", recorded_update)
+    monkeypatch.setattr(ActorCriticPolicy, "forward", recorded_forward)
+    threads = torch.get_num_threads()
+    try:
+        train.main(["--total-timesteps", "1024", "--runs-dir", str(tmp_path), "--torch-threads", "2", *TINY])
+    finally:
+        torch.set_num_threads(threads)
+    assert seen == {"update": {2}, "rollout": {1}}
+    assert train.parse_args([]).torch_threads == 2
