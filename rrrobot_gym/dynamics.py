@@ -687,16 +687,25 @@ def _shaped(values, size: int, what: str) -> np.ndarray:
     return array
 
 
-def _unit_quaternions(quat, what: str) -> np.ndarray:
-    """Quaternions (..., 4) checked as :func:`rrrobot_gym.simulation.check_state` checks a state's:
-    a finite norm outside [0.5, 2] is no attitude (a zero quaternion gave the identity). NaN and inf
-    pass, as in any arithmetic: the diagnosis of a failed run still reads its attitude."""
-    quat = _shaped(quat, 4, what)
+def not_rotations(quat) -> np.ndarray:
+    """Which quaternions (..., 4) are no attitude: finite, with a norm outside [0.5, 2], the bound
+    :func:`rrrobot_gym.simulation.check_state` takes (a zero quaternion gives the identity, and a
+    norm that overflows, from components past ~1e154, is out too). NaN and inf are not flagged."""
+    quat = np.asarray(quat, dtype=float)
     with np.errstate(over="ignore", invalid="ignore"):
         norm = np.sqrt(np.sum(quat * quat, axis=-1))
-    off = np.isfinite(norm) & ((norm < 0.5) | (norm > 2.0))
+    return np.all(np.isfinite(quat), axis=-1) & ~((norm >= 0.5) & (norm <= 2.0))
+
+
+def _unit_quaternions(quat, what: str) -> np.ndarray:
+    """Quaternions (..., 4), refused where :func:`not_rotations`. NaN and inf pass, as in any
+    arithmetic: the diagnosis of a failed run still reads its attitude."""
+    quat = _shaped(quat, 4, what)
+    off = not_rotations(quat)
     if np.any(off):
-        raise ValueError(f"{what} must be unit quaternions (w, x, y, z), got norm {np.asarray(norm)[off].flat[0]:.3g}")
+        with np.errstate(over="ignore"):
+            norm = np.linalg.norm(quat[off][0])
+        raise ValueError(f"{what} must be unit quaternions (w, x, y, z), got norm {norm:.3g}")
     return quat
 
 

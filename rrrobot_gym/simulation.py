@@ -43,7 +43,7 @@ where accuracy, not stability, sets the step (``python -m benchmarks.work_precis
 integrates the servo's linear part exactly (its phi-functions in closed form) and the rest
 explicitly: no servo stability limit, and order 4 where the rest is smooth, as on a scripted
 gait (within 0.4 mm after 50 s at 1/80 s, 16 evaluations an env step, from a fine first env
-step); not on a policy's path, whose every new ramp kicks the servo (see the README);
+step); not on a policy's path, whose every new ramp kicks the servo (docs/benchmarks.md);
 "rk4_locked", RK4's tableau on the body's locked rate (:func:`rrrobot_gym.dynamics.locked_share`)
 in place of its rate: the same steps and stability limit as "rk4", and the leg torques act on
 the legs' rows alone, so a new ramp's kick is followed far more closely (at 1/300 s ~100x closer
@@ -1271,11 +1271,16 @@ def _rate_limited_step(state, path_rate: float) -> float:
 def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) -> str:
     """The message of a NumericalFailure: what blew up and the likely cause, from the start state."""
     state = np.atleast_2d(state)
-    with np.errstate(all="ignore"):
-        body_rate = float(np.max(np.linalg.norm(state[:, dynamics.BODY_RATE], axis=-1)))
-        leg_rate = float(np.max(np.abs(state[:, dynamics.LEG_RATES])))
-        tilt = float(np.max(dynamics.tilt(state)))
     causes = []
+    no_attitude = dynamics.not_rotations(state[:, dynamics.QUAT])  # (advance(check=False) takes any state)
+    if np.any(no_attitude):
+        causes.append("the start state's quaternion (entries 2:6) is no rotation (a norm far from 1): start "
+                      "from a unit quaternion, or let advance check the state")
+        state = state[~no_attitude]
+    with np.errstate(all="ignore"):
+        body_rate = float(np.max(np.linalg.norm(state[:, dynamics.BODY_RATE], axis=-1), initial=0.0))
+        leg_rate = float(np.max(np.abs(state[:, dynamics.LEG_RATES]), initial=0.0))
+        tilt = float(np.max(dynamics.tilt(state), initial=0.0))
     if config.legs == "servo":
         limit = stable_step_limit(config.model, config.robot, config.gains, config.integrator)
         if h > 0.8 * limit:

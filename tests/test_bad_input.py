@@ -219,6 +219,20 @@ def test_a_blow_up_from_a_non_finite_start_is_still_a_numerical_failure():
             advance(SimConfig(backend=backend), state, 0.0, 0.05, HeldTargets((1.5, 1.5)), check=False)
 
 
+@pytest.mark.parametrize("quat", [[0.0, 0.0, 0.0, 0.0], [1e200, 0.0, 0.0, 0.0]])
+def test_a_blow_up_from_a_start_with_no_attitude_is_a_numerical_failure_that_says_so(quat):
+    # (advance(check=False) takes the state as given; the diagnosis reads its tilt and mass matrix,
+    # whose helpers refuse such a quaternion, and must name it instead of raising their ValueError)
+    from rrrobot_gym.simulation import NumericalFailure
+
+    state = initial_state()
+    state[2:6] = quat
+    for backend in ("numpy", "auto"):
+        for start in (state, np.stack([initial_state(), state])):
+            with pytest.raises(NumericalFailure, match=r"quaternion \(entries 2:6\) is no rotation"):
+                advance(SimConfig(backend=backend), start, 0.0, 0.05, HeldTargets((1.5, 1.5)), check=False)
+
+
 _UPRIGHT = initial_state()
 
 
@@ -231,6 +245,7 @@ _UPRIGHT = initial_state()
         (lambda d: d.rotation_matrix([1.0, 0.0, 0.0]), ValueError, r"quat must have shape \(\.\.\., 4\)"),
         (lambda d: d.rotation_matrix("wxyz"), TypeError, "quat must be numbers"),
         (lambda d: d.rotation_matrix(np.zeros(4)), ValueError, "quat must be unit quaternions .* norm 0"),
+        (lambda d: d.rotation_matrix([1e200, 0.0, 0.0, 0.0]), ValueError, "quat must be unit quaternions .* norm inf"),
         (lambda d: d.world_body_rate(_UPRIGHT[:2]), ValueError, r"state must have shape \(\.\.\., 13\)"),
         (lambda d: d.world_body_rate(np.r_[_UPRIGHT[:2], 3.0, _UPRIGHT[3:]]), ValueError, "entries 2:6 must be unit"),
         (lambda d: d.mass_matrix(np.ones((3, 12)), RobotParams(), "plane"), ValueError, r"got shape \(3, 12\)"),
