@@ -193,6 +193,8 @@ def test_a_robot_whose_observation_overflows_reports_the_state_it_keeps():
         (lambda: RRRobotVectorEnv(num_envs=2, frame_skip=-3), ValueError, "frame_skip"),
         # (made and reset, then the first step failed allocating 80 TiB for its record)
         (lambda: RRRobotVectorEnv(num_envs=2, frame_skip=10**12), ValueError, "frame_skip must be at most 1e"),
+        # (each robot's 1e5 substeps fit, the batch's record would not: 36 GB at the first step)
+        (lambda: RRRobotVectorEnv(num_envs=4096, frame_skip=10**5), ValueError, "frame_skip x num_envs must be at most 1e"),
         (lambda: RRRobotVectorEnv(num_envs=2, model="moon"), ValueError, "model"),
         (lambda: RRRobotVectorEnv(num_envs=2, color="red"), TypeError, "color"),
         (lambda: RRRobotVectorEnv(num_envs=2).reset(seed=[1, 2, 3]), ValueError, "seed"),

@@ -91,6 +91,13 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 "(for a window, use the single env with render_mode='human')"
             )
         self.num_envs = int(num_envs)
+        samples = self.config.frame_skip * self.num_envs
+        if samples > simulation.MAX_SAMPLES:  # (as frame_skip alone for one robot: TaskConfig)
+            raise ValueError(
+                f"frame_skip x num_envs must be at most {simulation.MAX_SAMPLES:.0e}, got {self.config.frame_skip} x "
+                f"{self.num_envs}: a step's record keeps every integration step of every robot ({samples:.3g} samples, "
+                "~88 bytes each)"
+            )
         self.render_mode = render_mode
         self._frame_size = render.check_frame_size(width, height)
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
