@@ -9,7 +9,7 @@ limit; spinning starts. Each reports: finite or not (or the NumericalFailure
 message), the worst quaternion-norm error, robots that crossed the tilt limit,
 the fastest body and leg rates seen, and wall time. The energy books (E(t) - E(0)
 against the work of servo and damping) are kept on 500 robots for 100 steps with
-steps 10x finer than the default (see ``run_scene``).
+steps 10x finer than the default (see ``tests/stress_scenes.py``, which the short tests share).
 
 Then the thresholds: at the default step, the stiffest kp and the lightest leg
 tip the servo's stability check accepts, and the spin rate at which advance()
@@ -27,8 +27,9 @@ from rrrobot_gym.control import HeldTargets
 from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import NumericalFailure, SimConfig, advance, initial_state, stable_step_limit
 
+from tests.stress_scenes import bang_bang_targets, random_targets, run_scene, start_states
+
 from ._common import fmt, machine, markdown_table, parser, write_json
-from ._stress_scenes import bang_bang_targets, random_targets, run_scene, start_states
 
 
 def scenes(rng, n, steps):

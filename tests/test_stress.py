@@ -13,11 +13,11 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks._stress_scenes import bang_bang_targets, random_targets, run_scene, start_states
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import Gait, HeldTargets
 from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import NumericalFailure, SimConfig, advance, initial_state, stable_step_limit
+from stress_scenes import bang_bang_targets, random_targets, run_scene, start_states
 
 N_ROBOTS = 500
 N_CONTROL_STEPS = 50
@@ -65,16 +65,6 @@ def test_energy_changes_only_by_the_work_of_servo_and_damping(model, policy, rng
     assert result.finite
     assert result.energy_balance_error < 1e-3
     assert result.max_energy_gain_over_work < 1e-3  # J: no energy from nowhere
-
-
-def test_the_energy_books_refuse_a_servo_integrator_by_name(rng):
-    """The books step the work beside the state with an explicit stepper in the body rate; rosw and
-    etdrk4b take other stage functions, etdrk4b and rk4_locked another variable, so they are
-    refused, not misapplied."""
-    for integrator in ("rosw", "etdrk4b", "rk4_locked"):
-        config = SimConfig(integrator=integrator, timestep=1 / 300)
-        with pytest.raises(ValueError, match=f"explicit integrator, not '{integrator}'"):
-            run_scene(config, start_states(rng, 2), random_targets(rng, 2), 1, energy_refinement=2)
 
 
 @pytest.mark.parametrize(

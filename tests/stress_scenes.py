@@ -1,11 +1,14 @@
-"""Stress scenes shared by ``tests/test_stress.py`` (short) and ``benchmarks/stress.py`` (long).
+"""Stress scenes of ``tests/test_stress.py`` (short), also run long by ``python -m benchmarks.stress``.
 
 A scene is a batch of robots, a SimConfig and a policy of leg targets (one per
 control step of 0.05 s). :func:`run_scene` advances it and keeps the books a
 stress test checks: finiteness, quaternion norms, tilt-limit crossings, and the
 energy balance E(t) - E(0) = W(t), where W integrates the servo's power
-tau . phidot plus the damping power k |Omega|^2 with the same integrator and step
-as the state (an extra component carried through the stepper).
+tau . phidot plus the damping power k |Omega|^2 beside the state (an extra
+component carried through RK4 at a fine step).
+
+It lives with the tests, which need it to check the physics; the benchmark imports it from
+here (``tests.stress_scenes``, from the repository root), so the scenes are written once.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import HeldTargets, pd_torque
-from rrrobot_gym.simulation import _STEPPERS, LOCKED_INTEGRATORS, SERVO_INTEGRATORS, SimConfig, advance, initial_state
+from rrrobot_gym.simulation import SimConfig, _rk4_arrays, advance, initial_state
 
 CONTROL_STEP = 0.05
 
@@ -80,28 +83,26 @@ def run_scene(config: SimConfig, state, policy, n_control_steps: int, energy_ref
     """Advance ``state`` (N, 13) under ``policy(step) -> (N, 2)`` held targets.
 
     ``energy_refinement`` > 0 (servo legs only) keeps the energy books, integrating
-    state and work together with steps that many times finer than ``config.step``:
-    the work needs the servo's power resolved in time, and at the default step
-    (h |lambda_servo| ~ 1.3) RK4's stage values give the state to ~1 % but the
+    state and work together by RK4 (whatever ``config.integrator``: the books check the
+    model's energy balance, not a stepper) with steps that many times finer than
+    ``config.step``: the work needs the servo's power resolved in time, and at the default
+    step (h |lambda_servo| ~ 1.3) RK4's stage values give the state to ~1 % but the
     power's integral only to a factor ~2 after a target jump.
     """
     energy = energy_refinement > 0 and config.legs == "servo"
-    if energy and (config.integrator in SERVO_INTEGRATORS or config.integrator in LOCKED_INTEGRATORS):
-        raise ValueError(f"the energy books step the work with an explicit integrator, not {config.integrator!r}")
     e0 = dynamics.total_energy(state, config.robot, config.model)
     work = np.zeros(len(state))
     balance, gain, crossed = 0.0, -math.inf, np.zeros(len(state), bool)
     max_body, max_leg = 0.0, 0.0
     n_sub = max(1, math.ceil(CONTROL_STEP / config.step - 1e-9)) * max(1, energy_refinement)
-    stepper = _STEPPERS[config.integrator][1]
     for step in range(n_control_steps):
         targets = HeldTargets(policy(step))
         t0 = step * CONTROL_STEP
         if energy:
-            # The state and the work advance together through the same stepper as advance() uses.
+            # The state and the work advance together, through the package's own RK4 on arrays.
             y = np.concatenate([state.T, work[None]], axis=0)
             with np.errstate(all="ignore"):
-                y = stepper(_power_stepper(config, targets), t0, y, CONTROL_STEP / n_sub, n_sub)
+                y = _rk4_arrays(_power_stepper(config, targets), t0, y, CONTROL_STEP / n_sub, n_sub)
             state, work = y[:13].T.copy(), y[13].copy()
             if not np.all(np.isfinite(state)):
                 return SceneResult(False, math.nan, int(crossed.sum()), math.nan, math.nan, math.nan, math.nan, state)
