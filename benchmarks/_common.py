@@ -10,15 +10,12 @@ import os
 import pickle
 import platform
 import statistics
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.cli import _positive_int  # the CLI's check: --workers refused by name before a run starts
 from rrrobot_gym.simulation import SimConfig, simulate_reference
 
 CACHE_DIR = Path(os.environ.get("RRROBOT_BENCH_CACHE", Path(__file__).resolve().parent / ".cache"))
@@ -44,15 +41,6 @@ def machine() -> dict:
     }
 
 
-def run_fresh(tree: Path, script: str, *args, prefix=(), **env) -> subprocess.CompletedProcess:
-    """``python -c script args`` in a fresh process importing ``tree``'s rrrobot_gym, with one
-    BLAS thread (``prefix``: a command to run it under, e.g. valgrind; ``env``: more variables).
-    Raises CalledProcessError if it fails; returns it with its stdout and stderr as text."""
-    variables = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", **env}
-    return subprocess.run([*prefix, sys.executable, "-c", script, *map(str, args)], cwd=tree, env=variables,
-                          capture_output=True, text=True, check=True)  # fmt: skip
-
-
 def gentle_actions(rng, shape, steps):
     """(steps, *shape) smooth leg targets near vertical, from random phases: every robot stays
     inside the model, so no resets muddle a timing."""
@@ -61,17 +49,14 @@ def gentle_actions(rng, shape, steps):
     return (0.05 * np.sin(0.4 * k + phase)).astype(np.float32)
 
 
-def parser(description: str, markdown: bool = False, workers: bool = False) -> argparse.ArgumentParser:
-    """The options every benchmark takes (--quick, --json), and those of the accuracy probes that
-    write Markdown tables (``markdown``) and spread their runs over processes (``workers``)."""
+def parser(description: str, markdown: bool = False) -> argparse.ArgumentParser:
+    """The options every benchmark takes (--quick, --json), and --markdown for those that write
+    Markdown tables (``markdown``)."""
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--quick", action="store_true", help="fewer, shorter runs")
     p.add_argument("--json", metavar="FILE", help="write the results as JSON")
     if markdown:
         p.add_argument("--markdown", metavar="FILE", help="write the tables as Markdown")
-    if workers:
-        p.add_argument("--workers", type=_positive_int, default=2, metavar="W",
-                       help="processes for the runs (the results do not depend on it; default 2)")  # fmt: skip
     return p
 
 

@@ -7,9 +7,9 @@ robot: ``advance(config, state, t, 0.05, targets)`` on N robots does N env steps
 Each call gets new random held leg targets (what an RL policy sends). Reported per
 setting and N: median wall time per call over repeats, env steps/s (N / time),
 physics steps/s (integration steps x N / time) and the time per derivative
-evaluation. Settings: the defaults (servo legs, RK4, 1/300 s) and the options that
-skip work (``timestep="auto"``, kinematic legs, RK3), on both models. No Gymnasium
-env is involved: this is the ceiling an env built on ``advance`` can reach.
+evaluation. Settings: the defaults (servo legs, RK4, 1/300 s) on both backends, two threads
+(``workers=2``), and the options that skip work (``timestep="auto"``, kinematic legs), on both
+models. No Gymnasium env is involved: this is the ceiling an env built on ``advance`` can reach.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from rrrobot_gym.simulation import SimConfig, advance, check_state, check_target
 from ._common import fmt, machine, markdown_table, median_time, parser, write_json
 
 ENV_STEP = 0.05
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3}
+EVALS_PER_STEP = 4  # RK4
 
 
 def setting_list(quick: bool):
@@ -38,7 +38,6 @@ def setting_list(quick: bool):
         ("plane, defaults, numba", SimConfig(model="plane", backend="numba"), 1),
         ("pivot, defaults, numba", SimConfig(model="pivot", backend="numba"), 1),
         ("plane, defaults, numba, workers=2 (threads)", SimConfig(model="plane", backend="numba"), 2),
-        ("plane, servo, rk3 1/340 s (numpy)", SimConfig(model="plane", integrator="rk3", timestep=ENV_STEP / 17), 1),
         ("pivot, servo, timestep=auto, numba", SimConfig(model="pivot", timestep="auto", backend="numba"), 1),
         ("plane, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="plane", legs="kinematic", timestep=ENV_STEP), 1),
         ("pivot, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="pivot", legs="kinematic", timestep=ENV_STEP), 1),
@@ -68,10 +67,10 @@ def measure(config: SimConfig, num_robots: int, repeats: int, calls: int, rng, c
             s = advance(config, s, i * ENV_STEP, ENV_STEP, targets[i], check=check, workers=workers)
         box["state"] = s
 
-    run()  # warm up (first-call allocations, heap tuning, numba's compilation)
+    run()  # warm up (first-call allocations, numba's compilation)
     per_call = median_time(run, repeats) / calls
     n_steps = math.ceil(ENV_STEP / config.step - 1e-9)
-    evals = n_steps * EVALS_PER_STEP[config.integrator]
+    evals = n_steps * EVALS_PER_STEP
     return {
         "num_robots": num_robots,
         "seconds_per_env_step_call": per_call,

@@ -1,34 +1,39 @@
-"""Env throughput of this tree against an earlier commit, side by side on this machine.
+"""Env throughput of this tree against another commit, side by side on this machine.
 
-A target written as an absolute rate ("2,000 steps/s") was measured on a machine whose speed
-is not this one's (the 2-core machines here varied by up to 3.5x in a day). This runs the
-default ``gymnasium.make("RRRobot-v0")`` env (and ``make_vec`` at the given batch sizes) of
-both trees in alternating fresh processes, so both see the same machine, and reports medians
-and their ratio:
+A machine's speed drifts (the shared 2-core machines here by tens of per cent within minutes),
+so a change's effect on speed is measured against the tree before it, not against a figure
+taken on another day. This checks the given commit out in a temporary git worktree and runs the
+default ``gymnasium.make("RRRobot-v0")`` env (and ``make_vec`` at the given batch sizes) of both
+trees in alternating fresh processes, so both see the same machine, and reports medians and
+their ratio (this tree over the other):
 
-    python -m benchmarks.versus f2eac04                 # the commit the throughput targets were set on
-    python -m benchmarks.versus f2eac04 --num-envs 8 64 --rounds 7 --json out.json
-    python -m benchmarks.versus f2eac04 --instructions 201   # also instructions per env step (valgrind)
-    python -m benchmarks.versus c5b9106 --backend numpy      # both trees' envs on the numpy backend
+    python -m benchmarks.versus main                                   # this tree against main
+    python -m benchmarks.versus main --num-envs 64 4096 --json out.json  # and the vector env
+    python -m benchmarks.versus HEAD~1 --instructions 201              # also instructions per env step
+    python -m benchmarks.versus main --backend numpy                   # both trees on the numpy backend
+    python -m benchmarks.versus HEAD --quick                           # a smoke run (one short round)
+
+The tree measured as "this tree" is the working tree, uncommitted changes included. Each tree's
+first process compiles its numba stepper (or loads its cache) before the timed steps.
 
 ``--instructions S`` also counts the instructions an env step takes in each tree under
 valgrind's callgrind (runs of S steps and of 1 step, differenced): the same numbers whatever
 else the machine is doing, so a ratio that does not drift with the machine's load. ``--backend``
-passes the env keyword ``backend`` to both trees, which must both know it (a7e2d72 on).
+passes the env keyword ``backend`` to both trees.
 """
-
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import re
 import shutil
 import statistics
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
-from ._common import run_fresh
+from ._common import machine, write_json
 
 HERE = Path(__file__).resolve().parents[1]
 
@@ -37,6 +42,7 @@ import sys, time
 import numpy as np
 import gymnasium
 import rrrobot_gym  # noqa: F401
+print("rrrobot_gym", rrrobot_gym.__file__)
 num_envs, steps = int(sys.argv[1]), int(sys.argv[2])
 kwargs = {"backend": sys.argv[3]} if len(sys.argv) > 3 else {}
 rng = np.random.default_rng(0)
@@ -59,10 +65,26 @@ print(max(num_envs, 1) * steps / (time.perf_counter() - start))
 """
 
 
+def run_fresh(tree: Path, *args, prefix=(), **env) -> subprocess.CompletedProcess:
+    """_MEASURE with ``args`` in a fresh process importing ``tree``'s rrrobot_gym, with one BLAS
+    thread (``prefix``: a command to run it under, e.g. valgrind; ``env``: more variables).
+    Raises RuntimeError with the process's error output if it fails, or if it imported another
+    tree's rrrobot_gym (an installed copy shadowing ``tree``)."""
+    variables = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", **env}
+    out = subprocess.run([*prefix, sys.executable, "-c", _MEASURE, *map(str, args)], cwd=tree, env=variables,
+                         capture_output=True, text=True)  # fmt: skip
+    if out.returncode != 0:
+        raise RuntimeError(f"the env of {tree} failed (exit {out.returncode}):\n{out.stderr[-3000:]}")
+    imported = Path(out.stdout.split("rrrobot_gym ", 1)[1].split()[0]).resolve()
+    if not imported.is_relative_to(tree.resolve()):
+        raise RuntimeError(f"the process for {tree} imported {imported}, not that tree's rrrobot_gym")
+    return out
+
+
 def rate(tree: Path, num_envs: int, steps: int, backend=None) -> float:
     """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env;
     ``backend``: the env's, else its default)."""
-    return float(run_fresh(tree, _MEASURE, num_envs, steps, *_backend(backend)).stdout.split()[-1])
+    return float(run_fresh(tree, num_envs, steps, *_backend(backend)).stdout.split()[-1])
 
 
 def _backend(backend):
@@ -74,7 +96,7 @@ def instructions(tree: Path, num_envs: int, steps: int, backend=None) -> float:
     runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
 
     def collected(n: int) -> int:
-        out = run_fresh(tree, _MEASURE, num_envs, n, *_backend(backend),
+        out = run_fresh(tree, num_envs, n, *_backend(backend),
                         prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"), PYTHONHASHSEED="0")  # fmt: skip
         match = re.search(r"Collected : (\d+)", out.stderr)
         if match is None:
@@ -86,16 +108,21 @@ def instructions(tree: Path, num_envs: int, steps: int, backend=None) -> float:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("revision", help="the earlier commit (anything git rev-parse takes)")
+    parser.add_argument("revision", help="the commit to compare with (anything git rev-parse takes)")
     parser.add_argument("--num-envs", type=int, nargs="*", default=[], help="make_vec batch sizes besides the single env")
-    parser.add_argument("--steps", type=int, default=400, help="env steps per timed run")
-    parser.add_argument("--rounds", type=int, default=5, help="alternating runs of each tree (medians)")
-    parser.add_argument("--json", type=Path, help="write the results here")
+    parser.add_argument("--steps", type=int, help="env steps per timed run (default 400; --quick 50)")
+    parser.add_argument("--rounds", type=int, help="alternating runs of each tree, for medians (default 5; --quick 1)")
+    parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    parser.add_argument("--quick", action="store_true", help="one round of 50 steps (a smoke run; medians need more)")
     parser.add_argument("--instructions", type=int, metavar="S",
                         help="also count instructions per env step under valgrind, from runs of S and 1 steps")
     parser.add_argument("--backend", choices=("auto", "numpy", "numba"),
                         help="the simulator backend of both trees' envs (default: each tree's own default)")
     args = parser.parse_args(argv)
+    if args.steps is None:
+        args.steps = 50 if args.quick else 400
+    if args.rounds is None:
+        args.rounds = 1 if args.quick else 5
     if args.instructions is not None:
         if args.instructions < 2:
             parser.error("--instructions must be at least 2 steps")
@@ -109,8 +136,10 @@ def main(argv=None) -> None:
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         old = Path(tmp) / "old"
-        subprocess.run(["git", "worktree", "add", "--detach", str(old), args.revision], cwd=HERE, check=True,
-                       capture_output=True)  # fmt: skip
+        added = subprocess.run(["git", "worktree", "add", "--detach", str(old), args.revision], cwd=HERE,
+                               capture_output=True, text=True)  # fmt: skip
+        if added.returncode != 0:
+            parser.error(f"cannot check out {args.revision!r}: {added.stderr.strip()}")
         try:
             for num_envs in [0, *args.num_envs]:
                 rates = {"old": [], "new": []}
@@ -132,9 +161,8 @@ def main(argv=None) -> None:
                           f"{counts['old'] / counts['new']:.2f}", flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
-    if args.json:
-        args.json.write_text(json.dumps({"revision": args.revision, "steps": args.steps, "backend": args.backend,
-                                         "results": results}, indent=1))  # fmt: skip
+    write_json(args.json, {"machine": machine(), "revision": args.revision, "steps": args.steps,
+                           "backend": args.backend, "results": results})  # fmt: skip
 
 
 if __name__ == "__main__":
