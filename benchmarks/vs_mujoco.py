@@ -1,6 +1,6 @@
 """The same robot and leg targets in rrrobot_gym and in MuJoCo, side by side in one run.
 
-    python -m benchmarks.vs_mujoco [--quick] [--json FILE]
+    python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--policy]
 
 Needs the optional ``mujoco`` package (the project's ``bench`` extra). The MuJoCo
 model is ``benchmarks.mujoco_peer`` (ball joint at the centre for the pivoting
@@ -15,6 +15,11 @@ model; PD leg actuators; RK4).
    (``nthread=1``). Env steps/s = N x (T / 0.05 s) / wall time.
 3. Equal accuracy: MuJoCo's cheapest swept step whose worst error is no larger than
    our default's, and the throughput ratio at that step.
+``--policy`` measures this instead (also needs the ``train`` extra): the shipped plane policy's leg targets, taken
+   from its rollout in ``RRRobot-v0`` along 0, 90 and 180 deg (50 s; --quick 10 s), replayed open
+   loop in MuJoCo from the same start, on a floor whose friction is the env's (1.0): RK4 at
+   0.5 ms, each step holding the ramp's target and rate at the step's midpoint. Reported: the
+   speed along the heading in both, and the largest distance between the two contact paths.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import time
 import numpy as np
 
 from rrrobot_gym.control import table2_gait
+from rrrobot_gym.envs.task import make_task_config
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, median_time, parser, reference, write_json
@@ -35,6 +41,8 @@ OUR_SETTINGS = {
     "pivot": [("rk4 1/140 s (auto)", "auto"), ("rk4 1/300 s (default)", 1 / 300), ("rk4 1/600 s", 1 / 600)],
 }
 MUJOCO_STEPS = (1 / 300, 1 / 1000, 1 / 3000)
+POLICY_HEADINGS_DEG = (0.0, 90.0, 180.0)
+POLICY_MUJOCO_STEP = 0.0005
 
 
 def mujoco_run(model: str, gait: int, duration: float, dt: float):
@@ -76,13 +84,67 @@ def mujoco_batched(model: str, num_robots: int, duration: float, dt: float, repe
     return float(np.median(walls)), out["method"]
 
 
+def policy_rows(duration: float) -> list:
+    """The shipped plane policy's open-loop replay in MuJoCo against its rollout here, per heading."""
+    from agents.ppo import load_ppo_agent
+
+    from .mujoco_peer import MujocoRobot
+    from .policy_replay import MODEL, rollout
+
+    agent = load_ppo_agent(MODEL)
+    friction = make_task_config(**agent.env_config).friction_coefficient
+    rows = []
+    for heading in POLICY_HEADINGS_DEG:
+        states, starts, ends, dt, _ = rollout(agent, heading, round(duration / ENV_STEP))
+        per_step = round(dt / POLICY_MUJOCO_STEP)
+        middle = (np.arange(per_step) + 0.5) / per_step
+        targets = starts[:, None] + (ends - starts)[:, None] * middle[None, :, None]
+        rates = np.broadcast_to(((ends - starts) / dt)[:, None], targets.shape)
+        controls = np.concatenate([targets, rates], axis=-1).reshape(-1, 4)
+        start = states[0]
+        robot = MujocoRobot("plane", timestep=POLICY_MUJOCO_STEP, friction=friction)
+        robot.reset(quat=start[2:6], phi=start[6:8], omega=start[8:11], phidot=start[11:13])
+        out = robot.step_gait(None, len(starts) * dt, record_every=per_step, controls=controls)
+        theirs = np.stack([out["x"], out["y"]], axis=-1) - [out["x"][0], out["y"][0]]
+        ours = states[:, :2] - start[:2]
+        direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
+        seconds = len(starts) * dt
+        rows.append({"heading_deg": heading, "friction": friction, "mujoco_step_s": POLICY_MUJOCO_STEP,
+                     "ours_speed_mps": float(ours[-1] @ direction / seconds),
+                     "mujoco_speed_mps": float(theirs[-1] @ direction / seconds),
+                     "max_path_distance_m": float(np.max(np.hypot(*(theirs - ours).T))),
+                     "distance_travelled_m": float(np.hypot(*ours[-1]))})  # fmt: skip
+        rows[-1]["speed_difference"] = rows[-1]["mujoco_speed_mps"] / rows[-1]["ours_speed_mps"] - 1.0
+        print(rows[-1], flush=True)
+    return rows
+
+
+def policy_main(args, duration: float):
+    policy = policy_rows(duration)
+    text = markdown_table(
+        ["heading (deg)", "rrrobot_gym (mm/s)", f"MuJoCo, friction {policy[0]['friction']:g} (mm/s)", "difference",
+         f"largest distance between the paths, {duration:g} s (mm)", "distance travelled (m)"],
+        [[fmt(r["heading_deg"]), f"{r['ours_speed_mps'] * 1e3:.2f}", f"{r['mujoco_speed_mps'] * 1e3:.2f}",
+          f"{r['speed_difference']:+.2%}", fmt(r["max_path_distance_m"] * 1e3), fmt(r["distance_travelled_m"])]
+         for r in policy],
+    )  # fmt: skip
+    print()
+    print(text)
+    write_json(args.json, {"machine": machine(), "duration_s": duration, "policy": policy, "table": text})
+
+
 def main(argv=None):
-    args = parser(__doc__.splitlines()[0]).parse_args(argv)
+    p = parser(__doc__.splitlines()[0])
+    p.add_argument("--policy", action="store_true",
+                   help="replay the shipped plane policy's leg targets in MuJoCo instead of the gaits")  # fmt: skip
+    args = p.parse_args(argv)
     try:
         import mujoco  # noqa: F401
     except ImportError:
         raise SystemExit("benchmarks.vs_mujoco needs the optional dependency mujoco: pip install mujoco")
     duration = 10.0 if args.quick else 50.0
+    if args.policy:
+        return policy_main(args, duration)
     gaits = (1, 2, 3)
     mj_steps = MUJOCO_STEPS[:2] if args.quick else MUJOCO_STEPS
     accuracy = []
