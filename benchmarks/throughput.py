@@ -104,13 +104,13 @@ def main(argv=None):
     args = p.parse_args(argv)
     rng = np.random.default_rng(0)
     repeats = 3 if args.quick else 5
-    single_steps = 100 if args.quick else 400
+    single_steps = 50 if args.quick else 400
     rows = []
     for backend in args.backends:
         rows.append(single_env(single_steps, repeats, rng, backend=backend))
         sizes = (1, 8, 16, 64, 256) if args.quick else (1, 8, 16, 64, 256, 4096)
         for n in sizes:
-            steps = max(5, min(200, 20_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
+            steps = max(5, min(50, 5_000 // n)) if args.quick else max(10, min(400, 200_000 // n))
             if backend == "numba":  # ~10x faster: more steps for the same timing resolution
                 steps = min(4 * steps, 1000)
             rows.append(vector_env(n, steps, repeats, rng, backend=backend))
