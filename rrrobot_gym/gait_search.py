@@ -133,7 +133,7 @@ legs start at rest; a full swing from the first step ends the fastest plane gait
 and not others (they leave the model 1-1.5 s in), so a search without a ramp ranks gaits by
 which starts it happened to draw. Measured on the best gait of a 10-minute search without one:
 5 of 8 new starts ended it; with a 2 s ramp none of 16 did (0.5 s and 1 s ramps: all 16 ended;
-``experiments/gait_search/ramp_check.py``, the README's Gait search section)."""
+``docs/notes/gait_search.md``)."""
 
 
 def ramp_factor(times, ramp_s: float) -> np.ndarray:
