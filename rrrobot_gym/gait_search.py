@@ -57,11 +57,9 @@ One evaluation = one gait scored from all its start seeds.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -415,20 +413,25 @@ def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=
     units = objective_directions(runs, objective, heading_deg)
     along = np.einsum("psk,pk->ps", runs.displacement, units) / runs.duration
     mean_speed = along.mean(axis=1)
-    survived_share = (runs.end_time / runs.duration).mean(axis=1)
-    failed = runs.terminated.any(axis=1)
-    L = TERMINATION_PENALTY
-    fitness = np.where(
-        failed,
-        -L + np.clip(mean_speed, -L / 4, L / 4) + (L / 4) * survived_share,
-        np.maximum(mean_speed, -L / 2),
-    )
     return PopulationScores(
-        fitness=fitness,
+        fitness=penalised_fitness(mean_speed, runs.end_time / runs.duration, runs.terminated),
         speed_mps=mean_speed,
         direction_deg=np.degrees(np.arctan2(units[:, 1], units[:, 0])) % 360.0,
         terminated_starts=runs.terminated.sum(axis=1),
         runs=runs,
+    )
+
+
+def penalised_fitness(mean_speed, survived_share, terminated) -> np.ndarray:
+    """Fitness (P,) of :func:`fitness_from_runs` from each candidate's mean speed (P,) m/s, the
+    share of the episode each of its runs lasted (P, S) and whether each left the model (P, S)."""
+    survived_share = np.asarray(survived_share, dtype=float).mean(axis=1)
+    failed = np.asarray(terminated, dtype=bool).any(axis=1)
+    L = TERMINATION_PENALTY
+    return np.where(
+        failed,
+        -L + np.clip(mean_speed, -L / 4, L / 4) + (L / 4) * survived_share,
+        np.maximum(mean_speed, -L / 2),
     )
 
 
@@ -460,9 +463,9 @@ RAY_TOKEN_HELP = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
 
 def check_ray_address(address: str) -> None:
     """Raise ConnectionError, in one sentence naming ``address`` (host:port or ray://host:port)
-    and what to do, if nothing answers there within :data:`RAY_CONNECT_SECONDS`, or (host:port)
-    if the cluster refuses this driver's authentication token: ``ray.init`` retries either for
-    a long time before a traceback. "auto", "local" and an address without a port are left to Ray."""
+    and what to do, if nothing answers there within :data:`RAY_CONNECT_SECONDS`, or (host:port,
+    RAY_AUTH_MODE not "token") if the cluster wants an authentication token: ``ray.init`` retries
+    either for a long time before a traceback. "auto", "local" and an address without a port are left to Ray."""
     import socket
 
     if not isinstance(address, str):
@@ -477,46 +480,37 @@ def check_ray_address(address: str) -> None:
             f"ray_address {address!r}: nothing answers at {host}:{port} ({exc}); start a head there "
             "('ray start --head') or pass 'local' for a Ray on this machine"
         ) from None
-    if not address.startswith("ray://") and _ray_refuses_token(address):
-        if os.environ.get("RAY_AUTH_MODE", "").lower() != "token":
-            raise ConnectionError(
-                f"ray_address {address!r}: the cluster uses token authentication; set RAY_AUTH_MODE=token "
-                f"and its token ({RAY_TOKEN_HELP})"
-            )
-        raise ConnectionError(f"ray_address {address!r}: the cluster refuses this driver's token ({RAY_TOKEN_HELP})")
+    token_mode = os.environ.get("RAY_AUTH_MODE", "").lower() == "token"  # (then Ray sends the token and judges it)
+    if not address.startswith("ray://") and not token_mode and _ray_refuses_token(address):
+        raise ConnectionError(
+            f"ray_address {address!r}: the cluster uses token authentication; set RAY_AUTH_MODE=token and its "
+            f"token ({RAY_TOKEN_HELP})"
+        )
+
+
+RAY_TOKEN_PROBE_SECONDS = 3.0
+"""How long :func:`check_ray_address` waits for the head's answer to its one request."""
 
 
 def _ray_refuses_token(address: str) -> bool:
-    """Whether the Ray head (GCS) at ``address`` answers with an authentication error: one
-    request, about a second. False if Ray is not installed or anything else goes wrong (then
-    ``ray.init`` reports it)."""
+    """Whether the Ray head (its GCS) at ``address`` refuses one request of this driver as
+    unauthenticated. False if Ray is not installed, or on any other answer or none within
+    :data:`RAY_TOKEN_PROBE_SECONDS` (``ray.init`` then reports what is wrong)."""
     try:
-        from ray._raylet import GcsClient
-        from ray.exceptions import AuthenticationError
+        import grpc
+        from ray.core.generated import gcs_service_pb2, gcs_service_pb2_grpc
     except ImportError:
         return False
-    with _quiet_stderr():  # (Ray's C++ client logs the refusal on file descriptor 2)
-        try:
-            GcsClient(address=address)
-        except AuthenticationError:
-            return True
-        except Exception:  # noqa: BLE001 - not ours to diagnose: ray.init will
-            return False
-    return False
-
-
-@contextlib.contextmanager
-def _quiet_stderr():
-    """File descriptor 2 to /dev/null for the block (output of C++ libraries included)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
     try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+        with grpc.insecure_channel(address) as channel:
+            gcs_service_pb2_grpc.NodeInfoGcsServiceStub(channel).GetClusterId(
+                gcs_service_pb2.GetClusterIdRequest(), timeout=RAY_TOKEN_PROBE_SECONDS
+            )
+    except grpc.RpcError as exc:
+        return exc.code() == grpc.StatusCode.UNAUTHENTICATED
+    except Exception:  # noqa: BLE001 - not ours to diagnose: ray.init will
+        return False
+    return False
 
 
 def ray_map(function, rows, settings, ray_address, ray_chunks=None) -> list:
