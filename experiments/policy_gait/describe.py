@@ -18,8 +18,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from agents import load_ppo_agent  # noqa: E402
-from agents.searched import load_gait_agents  # noqa: E402
+from rrrobot_gym.agents import load_ppo_agent  # noqa: E402
+from rrrobot_gym.agents.searched import load_gait_agents  # noqa: E402
 from evaluate import COMPASS_DEG, run_episodes  # noqa: E402
 
 

@@ -14,7 +14,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from agents import load_ppo_agent  # noqa: E402
+from rrrobot_gym.agents import load_ppo_agent  # noqa: E402
 from evaluate import COMPASS_DEG  # noqa: E402
 from rrrobot_gym.envs.vector import RRRobotVectorEnv  # noqa: E402
 

@@ -14,8 +14,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from agents.residual import combine  # noqa: E402
-from agents.turn_then_run import load_turn_then_run_agent  # noqa: E402
+from rrrobot_gym.agents.residual import combine  # noqa: E402
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent  # noqa: E402
 from rrrobot_gym.envs.vector import RRRobotVectorEnv  # noqa: E402
 
 HEADINGS = np.radians(np.arange(0, 360, 45.0))

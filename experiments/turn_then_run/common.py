@@ -31,7 +31,7 @@ def _pivot_physics():
     load_ppo_agent reads it, without unpickling the policy) -> torque_limit 0.5 N m,
     leg_rate_limit 10 rad/s."""
     from types import SimpleNamespace
-    from agents.ppo import SCENE_KEYWORDS
+    from rrrobot_gym.agents.ppo import SCENE_KEYWORDS
     from rrrobot_gym.envs.task import kwargs_from_json
     from evaluate import DEFAULT_PIVOT_POLICY, physics_of
     trained = kwargs_from_json(json.loads(DEFAULT_PIVOT_POLICY.with_name("env_kwargs.json").read_text()))

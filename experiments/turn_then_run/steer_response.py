@@ -22,7 +22,7 @@ import sys
 import json, time
 import numpy as np
 from common import *
-from agents.turn_then_run import per_leg_gait, per_leg_angles
+from rrrobot_gym.agents.turn_then_run import per_leg_gait, per_leg_angles
 
 FROM = float(sys.argv[1]) if len(sys.argv) > 1 else 0.0
 DT, DUR = 0.05, 20.0 + FROM

@@ -18,7 +18,7 @@ import itertools, json, shutil, sys, tempfile, time
 from pathlib import Path
 import numpy as np
 from common import *
-from agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.envs import task
 

@@ -26,9 +26,9 @@ if MODEL != "plane" or RUN_GAIT:  # measured by direction.py (run it first; None
 
 
 # The gait helpers are the agent's (agents/turn_then_run.py), which was built from this script.
-from agents.turn_then_run import matching_phase_shift as best_shift
-from agents.turn_then_run import per_leg_angles as angles7
-from agents.turn_then_run import per_leg_gait as seven
+from rrrobot_gym.agents.turn_then_run import matching_phase_shift as best_shift
+from rrrobot_gym.agents.turn_then_run import per_leg_angles as angles7
+from rrrobot_gym.agents.turn_then_run import per_leg_gait as seven
 
 
 class TurnThenRun:
