@@ -188,7 +188,7 @@ def gait_case(job):
 
 def policy_case(passes: int, duration: float = 10.0):
     """The shipped policy's leg-target ramps along 0 deg (benchmarks.policy_replay)."""
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, replay, rollout
 

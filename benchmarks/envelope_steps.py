@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import load_gait_agents
-from agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.agents import load_gait_agents
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 from evaluate import run_episodes
 from rrrobot_gym.envs.task import STARTUP_GRACE, make_task_config
 from rrrobot_gym.validity import QUADRATURES
@@ -47,7 +47,7 @@ shipped PPO policy, whose every action kicks the servo."""
 
 def load(file: str, name: str):
     if name == "ppo":
-        from agents import load_ppo_agent
+        from rrrobot_gym.agents import load_ppo_agent
 
         return load_ppo_agent(SEARCHED / file)
     if name == "turn-then-run":

@@ -308,7 +308,7 @@ def policy_episode(job):
 def policy_rows(workers: int, settings=POLICY_SETTINGS, seconds: float = POLICY_S):
     """The shipped policy's first ``seconds`` along POLICY_HEADINGS: RK4 at the default step (the
     envs' own stepping), then each of ``settings``; the worst contact error over the path."""
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, error_fields, replay, rollouts
 

@@ -217,7 +217,7 @@ def energy_rows(duration: float, settings=ENERGY_SETTINGS):
 
 
 def policy_rows(duration: float, settings=POLICY_SETTINGS):
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, error_fields, replay, rollouts
 
@@ -248,7 +248,7 @@ def envelope_rows(seconds: float = 2.0, settings=ENVELOPE_SETTINGS):
     policy's ``max_slip_velocity``."""
     import gymnasium
 
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL
 

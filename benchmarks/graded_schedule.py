@@ -130,7 +130,7 @@ def _schedule_runs(workers: int, seconds: float, schedules):
     ``seconds`` ((simulator config, starts' states, ramp starts, ramp ends, control step)), the
     reference's whole states (n + 1, N, 13), the (weights, heading index) of each of ``schedules``
     along each heading, and those runs' whole states (the probe's ETDRK4-B in the locked rate)."""
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .policy_replay import MODEL, replay, rollouts
 

@@ -179,7 +179,7 @@ class SinusoidGait:
     The paper's Table II gaits are the case amplitude_1 = amplitude_2 = 0.3 rad,
     frequency 8 rad/s, phase_gap pi/2, both offsets gamma. Has the ``angles(times)``
     and ``leg_targets(t)`` of :class:`rrrobot_gym.control.Gait`, so it drives
-    :class:`agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
+    :class:`rrrobot_gym.agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
     ``ramp_s`` > 0 grows the swing in over that many seconds (:func:`ramp_factor`; not a
     searched parameter but a setting of the search that found the gait).
     """
@@ -301,7 +301,7 @@ def rollout_population(
     Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait
     sees depends only on its seed, not on its row, so splitting a population into chunks
     (:func:`evaluate_population` on Ray) gives the same numbers. The gait's targets are
-    commanded at the end of each control step, as :class:`agents.GaitAgent` does, with the
+    commanded at the end of each control step, as :class:`rrrobot_gym.agents.GaitAgent` does, with the
     swing ramped in over ``ramp_s`` s (:func:`sinusoid_angles`).
     """
     ramp_s = _check_ramp(ramp_s)

@@ -7,7 +7,7 @@ commanded heading, then blends into the running gait (or its mirror, whichever n
 smaller turn) and runs it. It reads only the observation: the body's yaw relative to the
 heading is atan2((n x h)_x, h_x), with n = ``up_in_body`` and h = ``heading_in_body``.
 
-    from agents.turn_then_run import load_turn_then_run_agent
+    from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
     agent = load_turn_then_run_agent("agents/searched/turn_then_run.json")        # plane
     agent = load_turn_then_run_agent("agents/searched/turn_then_run_pivot.json")  # pivot
     agent.model                                                                   # the model its file was searched on
@@ -51,9 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.envs.task import OBSERVATION_FIELDS, leg_targets_to_action
-from rrrobot_gym.gait_search import load_gaits, ramp_factor
-from rrrobot_gym.params import MODELS
+from ..envs.task import OBSERVATION_FIELDS, leg_targets_to_action
+from ..gait_search import load_gaits, ramp_factor
+from ..params import MODELS
 
 _FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
 TURN, BLEND, RUN = 0, 1, 2

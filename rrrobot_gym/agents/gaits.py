@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rrrobot_gym.control import Gait, table2_gait
-from rrrobot_gym.params import real_number
-from rrrobot_gym.envs.task import TaskConfig, leg_targets_to_action
+from ..control import Gait, table2_gait
+from ..params import real_number
+from ..envs.task import TaskConfig, leg_targets_to_action
 
 GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped")
 

@@ -1,6 +1,6 @@
 """A learned residual on top of a scripted base agent (the turn-then-run baseline).
 
-The policy does not act alone: each step the base agent (``agents/turn_then_run.py``) chooses
+The policy does not act alone: each step the base agent (``rrrobot_gym/agents/turn_then_run.py``) chooses
 its action from the observation, and the policy adds a bounded correction,
 
     action = clip(base_action + scale * clip(residual, -1, 1), -1, 1)
@@ -13,7 +13,7 @@ phase) and whether it is turning or running (blending is neither).
 
 Training (``train.py --residual-on agents/searched/turn_then_run.json``) wraps SB3's VecEnv in
 :class:`ResidualVecEnv`; a run writes ``residual.json`` beside its models, and
-``agents.load_ppo_agent`` then returns a :class:`ResidualAgent` (the base agent and the policy),
+``rrrobot_gym.agents.load_ppo_agent`` then returns a :class:`ResidualAgent` (the base agent and the policy),
 so ``evaluate.py --policy`` scores it like any policy.
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.envs.task import check_observations, make_task_config
+from ..envs.task import check_observations, make_task_config
 
 from .turn_then_run import RUN, TURN, load_turn_then_run_agent
 
@@ -104,7 +104,7 @@ def make_residual_vec_env(venv, base, scale):
 
 
 class ResidualAgent:
-    """A trained residual policy (a :class:`agents.ppo.PPOAgent` over the extended observation)
+    """A trained residual policy (a :class:`rrrobot_gym.agents.ppo.PPOAgent` over the extended observation)
     on its base agent, with SB3's ``predict``; ``state`` is the base agent's."""
 
     name = "ppo"

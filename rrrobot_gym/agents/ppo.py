@@ -54,7 +54,7 @@ class PPOAgent:
     def check_observation(self, observation) -> np.ndarray:
         """``observation`` as an array, or a ValueError naming what is wrong: a size other than the
         policy's, or NaN/inf (:func:`rrrobot_gym.envs.task.check_observations`)."""
-        from rrrobot_gym.envs.task import check_observations
+        from ..envs.task import check_observations
 
         return check_observations(observation, self.model.observation_space.shape[-1])
 
@@ -90,14 +90,14 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     (:func:`normalization_path`), its VecNormalize statistics, and its run's ``env_kwargs.json``
     (the training env's keywords; older runs saved only the observation's, the rest then
     default). The run's directory holds the zip, or is one up for a checkpoint
-    (:func:`agents.residual.run_directory`). A run with ``residual.json`` (``train.py
-    --residual-on``) gives a :class:`agents.residual.ResidualAgent`: the policy on its base agent;
-    one with ``mirror.json`` (``train.py --mirror``) a :class:`agents.mirror.MirroredAgent`.
+    (:func:`rrrobot_gym.agents.residual.run_directory`). A run with ``residual.json`` (``train.py
+    --residual-on``) gives a :class:`rrrobot_gym.agents.residual.ResidualAgent`: the policy on its base agent;
+    one with ``mirror.json`` (``train.py --mirror``) a :class:`rrrobot_gym.agents.mirror.MirroredAgent`.
     Unpickles the model and the statistics: trusted files only.
     """
     from stable_baselines3 import PPO
 
-    from rrrobot_gym.envs.task import kwargs_from_json
+    from ..envs.task import kwargs_from_json
 
     model_path = Path(model_path)
     if not model_path.exists():

@@ -1,6 +1,6 @@
 """Gaits found by ``rrrobot gait-search`` (:mod:`rrrobot_gym.gait_search`) as agents.
 
-    from agents.searched import load_gait_agents
+    from rrrobot_gym.agents.searched import load_gait_agents
     agents = load_gait_agents("agents/searched/plane_own.json")   # {name: GaitAgent}
 
 Each agent commands its gait's angles at the end of each control step, as the search
@@ -14,8 +14,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from rrrobot_gym.envs.task import make_task_config
-from rrrobot_gym.gait_search import load_gaits
+from ..envs.task import make_task_config
+from ..gait_search import load_gaits
 
 from .gaits import GaitAgent
 

@@ -9,7 +9,7 @@ and its action is mirrored back (the legs' targets exchanged). Its network then 
 sees headings in [0, pi], and whatever it learns on one side holds on the other.
 
 Training (``train.py --mirror``) wraps SB3's VecEnv in :func:`make_mirrored_vec_env`; a run
-writes ``mirror.json`` beside its models, and ``agents.load_ppo_agent`` then returns a
+writes ``mirror.json`` beside its models, and ``rrrobot_gym.agents.load_ppo_agent`` then returns a
 :class:`MirroredAgent`, so ``evaluate.py --policy`` scores it like any policy.
 """
 
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.envs.task import OBSERVATION_FIELDS, make_task_config, mirror_actions, mirror_observations
+from ..envs.task import OBSERVATION_FIELDS, make_task_config, mirror_actions, mirror_observations
 
 MIRROR_FILE = "mirror.json"
 SIN_INDEX = dict((name, start) for name, start, _ in OBSERVATION_FIELDS)["target_direction_world"] + 1
@@ -89,7 +89,7 @@ def make_mirrored_vec_env(venv, config):
 
 
 class MirroredAgent:
-    """A policy trained mirrored (a :class:`agents.ppo.PPOAgent`), with SB3's ``predict`` on the
+    """A policy trained mirrored (a :class:`rrrobot_gym.agents.ppo.PPOAgent`), with SB3's ``predict`` on the
     env's own observations."""
 
     name = "ppo"
