@@ -16,7 +16,8 @@ The switch: when the yaw's moving average over ``window`` control steps, project
 seconds ahead at its current rate, reaches its target, the running gait's phase is shifted so
 its leg targets match the turning gait's there, and the gait parameters are blended over
 ``ramp`` seconds with the phase kept continuous. The file's parameters were found by a CMA-ES
-search through this controller (``experiments/turn_then_run``), on the model named by the
+search through this controller (``rrrobot turn-then-run-search``,
+:mod:`rrrobot_gym.turn_then_run_search`), on the model named by the
 file's ``"model"`` (``"plane"`` if absent), under the env keywords in its ``"env_kwargs"`` (kept
 on the agent as ``search_env_kwargs`` for reference, not applied: as for searched gaits).
 
@@ -33,7 +34,7 @@ slips when changed at its start); e is the wrapped error of the yaw's moving ave
 (the switch's window) from the running gait's target yaw, sense +1 for the running gait, -1 for
 its mirror, and the integral runs in mode RUN only (held while d saturates). A positive gain
 suits a gait that a positive d turns clockwise (both searched running gaits:
-``experiments/turn_then_run/steer_response.py``). ``steer_limit`` may be one number or
+``docs/notes/turn_then_run.md``; ``rrrobot turn-then-run-steer`` tunes the gains). ``steer_limit`` may be one number or
 [low, high] (low <= 0 <= high) for an asymmetric range. ``"run_at_once_below_deg"`` (default 0):
 a start needing a smaller turn than this runs at once instead (the correction then takes the
 rest); without it only an exact zero turn does.
