@@ -55,8 +55,6 @@ from .gait_search import (
     repair,
 )
 
-AGENT_SCHEMA_KEYS = ("turn_gait", "lead_s", "ramp_s", "run_gait_file", "run_gait", "direction_offset_deg",
-                     "window_steps", "dt", "model")  # fmt: skip
 COMPASS_DEG = tuple(range(0, 360, 45))
 DEFAULT_HEADINGS_DEG = (0.0, 45.0, 135.0, 180.0)
 """Headings the maneuver is scored on: from the paper's start a running gait travelling at yaw +-90
@@ -349,7 +347,7 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     whose maneuver joins the screen (with longer blends too where allowed). ``seed`` seeds the
     screens and CMA-ES. ``popsize``: the turning gait's CMA-ES population (its screen 8 x that), the
     maneuver's is half of it (its screen 2 x that). Env keywords: the gait file's ``env_kwargs`` updated by ``env_kwargs``.
-    ``progress``: a callable given one line per stage and per population, or None.
+    ``progress``: a callable given a line per stage and, at most every 10 s, the search's progress; or None.
 
     Returns the agent file's dict (:func:`write_agent`), ``run_gait_file`` relative to
     ``out_path``'s folder (the loader looks there), with the search's record under ``"search"``.
@@ -390,6 +388,13 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     probe.close()
     say = progress or (lambda line: None)
     began = time.perf_counter()
+    said = {"at": -math.inf}
+
+    def say_now_and_then(line):  # (a population's line at most every 10 s)
+        if time.perf_counter() - said["at"] >= 10.0:
+            said["at"] = time.perf_counter()
+            say(line)
+
     seeds = [None] + list(range(1, starts))
 
     # 1. direction
@@ -407,7 +412,7 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
         turning["params"] += list(params)
         turning["out"] += list(out)
         best = max(turning["out"], key=lambda o: o[0])
-        say(f"turning gait: {len(turning['out'])} scored, {time.perf_counter() - began:.0f} s, best {best[1]:+.3f} rad/s")
+        say_now_and_then(f"turning gait: {len(turning['out'])} scored, {time.perf_counter() - began:.0f} s, best {best[1]:+.3f} rad/s")
         return out[:, 0]
 
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
@@ -447,7 +452,7 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
         maneuvers["params"] += list(params)
         maneuvers["out"] += list(out)
         best = max(o[0] for o in maneuvers["out"])
-        say(f"maneuver: {len(maneuvers['out'])} scored, {time.perf_counter() - began:.0f} s, best fitness {1e3 * best:.1f} mm/s")
+        say_now_and_then(f"maneuver: {len(maneuvers['out'])} scored, {time.perf_counter() - began:.0f} s, best fitness {1e3 * best:.1f} mm/s")
         return out[:, 0]
 
     first = [to_params(to_unit(np.r_[turn, 0.6, 1.0]))]
