@@ -3,7 +3,7 @@
 Every agent runs 50 s episodes from the paper's start (no start noise) on each model,
 commanded along the 8 compass headings (0, 45, ..., 315 degrees) and along each gait's
 own direction of travel. All agents go through one loop over the batched env and the
-same ``predict`` interface (``agents/``), so gaits and PPO are measured alike.
+same ``predict`` interface (:mod:`rrrobot_gym.agents`), so gaits and PPO are measured alike.
 
     python evaluate.py                                  # the shipped policy
     python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
-from agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 from rrrobot_gym.envs.task import action_to_leg_targets, control_steps
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.simulation import DEFAULT_TIMESTEP

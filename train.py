@@ -10,7 +10,7 @@ Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard lo
 ``evaluations.npz``, ``best_model.zip``, periodic checkpoints, and at the end (or on
 Ctrl-C) ``final_model.zip`` with ``vecnormalize.pkl`` (the observation normalisation)
 beside every saved model; ``env_kwargs.json``, every env keyword of the training env (as
-rl-zoo3 saves them; ``agents.load_ppo_agent`` rebuilds the env from it), ``args.json`` and
+rl-zoo3 saves them; ``rrrobot_gym.agents.load_ppo_agent`` rebuilds the env from it), ``args.json`` and
 ``command.txt``. Loading a model unpickles it: load only files you trust.
 
 ``best_model.zip`` is the model of the best evaluation (``EvalCallback``, every
@@ -107,7 +107,7 @@ class Args:
     )
     mirror: bool | None = field(
         default=None,
-        metadata={"help": "run headings towards -Y as mirror images of those towards +Y (agents/mirror.py): "
+        metadata={"help": "run headings towards -Y as mirror images of those towards +Y (rrrobot_gym/agents/mirror.py): "
                           "the policy learns half the compass; default: on for a goal-conditioned policy, off "
                           "for a --direction-deg specialist or a --residual-on policy, and as the --resume run was"},
     )
@@ -194,8 +194,8 @@ def parse_args(argv=None) -> Args:
         parser.error(f"--model must be plane or pivot, got {args.model!r}")
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
-    from agents.mirror import MIRROR_FILE, is_mirrored
-    from agents.residual import run_directory
+    from rrrobot_gym.agents.mirror import MIRROR_FILE, is_mirrored
+    from rrrobot_gym.agents.residual import run_directory
 
     resumed_mirrored = args.resume is not None and is_mirrored(run_directory(args.resume))
     if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
@@ -236,14 +236,14 @@ def parse_args(argv=None) -> Args:
         if getattr(args, name) < 1:
             parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
     _check_ppo_settings(parser, args)
-    from agents.residual import check_scale
+    from rrrobot_gym.agents.residual import check_scale
 
     try:
         check_scale(args.residual_scale)
     except ValueError as exc:
         parser.error(f"--residual-scale: {exc}")
     if args.residual_on is not None:
-        from agents.turn_then_run import load_turn_then_run_agent
+        from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 
         try:
             base = load_turn_then_run_agent(args.residual_on)
@@ -300,8 +300,8 @@ def _check_resumed_model(parser, args):
     many numbers as this run's env gives (SB3 found out only after the env was made, by assertion)."""
     import zipfile
 
-    from agents.ppo import normalization_path
-    from agents.residual import FEATURES
+    from rrrobot_gym.agents.ppo import normalization_path
+    from rrrobot_gym.agents.residual import FEATURES
     from rrrobot_gym.envs.task import make_task_config
 
     data = None
@@ -329,7 +329,7 @@ def _check_resumed_model(parser, args):
 def _check_resumed_residual(parser, args):
     """A residual policy (residual.json in its run directory) resumes only as one, on the same scale;
     a plain one never does (their observations differ in size, which SB3 would report unnamed)."""
-    from agents.residual import RESIDUAL_FILE, load_base, run_directory
+    from rrrobot_gym.agents.residual import RESIDUAL_FILE, load_base, run_directory
 
     run_dir = run_directory(args.resume)
     try:
@@ -402,20 +402,20 @@ def make_env(args: Args, num_envs: int, seed: int):
 
 
 def on_base(args: Args, venv):
-    """With --residual-on, the policy's actions become residuals on the base agent's (agents/residual.py)."""
+    """With --residual-on, the policy's actions become residuals on the base agent's (rrrobot_gym/agents/residual.py)."""
     if args.residual_on is None:
         return venv
-    from agents.residual import make_residual_vec_env
-    from agents.turn_then_run import load_turn_then_run_agent
+    from rrrobot_gym.agents.residual import make_residual_vec_env
+    from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 
     return make_residual_vec_env(venv, load_turn_then_run_agent(args.residual_on), args.residual_scale)
 
 
 def mirrored(args: Args, venv):
-    """With --mirror, the env as a mirrored policy sees it (agents/mirror.py)."""
+    """With --mirror, the env as a mirrored policy sees it (rrrobot_gym/agents/mirror.py)."""
     if not args.mirror:
         return venv
-    from agents.mirror import make_mirrored_vec_env
+    from rrrobot_gym.agents.mirror import make_mirrored_vec_env
     from rrrobot_gym.envs.task import make_task_config
 
     return make_mirrored_vec_env(venv, make_task_config(**env_kwargs(args)))
@@ -547,18 +547,18 @@ def main(argv=None) -> Path:
     (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
     (run_dir / "env_kwargs.json").write_text(json.dumps(env_config(args), indent=2))
     if args.residual_on is not None:
-        from agents.residual import save_residual
+        from rrrobot_gym.agents.residual import save_residual
 
         save_residual(run_dir, args.residual_on, args.residual_scale)
     if args.mirror:
-        from agents.mirror import save_mirror
+        from rrrobot_gym.agents.mirror import save_mirror
 
         save_mirror(run_dir)
 
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)
     if args.resume:
-        from agents.ppo import normalization_path
+        from rrrobot_gym.agents.ppo import normalization_path
 
         train_env = VecNormalize.load(str(normalization_path(args.resume)), train_env)  # (parse_args found it)
         train_env.training = True

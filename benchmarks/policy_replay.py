@@ -205,7 +205,7 @@ def main(argv=None):
     args = p.parse_args(argv)
     if args.refine_switches and args.no_motor_limit:
         p.error("--refine-switches refines the motor limits' switches; --no-motor-limit drops them")
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     agent = load_ppo_agent(args.model)
     duration = 10.0 if args.quick else 50.0

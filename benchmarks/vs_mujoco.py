@@ -86,7 +86,7 @@ def mujoco_batched(model: str, num_robots: int, duration: float, dt: float, repe
 
 def policy_rows(duration: float) -> list:
     """The shipped plane policy's open-loop replay in MuJoCo against its rollout here, per heading."""
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     from .mujoco_peer import MujocoRobot
     from .policy_replay import MODEL, rollout

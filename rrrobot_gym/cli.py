@@ -4,6 +4,8 @@
     rrrobot simulate --model plane --gait 1 --out run.npz [--plot run.png]
     rrrobot figures --out DIR
     rrrobot gait-search --model plane --objective own --budget-seconds 600 --out best_gaits.json
+    rrrobot turn-then-run-search --model plane --run-gaits GAITS.json --budget 900 --out AGENT.json
+    rrrobot turn-then-run-steer --agent AGENT.json --gain 0.5 1 --limit 0.05 0.1 --out AGENT.json
 
 (also ``python -m rrrobot_gym ...``). This module only parses arguments, calls
 :mod:`rrrobot_gym.simulation`, :mod:`rrrobot_gym.analysis` and
@@ -234,11 +236,83 @@ def build_parser() -> argparse.ArgumentParser:
                              "start are written first (default: %(default)s)")
     search.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
                         help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)")
-    search.add_argument("--ray-address", metavar="ADDR", help="evaluate populations as Ray tasks on this cluster ('local' starts one)")
+    search.add_argument("--ray-address", metavar="ADDR", help=RAY_ADDRESS_HELP)
     search.add_argument("--no-progress", action="store_true", help="no progress bar")
     search.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the best gaits")
     search.set_defaults(run=run_gait_search)
+    _add_turn_then_run_parsers(sub)
     return parser
+
+
+def _add_turn_then_run_parsers(sub):
+    ttr = sub.add_parser(
+        "turn-then-run-search",
+        help="search the turn-then-run agent's turning gait, switch lead and blend for a running gait (needs rrrobot_gym[search])",
+        description="Make a turn-then-run agent file for the best gait of a gait-search file: measure the gait's "
+        "direction of travel against the body's yaw, search the sinusoid that turns the body fastest inside the "
+        "model, then search the turning gait, the switch's lead and the blend together, scored through the agent "
+        "on the headings from the paper's start and noisy starts (random screen + CMA-ES, one batched env a "
+        "population). The heading correction is tuned after, by turn-then-run-steer.",
+    )
+    ttr.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    ttr.add_argument("--run-gaits", type=Path, required=True, metavar="GAITS.json",
+                     help="gait-search file of the running gait (its best gait unless --run-gait)")
+    ttr.add_argument("--run-gait", metavar="NAME", help="the running gait by name, e.g. searched-plane-own-2")
+    ttr.add_argument("--budget", type=_positive_seconds, default=900.0,
+                     help="wall-clock budget of the two searches, s (default: %(default)g)")
+    ttr.add_argument("--turning-share", type=_number, default=0.5,
+                     help="share of the budget for the turning gait's search (default: %(default)g)")
+    ttr.add_argument("--seed", type=_count, default=0, help="seed of the screens and CMA-ES (default: %(default)s)")
+    ttr.add_argument("--popsize", type=_positive_int, default=64,
+                     help="the turning gait's CMA-ES population, its screen 8x that; the maneuver's half of it, "
+                          "its screen 1x (default: %(default)s)")
+    ttr.add_argument("--headings", type=_number, nargs="+", metavar="DEG",
+                     help="headings the maneuver is scored on, deg from +X towards +Y (default: 0 45 135 180)")
+    ttr.add_argument("--starts", type=_positive_int, default=2,
+                     help="starts each maneuver is scored from: the paper's and N - 1 noisy ones (default: %(default)s)")
+    ttr.add_argument("--duration", type=_positive_seconds,
+                     help="episode length a maneuver is scored over, s (default: 20, or 30 for a running gait with a swing ramp)")
+    ttr.add_argument("--warm-start", type=Path, metavar="AGENT.json", help="a turn-then-run file whose maneuver joins the screen")
+    ttr.add_argument("--run-at-once-below-deg", type=_number, default=10.0,
+                     help="a start needing a smaller turn runs the gait at once (default: %(default)g)")
+    ttr.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
+    ttr.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
+                     help="an RRRobot-v0 env keyword, e.g. torque_limit=0.5 (repeatable); the running gait file's "
+                          "env_kwargs apply unless overridden")
+    ttr.add_argument("--ray-address", metavar="ADDR", help=RAY_ADDRESS_HELP.replace("populations", "populations of maneuvers"))
+    ttr.add_argument("--no-progress", action="store_true", help="print nothing while searching")
+    ttr.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the agent file")
+    ttr.set_defaults(run=run_turn_then_run_search)
+
+    steer = sub.add_parser(
+        "turn-then-run-steer",
+        help="tune a turn-then-run agent's heading correction on a grid",
+        description="Run a turn-then-run agent file without its heading correction and with every combination "
+        "of the values given, each 50 s along the 8 compass headings from the paper's start and noisy starts, "
+        "and write the file with the combination whose runs end least, then with the best worst heading, then "
+        "the best mean (the grid's rows recorded under steer_tune). Values not given keep the file's.",
+    )
+    steer.add_argument("--agent", type=Path, required=True, metavar="AGENT.json", help="the turn-then-run file to tune")
+    steer.add_argument("--param", choices=("offset", "amplitude"), nargs="+", help="what the correction changes")
+    steer.add_argument("--gain", type=_number, nargs="+", help="proportional gains, rad per rad of heading error")
+    steer.add_argument("--integral", type=_number, nargs="+", help="integral gains, rad per rad s")
+    steer.add_argument("--limit", type=_steer_limit, nargs="+", metavar="LIMIT",
+                       help="limits of the change, rad: one number for +-LIMIT or LOW:HIGH")
+    steer.add_argument("--after", type=_nonnegative_seconds, nargs="+", help="s into the episode the correction sets in")
+    steer.add_argument("--starts", type=_positive_int, default=3,
+                       help="starts: the paper's and N - 1 noisy ones (default: %(default)s)")
+    steer.add_argument("--duration", type=_positive_seconds, default=PAPER_DURATION, help="s (default: %(default)g)")
+    steer.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
+                       help="an RRRobot-v0 env keyword (repeatable); the agent file's env_kwargs apply unless overridden")
+    steer.add_argument("--no-progress", action="store_true", help="print nothing while running")
+    steer.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the tuned agent file")
+    steer.set_defaults(run=run_turn_then_run_steer)
+
+
+def _steer_limit(text: str):
+    """A heading correction's limit: a number (+-it) or LOW:HIGH."""
+    low, sep, high = text.partition(":")
+    return [_number(low), _number(high)] if sep else _number(text)
 
 
 def _add_run_options(parser):
@@ -570,6 +644,7 @@ def run_gait_search(args) -> None:
     budget_seconds = args.budget_seconds
     if budget_seconds is None and args.evaluations is None:
         budget_seconds = 600.0
+    check_ray(args.ray_address)
     try:
         result = gait_search.search(
             model=args.model, objective=args.objective, heading_deg=args.heading_deg,
@@ -581,11 +656,29 @@ def run_gait_search(args) -> None:
             robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
             robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
         )
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, ConnectionError) as exc:
         raise UsageError(str(exc)) from None
     _write(args.out, result.write_json)
     print(format_search(result))
     print(f"wrote {args.out}")
+
+
+def check_ray(address) -> None:
+    """A usage error, before any work, if a ``--ray-address`` host:port does not answer or
+    refuses this driver (:func:`rrrobot_gym.gait_search.check_ray_address`)."""
+    if address is None:
+        return
+    from .gait_search import check_ray_address
+
+    try:
+        check_ray_address(address)
+    except ConnectionError as exc:
+        raise UsageError(str(exc)) from None
+
+
+RAY_ADDRESS_HELP = ("evaluate populations as Ray tasks on the cluster at ADDR (host:port, ray://host:port); 'local' "
+                    "starts a Ray on this machine, which costs about 60 s of start-up on two cores (300 gaits: 64 s "
+                    "with it, 4 s without), so it pays only with many cores")
 
 
 def format_search(result) -> str:
@@ -615,6 +708,74 @@ def format_search(result) -> str:
             )
         lines.append(line)
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------- turn-then-run
+
+
+def _needs(command, modules):
+    for module, extra in modules:
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"{command} needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+
+
+def _check_json_out(path: Path) -> None:
+    if path.suffix != ".json":
+        raise UsageError(f"--out must name a .json file, got {str(path)!r}")
+    check_output_path("--out", path)
+
+
+def _progress(args):
+    return None if args.no_progress else (lambda line: print(line, file=sys.stderr, flush=True))
+
+
+def run_turn_then_run_search(args) -> None:
+    from . import turn_then_run_search
+
+    _check_json_out(args.out)
+    _needs("turn-then-run-search", (("cma", "search"),) + ((("ray", "distributed"),) if args.ray_address else ()))
+    check_ray(args.ray_address)
+    try:
+        spec = turn_then_run_search.search(
+            args.run_gaits, model=args.model, budget_seconds=args.budget, seed=args.seed, run_gait=args.run_gait,
+            headings_deg=args.headings or turn_then_run_search.DEFAULT_HEADINGS_DEG, starts=args.starts, duration=args.duration, turning_share=args.turning_share,
+            warm_start=args.warm_start, run_at_once_below_deg=args.run_at_once_below_deg,
+            popsize=args.popsize, reset_noise_scale=args.reset_noise_scale, ray_address=args.ray_address, progress=_progress(args),
+            command=args.command_line, out_path=args.out, **dict(args.env),
+        )  # fmt: skip
+    except (TypeError, ValueError, ConnectionError) as exc:
+        raise UsageError(str(exc)) from None
+    _write(args.out, lambda p: turn_then_run_search.write_agent(spec, p))
+    found = spec["search"]["maneuver"]
+    print(f"turning gait {np.round(spec['turn_gait'], 3).tolist()}, lead {spec['lead_s']:.2f} s, blend {spec['ramp_s']:.2f} s; "
+          f"fitness {1e3 * found['fitness']:.1f} mm/s over {found['duration_s']:g} s on headings "
+          f"{', '.join(f'{h:g}' for h in found['headings_deg'])} deg, {found['evaluations']} maneuvers scored")  # fmt: skip
+    print(f"wrote {args.out}")
+
+
+def run_turn_then_run_steer(args) -> None:
+    from . import turn_then_run_search
+
+    _check_json_out(args.out)
+    grid = {key: values for key, values in (("steer_param", args.param), ("steer_gain", args.gain),
+                                            ("steer_integral", args.integral), ("steer_limit", args.limit),
+                                            ("steer_after_s", args.after)) if values}  # fmt: skip
+    if not grid:
+        raise UsageError("give the values to try: one or more of --gain, --integral, --limit, --after, --param")
+    try:
+        spec = turn_then_run_search.tune_steering(
+            args.agent, grid, seeds=[None] + list(range(1, args.starts)), duration=args.duration,
+            command=args.command_line, progress=_progress(args), out_path=args.out, **dict(args.env),
+        )  # fmt: skip
+    except (TypeError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+    _write(args.out, lambda p: turn_then_run_search.write_agent(spec, p))
+    best = spec["steer_tune"]["rows"][0]
+    print(f"kept {best['combo'] or 'no correction'}: {best['ended']} runs ended, worst {1e3 * best['worst_mps']:.1f}, "
+          f"mean {1e3 * best['mean_mps']:.1f} mm/s")
+    print(f"wrote {args.out}")
 
 
 # ---------------------------------------------------------------- entry point

@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -133,7 +134,7 @@ legs start at rest; a full swing from the first step ends the fastest plane gait
 and not others (they leave the model 1-1.5 s in), so a search without a ramp ranks gaits by
 which starts it happened to draw. Measured on the best gait of a 10-minute search without one:
 5 of 8 new starts ended it; with a 2 s ramp none of 16 did (0.5 s and 1 s ramps: all 16 ended;
-``experiments/gait_search/ramp_check.py``, the README's Gait search section)."""
+``docs/notes/gait_search.md``)."""
 
 
 def ramp_factor(times, ramp_s: float) -> np.ndarray:
@@ -178,7 +179,7 @@ class SinusoidGait:
     The paper's Table II gaits are the case amplitude_1 = amplitude_2 = 0.3 rad,
     frequency 8 rad/s, phase_gap pi/2, both offsets gamma. Has the ``angles(times)``
     and ``leg_targets(t)`` of :class:`rrrobot_gym.control.Gait`, so it drives
-    :class:`agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
+    :class:`rrrobot_gym.agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
     ``ramp_s`` > 0 grows the swing in over that many seconds (:func:`ramp_factor`; not a
     searched parameter but a setting of the search that found the gait).
     """
@@ -300,7 +301,7 @@ def rollout_population(
     Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait
     sees depends only on its seed, not on its row, so splitting a population into chunks
     (:func:`evaluate_population` on Ray) gives the same numbers. The gait's targets are
-    commanded at the end of each control step, as :class:`agents.GaitAgent` does, with the
+    commanded at the end of each control step, as :class:`rrrobot_gym.agents.GaitAgent` does, with the
     swing ramped in over ``ramp_s`` s (:func:`sinusoid_angles`).
     """
     ramp_s = _check_ramp(ramp_s)
@@ -412,20 +413,25 @@ def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=
     units = objective_directions(runs, objective, heading_deg)
     along = np.einsum("psk,pk->ps", runs.displacement, units) / runs.duration
     mean_speed = along.mean(axis=1)
-    survived_share = (runs.end_time / runs.duration).mean(axis=1)
-    failed = runs.terminated.any(axis=1)
-    L = TERMINATION_PENALTY
-    fitness = np.where(
-        failed,
-        -L + np.clip(mean_speed, -L / 4, L / 4) + (L / 4) * survived_share,
-        np.maximum(mean_speed, -L / 2),
-    )
     return PopulationScores(
-        fitness=fitness,
+        fitness=penalised_fitness(mean_speed, runs.end_time / runs.duration, runs.terminated),
         speed_mps=mean_speed,
         direction_deg=np.degrees(np.arctan2(units[:, 1], units[:, 0])) % 360.0,
         terminated_starts=runs.terminated.sum(axis=1),
         runs=runs,
+    )
+
+
+def penalised_fitness(mean_speed, survived_share, terminated) -> np.ndarray:
+    """Fitness (P,) of :func:`fitness_from_runs` from each candidate's mean speed (P,) m/s, the
+    share of the episode each of its runs lasted (P, S) and whether each left the model (P, S)."""
+    survived_share = np.asarray(survived_share, dtype=float).mean(axis=1)
+    failed = np.asarray(terminated, dtype=bool).any(axis=1)
+    L = TERMINATION_PENALTY
+    return np.where(
+        failed,
+        -L + np.clip(mean_speed, -L / 4, L / 4) + (L / 4) * survived_share,
+        np.maximum(mean_speed, -L / 2),
     )
 
 
@@ -452,11 +458,14 @@ def ray_runtime_env() -> dict:
 RAY_CONNECT_SECONDS = 10.0
 """How long :func:`check_ray_address` waits for a Ray head to answer."""
 
+RAY_TOKEN_HELP = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
+
 
 def check_ray_address(address: str) -> None:
-    """Raise ConnectionError naming ``address`` (host:port or ray://host:port) if nothing
-    answers there within :data:`RAY_CONNECT_SECONDS`: ``ray.init`` retries such an address for
-    minutes without a word. "auto", "local" and an address without a port are left to Ray."""
+    """Raise ConnectionError, in one sentence naming ``address`` (host:port or ray://host:port)
+    and what to do, if nothing answers there within :data:`RAY_CONNECT_SECONDS`, or (host:port,
+    RAY_AUTH_MODE not "token") if the cluster wants an authentication token: ``ray.init`` retries
+    either for a long time before a traceback. "auto", "local" and an address without a port are left to Ray."""
     import socket
 
     if not isinstance(address, str):
@@ -471,22 +480,63 @@ def check_ray_address(address: str) -> None:
             f"ray_address {address!r}: nothing answers at {host}:{port} ({exc}); start a head there "
             "('ray start --head') or pass 'local' for a Ray on this machine"
         ) from None
+    token_mode = os.environ.get("RAY_AUTH_MODE", "").lower() == "token"  # (then Ray sends the token and judges it)
+    if not address.startswith("ray://") and not token_mode and _ray_refuses_token(address):
+        raise ConnectionError(
+            f"ray_address {address!r}: the cluster uses token authentication; set RAY_AUTH_MODE=token and its "
+            f"token ({RAY_TOKEN_HELP})"
+        )
 
 
-def _ray_rollout(params, settings, ray_address, ray_chunks):
-    """rollout_population split into chunks of rows, each a Ray task with its own env."""
+RAY_TOKEN_PROBE_SECONDS = 3.0
+"""How long :func:`check_ray_address` waits for the head's answer to its one request."""
+
+
+def _ray_refuses_token(address: str) -> bool:
+    """Whether the Ray head (its GCS) at ``address`` refuses one request of this driver as
+    unauthenticated. False if Ray is not installed, or on any other answer or none within
+    :data:`RAY_TOKEN_PROBE_SECONDS` (``ray.init`` then reports what is wrong)."""
+    try:
+        import grpc
+        from ray.core.generated import gcs_service_pb2, gcs_service_pb2_grpc
+    except ImportError:
+        return False
+    try:
+        with grpc.insecure_channel(address) as channel:
+            gcs_service_pb2_grpc.NodeInfoGcsServiceStub(channel).GetClusterId(
+                gcs_service_pb2.GetClusterIdRequest(), timeout=RAY_TOKEN_PROBE_SECONDS
+            )
+    except grpc.RpcError as exc:
+        return exc.code() == grpc.StatusCode.UNAUTHENTICATED
+    except Exception:  # noqa: BLE001 - not ours to diagnose: ray.init will
+        return False
+    return False
+
+
+def ray_map(function, rows, settings, ray_address, ray_chunks=None) -> list:
+    """``function(chunk, settings)`` on chunks of ``rows`` (a sequence), each a Ray task, in
+    order: the results of the chunks. Connects to ``ray_address`` first unless this process
+    already runs a Ray session (:func:`check_ray_address`, then ``ray.init`` shipping this
+    package); ``ray_chunks`` chunks, default the cluster's CPUs."""
     try:
         import ray
     except ImportError:  # pragma: no cover - depends on the install
         raise ImportError("ray_address needs Ray: pip install 'rrrobot_gym[distributed]'") from None
+    if ray_chunks is not None and (isinstance(ray_chunks, bool) or int(ray_chunks) != ray_chunks or ray_chunks < 1):
+        raise ValueError(f"ray_chunks must be a positive integer, got {ray_chunks!r}")
     if not ray.is_initialized():
         check_ray_address(ray_address)
         ray.init(address=ray_address, runtime_env=ray_runtime_env(), include_dashboard=False, log_to_driver=False)
     if ray_chunks is None:
         ray_chunks = max(1, int(ray.cluster_resources().get("CPU", 1)))
-    chunks = [c for c in np.array_split(params, min(int(ray_chunks), len(params))) if len(c)]
-    task = ray.remote(num_cpus=1)(_evaluate_chunk)
-    parts = ray.get([task.remote(chunk, settings) for chunk in chunks])
+    chunks = [c for c in np.array_split(np.arange(len(rows)), min(int(ray_chunks), len(rows))) if len(c)]
+    task = ray.remote(num_cpus=1)(function)
+    return ray.get([task.remote(rows[c[0]:c[-1] + 1], settings) for c in chunks])
+
+
+def _ray_rollout(params, settings, ray_address, ray_chunks):
+    """rollout_population split into chunks of rows, each a Ray task with its own env."""
+    parts = ray_map(_evaluate_chunk, params, settings, ray_address, ray_chunks)
     return PopulationRuns(
         displacement=np.concatenate([p.displacement for p in parts]),
         end_time=np.concatenate([p.end_time for p in parts]),
@@ -528,8 +578,6 @@ def evaluate_population(
     else:
         if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
             raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
-        if ray_chunks is not None and (isinstance(ray_chunks, bool) or int(ray_chunks) != ray_chunks or ray_chunks < 1):
-            raise ValueError(f"ray_chunks must be a positive integer, got {ray_chunks!r}")
         runs = _ray_rollout(params, settings, ray_address, ray_chunks)
     return fitness_from_runs(runs, objective, heading_deg)
 
@@ -616,7 +664,7 @@ def search(
     Without a re-score (``robustness_seeds=0``) the order is the search's fitness.
     """
     try:
-        import cma
+        import cma  # noqa: F401 - (fail before the work, not at the first generation)
     except ImportError:  # pragma: no cover - depends on the install
         raise ImportError("gait search needs cma: pip install 'rrrobot_gym[search]'") from None
     _check_objective(objective, heading_deg)
@@ -708,36 +756,10 @@ def search(
             bar.set_postfix_str(f"best {1e3 * archive['speed'][best]:.1f} mm/s")
         return scores
 
-    rng = np.random.default_rng(seed)
-    generations = restarts = 0
     try:
         first = [] if start is None else [repair(start)]
-        n_screen = int(min(screen, remaining() - len(first))) if screen else 0
-        candidates = first + [to_params(u) for u in rng.uniform(size=(max(0, n_screen), 6))]
-        if candidates:
-            score(np.array(candidates))
-        if archive["fitness"]:
-            mean = to_unit(archive["params"][int(np.argmax(archive["fitness"]))])
-        else:
-            mean = np.full(6, 0.5)
-        while remaining() >= 1:
-            # cma treats seed 0 as "seed from the clock": shift by one to stay repeatable.
-            es = cma.CMAEvolutionStrategy(
-                np.clip(mean, 1e-6, 1 - 1e-6), sigma0,
-                {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + restarts + 1, "verbose": -9},
-            )
-            while remaining() >= 1 and not es.stop():
-                units = es.ask()
-                n = int(min(len(units), remaining()))
-                params = np.array([to_params(u) for u in units[:n]])
-                scores = score(params)
-                generations += 1
-                if n < len(units):
-                    break
-                es.tell(units, (-scores.fitness).tolist())  # cma minimises
-            if es.stop():
-                restarts += 1
-            mean = to_unit(archive["params"][int(np.argmax(archive["fitness"]))])
+        generations, restarts = maximise(lambda params: score(params).fitness, to_params, to_unit, dimension=6,
+                                         first=first, screen=screen, popsize=popsize, sigma0=sigma0, seed=seed, remaining=remaining)
     finally:
         if bar is not None:
             bar.close()
@@ -785,6 +807,59 @@ def search(
     }
     used = {"evaluations": evaluations, "seconds": round(seconds, 3), "generations": generations, "restarts": restarts}
     return SearchResult(gaits=gaits, settings=settings, used=used, history=history)
+
+
+def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsize=64, sigma0=0.25, seed=0, remaining):
+    """A random screen, then CMA-ES with restarts, maximising ``score`` within a budget.
+
+    ``score(params)`` takes candidates (n, D), D = ``dimension``, and returns their fitness (n,);
+    the caller keeps what it needs of them. ``to_params`` maps a point of the unit box [0, 1]^D to a candidate
+    (repaired as the caller wants), ``to_unit`` back. The screen scores ``first`` (a list of
+    candidates) and ``screen`` uniform random points (fewer if the budget is smaller), drawn
+    from ``seed``; CMA-ES starts from the fittest candidate so far (the box's centre if none)
+    with step ``sigma0``, bounded to the box, and restarts from the fittest with a fresh seed
+    when it converges. ``remaining()`` is how many more candidates the budget allows (checked
+    before each population; a population is cut to it). Returns (generations, restarts).
+    """
+    try:
+        import cma
+    except ImportError:  # pragma: no cover - depends on the install
+        raise ImportError("the search needs cma: pip install 'rrrobot_gym[search]'") from None
+    rng = np.random.default_rng(seed)
+    best = {"fitness": -math.inf, "params": None}
+
+    def scored(params):
+        fitness = np.asarray(score(params), dtype=float)
+        i = int(np.argmax(fitness))
+        if fitness[i] > best["fitness"]:
+            best["fitness"], best["params"] = float(fitness[i]), np.asarray(params[i], dtype=float)
+        return fitness
+
+    first = list(first)
+    n_screen = int(min(screen, remaining() - len(first))) if screen else 0
+    candidates = first + [to_params(u) for u in rng.uniform(size=(max(0, n_screen), dimension))]
+    if candidates:
+        scored(np.array(candidates))
+    generations = restarts = 0
+    mean = to_unit(best["params"]) if best["params"] is not None else np.full(dimension, 0.5)
+    while remaining() >= 1:
+        # cma treats seed 0 as "seed from the clock": shift by one to stay repeatable.
+        es = cma.CMAEvolutionStrategy(
+            np.clip(mean, 1e-6, 1 - 1e-6), sigma0,
+            {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + restarts + 1, "verbose": -9},
+        )
+        while remaining() >= 1 and not es.stop():
+            units = es.ask()
+            n = int(min(len(units), remaining()))
+            fitness = scored(np.array([to_params(u) for u in units[:n]]))
+            generations += 1
+            if n < len(units):
+                break
+            es.tell(units, (-fitness).tolist())  # cma minimises
+        if es.stop():
+            restarts += 1
+        mean = to_unit(best["params"])
+    return generations, restarts
 
 
 POOL_SPACING = 0.02

@@ -17,8 +17,7 @@ rollouts from many robots and large minibatches:
 Save the VecNormalize statistics beside the model and evaluate with
 ``training=False, norm_reward=False``. The same values are ``train.py``'s defaults (a
 test keeps the two equal); ``train.py`` also runs a goal-conditioned policy mirrored
-(``agents/mirror.py`` in the repository: headings towards -Y as mirror images of those towards
-+Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and keeps the evaluation with the best
+(:mod:`rrrobot_gym.agents.mirror`: headings towards -Y as mirror images of those towards +Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and keeps the evaluation with the best
 worst heading.
 """
 

@@ -522,7 +522,7 @@ def test_a_leg_reaching_the_ground_ends_the_episode_outside_the_model():
 
 
 def test_table2_gaits_stay_inside_the_model_for_a_whole_episode():
-    from agents import gait_agent
+    from rrrobot_gym.agents import gait_agent
 
     for name in ("gait1", "gait2", "gait3"):
         env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from agents import gait_agent
+from rrrobot_gym.agents import gait_agent
 from evaluate import run_episodes, score
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import RampTargets
@@ -194,7 +194,7 @@ def test_a_model_named_twice_is_refused_before_the_runs(capsys):
 
 
 def test_a_gait_agent_names_a_bad_sampling_point_or_step_count():
-    from agents.gaits import GaitAgent
+    from rrrobot_gym.agents.gaits import GaitAgent
     from rrrobot_gym.control import table2_gait
 
     with pytest.raises(ValueError, match="sample_fraction must be finite"):  # (NaN gave NaN actions)

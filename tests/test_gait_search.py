@@ -93,7 +93,7 @@ def test_a_gait_that_leaves_the_model_loses_to_one_that_stays():
 
 
 def test_json_round_trips_into_agents_whose_predict_reproduces_the_gaits(tiny_result, tmp_path):
-    from agents import load_gait_agents
+    from rrrobot_gym.agents import load_gait_agents
 
     path = tmp_path / "gaits.json"
     tiny_result.write_json(path)
@@ -145,7 +145,7 @@ def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then
 
     # From agents/searched/plane_own.json: from the paper's start it leaves the model at 1.05 s.
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
-    from agents import GaitAgent
+    from rrrobot_gym.agents import GaitAgent
 
     agents = {"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}
     first = evaluate.run_episodes(agents, "plane", [0.0], duration=1.5)["leaves"]
@@ -160,7 +160,7 @@ def test_evaluate_py_scores_a_robot_that_left_the_model_by_its_last_position_ins
     on); that later end must not put the new episode's start back into the scored path."""
     sys.path.insert(0, str(REPO))
     import evaluate
-    from agents import GaitAgent
+    from rrrobot_gym.agents import GaitAgent
 
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
     run = evaluate.run_episodes({"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}, "plane", [0.0], duration=3.0)["leaves"]

@@ -1,4 +1,4 @@
-"""The robot's mirror symmetry (dynamics.mirror_states) and the policies that use it (agents/mirror.py,
+"""The robot's mirror symmetry (dynamics.mirror_states) and the policies that use it (rrrobot_gym/agents/mirror.py,
 train.py --mirror)."""
 
 import json
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.mirror import MIRROR_FILE, MirroredAgent, make_mirrored_vec_env, mirrored_rows
+from rrrobot_gym.agents.mirror import MIRROR_FILE, MirroredAgent, make_mirrored_vec_env, mirrored_rows
 from rrrobot_gym import dynamics
 from rrrobot_gym.envs import task
 from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
@@ -65,7 +65,7 @@ def test_the_mirror_image_of_a_motion_is_a_motion(model):
 
 def _network():
     """The shipped plane policy's network alone (trained unmirrored: lopsided), recording what it is shown."""
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     shipped = load_ppo_agent(ROOT / "agents" / "pretrained" / "best_model.zip")
     policy = shipped.policy if isinstance(shipped, MirroredAgent) else shipped
@@ -185,7 +185,7 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     best = int(np.argmax(evaluations["results"].min(axis=1)))
     assert best != int(np.argmax(evaluations["results"].mean(axis=1)))  # (seed 3: the two rules disagree here)
     assert PPO.load(run_dir / "best_model.zip", device="cpu").num_timesteps == evaluations["timesteps"][best]
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     assert isinstance(load_ppo_agent(run_dir / "best_model.zip"), MirroredAgent)
     assert isinstance(load_ppo_agent(run_dir / "checkpoints" / "ppo_2048_steps.zip"), MirroredAgent)
@@ -204,7 +204,7 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
 def test_a_policy_names_an_observation_it_cannot_take(shipped):
     """Too short: an IndexError in the mirror's sine lookup; too long: a numpy broadcast error;
     a NaN: torch's "invalid values" for the whole batch. Each is named now."""
-    from agents.ppo import load_ppo_agent
+    from rrrobot_gym.agents.ppo import load_ppo_agent
 
     mirrored = load_ppo_agent(ROOT / "agents" / shipped / "best_model.zip")
     size = mirrored.model.observation_space.shape[-1]

@@ -1,4 +1,4 @@
-"""A residual policy on the turn-then-run baseline (agents/residual.py, train.py --residual-on)."""
+"""A residual policy on the turn-then-run baseline (rrrobot_gym/agents/residual.py, train.py --residual-on)."""
 
 import json
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from agents.residual import FEATURES, ResidualAgent, base_features, combine, make_residual_vec_env
-from agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.agents.residual import FEATURES, ResidualAgent, base_features, combine, make_residual_vec_env
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
 from rrrobot_gym.envs.task import action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
@@ -156,7 +156,7 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
     spec = json.loads((run_dir / "residual.json").read_text())
     assert spec["scale"] == 0.1 and (run_dir / spec["base"]).is_file()
     assert (run_dir / "residual_base" / "plane_own.json").is_file()
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     agent = load_ppo_agent(run_dir / "best_model.zip")
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.1
@@ -172,7 +172,7 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
 
 
 def test_the_shipped_residual_policy_loads_from_its_directory_alone():
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     agent = load_ppo_agent(ROOT / "agents" / "pretrained_residual" / "best_model.zip")
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
@@ -184,7 +184,7 @@ def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_
     import shutil
 
     import train
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     shipped = SHIPPED_RESIDUAL.parent
     run_dir = tmp_path / "run"
@@ -213,7 +213,7 @@ def test_a_residual_resume_is_checked_against_this_runs_observation_too(capsys):
 
 
 def test_a_residual_agent_names_an_observation_it_cannot_take():
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     agent = load_ppo_agent(SHIPPED_RESIDUAL)
     with pytest.raises(ValueError, match=r"shape \(15,\) or \(n, 15\) for this policy, got \(17,\)"):

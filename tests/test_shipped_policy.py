@@ -20,8 +20,8 @@ def test_the_shipped_policy_acts_on_observations_normalised_with_its_saved_stati
 
     import gymnasium
 
-    from agents import load_ppo_agent
-    from agents.mirror import MirroredAgent
+    from rrrobot_gym.agents import load_ppo_agent
+    from rrrobot_gym.agents.mirror import MirroredAgent
 
     agent = load_ppo_agent(SHIPPED)
     if isinstance(agent, MirroredAgent):  # (trained mirrored: the network and its statistics inside)
@@ -40,7 +40,7 @@ def test_the_shipped_policy_acts_on_observations_normalised_with_its_saved_stati
 
 
 def test_the_shipped_policy_travels_along_the_commanded_heading():
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
     from evaluate import run_episodes, score
 
     headings = [90.0, 270.0]
@@ -57,7 +57,7 @@ def test_the_shipped_pivot_policy_moves_along_its_headings_inside_its_motor_limi
     runs under them (the applied torque never exceeds 0.5 N m) and, 15 s from the paper's start,
     already makes more than twice Gait 1's 10.8 mm/s along its own axis (the issue's pivot target)
     on two opposite diagonals (it makes ~98 mm/s there)."""
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
     from evaluate import run_episodes, score
 
     agent = load_ppo_agent(SHIPPED_PIVOT)

@@ -323,7 +323,7 @@ def test_the_trapezoid_measures_of_a_searched_gait_converge_with_the_step():
     Each rectangle-rule sample stands for a whole step, so at the default step its measures are
     about twice the converged slip and ten times the spells; the trapezoid's agree from 1/260 s
     (where the rectangle rule ends its episodes) to 1/2400 s."""
-    from agents import load_gait_agents
+    from rrrobot_gym.agents import load_gait_agents
 
     gait = load_gait_agents(ROOT / "agents" / "searched" / "plane_own_robust.json")["searched-plane-own-1"]
     heading = (90.0,)  # (an open-loop gait: every heading the same motion)
@@ -342,7 +342,7 @@ def test_the_trapezoid_slip_measure_of_a_policys_kicks_converges_with_the_step()
     policy along 0 deg: several times the converged measure at the default step). The trapezoid
     rule's measure holds within 3 mm/s from 1/200 s to 1/2400 s, 15 % of the slip limit (it moves
     by up to 2 mm/s, along 90 deg at 1/200 s; the rectangle's by 11 along 0 deg at 1/300 s)."""
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     policy = load_ppo_agent(ROOT / "agents" / "pretrained" / "best_model.zip")
     fine, _ = _largest_measures(policy, 120, "trapezoid", 2.0)

@@ -35,7 +35,7 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
     # whole rollouts of 8 x 64: the run (and its progress bar) goes to 2048, and says so
     assert "training for 2,048 env steps" in trained.stdout
     run_dir = only_run(tmp_path)
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
     from rrrobot_gym.envs import RRRobotEnv
 
     assert load_ppo_agent(run_dir / "final_model.zip").model.num_timesteps == 2048
@@ -205,7 +205,7 @@ def test_bad_arguments_are_named(tmp_path):
 def test_gait_agents_move_like_the_simulator_core():
     """Through the env (targets ramped over each step) a gait moves as the core's continuous gait
     (Gaits 1 and 3, run side by side in one batched env)."""
-    from agents import gait_agent
+    from rrrobot_gym.agents import gait_agent
     from evaluate import run_episodes
     from rrrobot_gym.analysis import travel_summary
     from rrrobot_gym.control import table2_gait
@@ -226,7 +226,7 @@ def test_gait_agents_move_like_the_simulator_core():
 
 
 def test_gait_agent_commands_the_gait_at_the_end_of_each_step_and_restarts_with_each_episode():
-    from agents import gait_agent
+    from rrrobot_gym.agents import gait_agent
     from rrrobot_gym.control import table2_gait
     from rrrobot_gym.envs.task import action_to_leg_targets
 
@@ -246,7 +246,7 @@ def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(
     """With another frame_skip the control step is another dt: the agent must count in it."""
     import gymnasium
 
-    from agents import gait_agent
+    from rrrobot_gym.agents import gait_agent
     from rrrobot_gym.control import table2_gait
     from rrrobot_gym.envs.task import action_to_leg_targets
 
@@ -270,7 +270,7 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     checkpoint of a pivot run under motor limits loads with those keywords, not the defaults."""
     import shutil
 
-    from agents import load_ppo_agent
+    from rrrobot_gym.agents import load_ppo_agent
 
     shipped = ROOT / "agents" / "pretrained_pivot"
     (tmp_path / "checkpoints").mkdir()

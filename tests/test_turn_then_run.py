@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.turn_then_run import TurnThenRunAgent, load_turn_then_run_agent, relative_yaw
+from rrrobot_gym.agents.turn_then_run import TurnThenRunAgent, load_turn_then_run_agent, relative_yaw
 from rrrobot_gym.envs import task
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 
@@ -256,7 +256,7 @@ def test_the_steering_change_is_the_documented_one_for_the_gait_and_its_mirror()
     d is clip(sense * gain * e) with e the yaw's error from the target, applied as o1 + d, o2 - d
     (or a1 (1 + d), a2 (1 - d)) in the running gait's own frame, i.e. with the legs exchanged
     for its mirror; the leg targets are the changed gait's."""
-    from agents.turn_then_run import per_leg_angles, per_leg_gait
+    from rrrobot_gym.agents.turn_then_run import per_leg_angles, per_leg_gait
 
     run = np.array([1.2, 1.0, 1.5, 1.6, 8.0, 1.0])
     states = task.start_states(np.zeros((2, 10)))
@@ -293,7 +293,7 @@ def test_a_start_that_runs_at_once_keeps_the_running_gaits_own_ramp(tmp_path):
     the yaw + 90 deg) runs it at once with that ramp, acting as the gait's own agent until the
     heading correction sets in at 5 s, and stays in the model; a start that turns first blends
     into the gait and is untouched by its ramp."""
-    from agents.searched import load_gait_agents
+    from rrrobot_gym.agents.searched import load_gait_agents
 
     gait_file = FILE.with_name("plane_own_robust.json")
     (tmp_path / gait_file.name).write_text(gait_file.read_text())

@@ -405,3 +405,23 @@ def test_headings_written_by_a_caller_are_checked():
     np.testing.assert_allclose(obs[:, 13], np.cos([0.1, 0.2, 0.3]), atol=1e-6)
     with pytest.raises(ValueError, match="max_episode_steps"):  # (a string reached numpy in the next step)
         env.max_episode_steps = "x"
+
+
+def test_a_heading_past_a_full_turn_is_refused_as_degrees_given_for_radians():
+    """target_direction is in radians: 90 (degrees meant) is refused, with the conversion, by
+    both envs' keyword, their reset options and the vector env's heading setters."""
+    full_turn = 2.0 * np.pi
+    for make in (lambda **kw: gymnasium.make("RRRobot-v0", **kw), lambda **kw: RRRobotVectorEnv(num_envs=2, **kw)):
+        with pytest.raises(ValueError, match=r"target_direction is in radians: 90.0 .*np.deg2rad\(90.0\)"):
+            make(target_direction=90)
+        env = make(target_direction=full_turn)  # a full turn is a heading still
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match=r"options\['target_direction'\] is in radians: -7.0"):
+            env.reset(options={"target_direction": -7.0})
+    env = RRRobotVectorEnv(num_envs=2)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="episode_target_directions is in radians: 45.0"):
+        env.episode_target_directions = [0.5, 45.0]
+    env.episode_target_directions[1] = 180.0  # a row written in place: checked by the next step
+    with pytest.raises(ValueError, match="episode_target_directions is in radians: 180.0"):
+        env.step(np.zeros((2, 2), dtype=np.float32))

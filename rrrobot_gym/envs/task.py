@@ -255,9 +255,11 @@ class TaskConfig:
         _choice("legs", self.legs, LEG_MODES)
         for name in ("kp", "kd"):
             put(name, _real(name, getattr(self, name)))
-        for name in ("torque_limit", "leg_rate_limit", "target_direction"):
+        for name in ("torque_limit", "leg_rate_limit"):
             if getattr(self, name) is not None:
                 put(name, _real(name, getattr(self, name)))
+        if self.target_direction is not None:
+            put("target_direction", check_radians("target_direction", _real("target_direction", self.target_direction)))
         # SimConfig checks the model, the integrator (simulation.INTEGRATORS), the timestep
         # and the motor limits, naming each in its message.
         sim = SimConfig(
@@ -530,7 +532,7 @@ def parse_reset_options(options, num_envs: int | None):
     if options.get("target_direction") is not None:
         value = options["target_direction"]
         if num_envs is None:
-            targets = _real("options['target_direction']", value)
+            targets = check_radians("options['target_direction']", _real("options['target_direction']", value))
         else:
             targets = headings("options['target_direction']", value, num_envs)
     return states, targets
@@ -547,7 +549,19 @@ def headings(label: str, value, num_envs: int) -> np.ndarray:
         raise ValueError(f"{label} must be a number or {num_envs} numbers (rad), got shape {array.shape}")
     if not np.all(np.isfinite(array)):
         raise ValueError(f"{label} must be finite, got {value!r}")
+    check_radians(label, array)
     return np.array(np.broadcast_to(array, (num_envs,)))
+
+
+def check_radians(label: str, headings):
+    """``headings`` (rad; a number or an array of finite ones), or a ValueError naming ``label``
+    where one lies more than a full turn from 0: degrees given where radians were meant."""
+    beyond = np.abs(headings) > 2.0 * np.pi
+    if np.any(beyond):
+        first = float(np.asarray(headings)[beyond].flat[0]) if np.ndim(headings) else float(headings)
+        raise ValueError(f"{label} is in radians: {first!r} is more than a full turn (2 pi) from 0; "
+                         f"for degrees, convert with np.deg2rad({first!r})")
+    return headings
 
 
 def check_start_states(states, config: TaskConfig) -> None:

@@ -253,6 +253,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if kept is None or not np.array_equal(kept[0], targets):
             if not np.all(np.isfinite(targets)):  # (a row written by a caller)
                 raise ValueError(f"episode_target_directions must be finite, got {targets!r}")
+            task.check_radians("episode_target_directions", targets)
             kept = self._headings = (targets.copy(), task.heading_vectors(targets))
         return kept[1]
 

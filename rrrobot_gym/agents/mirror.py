@@ -1,0 +1,125 @@
+"""A policy that runs the headings on the robot's -Y side as mirror images of the +Y side's.
+
+The robot, the ground and the task are symmetric in the world's x-z plane once the legs are
+exchanged (:func:`rrrobot_gym.dynamics.mirror_states`), and the paper's start lies in that
+plane. So the best motion along a heading t with sin t < 0 is the mirror image of the best
+motion along -t. A mirrored policy uses that: when the commanded heading points to -Y it is
+shown the mirror image of what the env observes (:func:`rrrobot_gym.envs.task.mirror_observations`)
+and its action is mirrored back (the legs' targets exchanged). Its network then only ever
+sees headings in [0, pi], and whatever it learns on one side holds on the other.
+
+Training (``train.py --mirror``) wraps SB3's VecEnv in :func:`make_mirrored_vec_env`; a run
+writes ``mirror.json`` beside its models, and ``rrrobot_gym.agents.load_ppo_agent`` then returns a
+:class:`MirroredAgent`, so ``evaluate.py --policy`` scores it like any policy.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..envs.task import OBSERVATION_FIELDS, make_task_config, mirror_actions, mirror_observations
+
+MIRROR_FILE = "mirror.json"
+SIN_INDEX = dict((name, start) for name, start, _ in OBSERVATION_FIELDS)["target_direction_world"] + 1
+"""Where the observation holds the sine of the commanded heading (world frame)."""
+
+
+SIN_TOLERANCE = 1e-6
+"""Headings within this (in sine) of 0 or pi are their own mirror images and are not mirrored
+(an env may hold pi as -pi, whose sine is -1.2e-16). Mirrored or not, such an episode from the
+paper's start is the same motion, mirrored: the same speed."""
+
+
+def mirrored_rows(observations):
+    """(n,) bool: the rows whose commanded heading points to -Y (sin < 0); 0 and pi are not."""
+    return np.asarray(observations)[..., SIN_INDEX] < -SIN_TOLERANCE
+
+
+def to_policy_frame(observations, flip, config):
+    """Observations (n, size) with the ``flip`` rows mirrored."""
+    out = np.array(observations, dtype=np.float32)
+    if flip.any():
+        out[flip] = mirror_observations(out[flip], config)
+    return out
+
+
+def to_env_frame(actions, flip):
+    """Actions (n, 2) with the ``flip`` rows' legs exchanged back."""
+    out = np.array(actions, dtype=np.float32)
+    if flip.any():
+        out[flip] = mirror_actions(out[flip])
+    return out
+
+
+def make_mirrored_vec_env(venv, config):
+    """SB3 VecEnv ``venv`` (of the env made with :class:`TaskConfig` ``config``) as a mirrored
+    policy sees it."""
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    class MirroredVecEnv(VecEnvWrapper):
+        """The wrapper of :func:`make_mirrored_vec_env`."""
+
+        def __init__(self):
+            super().__init__(venv)
+            self.flip = np.zeros(venv.num_envs, dtype=bool)
+
+        def _view(self, observations):
+            self.flip = mirrored_rows(observations)
+            return to_policy_frame(observations, self.flip, config)
+
+        def reset(self):
+            return self._view(self.venv.reset())
+
+        def step_async(self, actions):
+            self.venv.step_async(to_env_frame(actions, self.flip))
+
+        def step_wait(self):
+            observations, rewards, dones, infos = self.venv.step_wait()
+            for i in np.flatnonzero(dones):
+                # The episode's last observation (PPO bootstraps truncated episodes' values from
+                # it), in the frame its episode was seen in.
+                final = np.asarray(infos[i]["terminal_observation"])[None]
+                infos[i]["terminal_observation"] = to_policy_frame(final, mirrored_rows(final), config)[0]
+            return self._view(observations), rewards, dones, infos
+
+    return MirroredVecEnv()
+
+
+class MirroredAgent:
+    """A policy trained mirrored (a :class:`rrrobot_gym.agents.ppo.PPOAgent`), with SB3's ``predict`` on the
+    env's own observations."""
+
+    name = "ppo"
+    closed_loop = True
+
+    def __init__(self, policy):
+        self.policy = policy
+        self.env_config, self.env_kwargs = policy.env_config, policy.env_kwargs
+        self.config = make_task_config(**self.env_config)
+
+    @property
+    def model(self):
+        """The SB3 model inside (its ``num_timesteps``, its ``policy``)."""
+        return self.policy.model
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        observation = self.policy.check_observation(observation)
+        single = observation.ndim == 1
+        obs = observation[None] if single else observation
+        flip = mirrored_rows(obs)
+        actions, _ = self.policy.predict(to_policy_frame(obs, flip, self.config), deterministic=deterministic)
+        actions = to_env_frame(actions, flip)
+        return (actions[0] if single else actions), state
+
+
+def save_mirror(run_dir):
+    """Write ``mirror.json`` into ``run_dir``: its policies are run mirrored."""
+    record = {"mirror": "x-z plane", "rule": "headings with sin < 0 run as the mirror images of their reflections"}
+    (Path(run_dir) / MIRROR_FILE).write_text(json.dumps(record, indent=2) + "\n")
+
+
+def is_mirrored(run_dir) -> bool:
+    return (Path(run_dir) / MIRROR_FILE).exists()

@@ -1,0 +1,121 @@
+"""Loading a trained PPO policy, with its observation normalisation, as an agent.
+
+Loading a Stable-Baselines3 model unpickles it (``PPO.load`` and the VecNormalize
+statistics both use pickle): load only files you trust.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+from .mirror import MirroredAgent, is_mirrored
+from .residual import ResidualAgent, load_base, run_directory
+
+
+SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
+"""Env keywords whoever runs a policy chooses (evaluate.py: the model, the heading of each
+episode and a noise-free start); :attr:`PPOAgent.env_kwargs` leaves them out."""
+
+
+class PPOAgent:
+    """A PPO policy that normalises raw env observations with saved statistics.
+
+    ``obs_mean``, ``obs_var``, ``clip_obs`` and ``epsilon`` are those of SB3's
+    ``VecNormalize`` at the end of training (None: the policy takes raw observations).
+    ``env_config`` holds the training env's keywords (train.py's ``env_kwargs.json``):
+    ``gymnasium.make("RRRobot-v0", **agent.env_config)`` rebuilds it. ``env_kwargs`` is the
+    same without :data:`SCENE_KEYWORDS`: what an evaluation in a scene of its own choosing
+    keeps (the observation, the physics, the reward).
+    """
+
+    name = "ppo"
+    closed_loop = True  # (it reads the observation: evaluate.py gives it no open-loop "own direction")
+
+    def __init__(self, model, obs_mean=None, obs_var=None, clip_obs=10.0, epsilon=1e-8, env_config=None):
+        self.model = model
+        self.env_config = dict(env_config or {})
+        self.env_kwargs = {key: value for key, value in self.env_config.items() if key not in SCENE_KEYWORDS}
+        self.obs_mean = None if obs_mean is None else np.asarray(obs_mean, dtype=np.float64)
+        self.obs_var = None if obs_var is None else np.asarray(obs_var, dtype=np.float64)
+        self.clip_obs = float(clip_obs)
+        self.epsilon = float(epsilon)
+
+    def normalize(self, observation):
+        observation = np.asarray(observation, dtype=np.float64)
+        if self.obs_mean is None:
+            return observation.astype(np.float32)
+        scaled = (observation - self.obs_mean) / np.sqrt(self.obs_var + self.epsilon)
+        return np.clip(scaled, -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def check_observation(self, observation) -> np.ndarray:
+        """``observation`` as an array, or a ValueError naming what is wrong: a size other than the
+        policy's, or NaN/inf (:func:`rrrobot_gym.envs.task.check_observations`)."""
+        from ..envs.task import check_observations
+
+        return check_observations(observation, self.model.observation_space.shape[-1])
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        observation = self.check_observation(observation)
+        actions, _ = self.model.predict(self.normalize(observation), deterministic=deterministic)
+        return actions, state
+
+
+def normalization_path(model_path) -> Path:
+    """Where the VecNormalize statistics of a saved model live, by this project's naming.
+
+    ``best_model.zip`` -> ``vecnormalize.pkl``; ``final_model.zip`` -> ``final_vecnormalize.pkl``;
+    a checkpoint ``ppo_<N>_steps.zip`` -> ``ppo_vecnormalize_<N>_steps.pkl`` (SB3's naming);
+    anything else ``<stem>.zip`` -> ``<stem>_vecnormalize.pkl``.
+    """
+    model_path = Path(model_path)
+    stem = model_path.stem
+    if stem == "best_model":
+        name = "vecnormalize.pkl"
+    elif stem == "final_model":
+        name = "final_vecnormalize.pkl"
+    elif stem.endswith("_steps") and "_" in stem[: -len("_steps")]:
+        prefix, steps = stem[: -len("_steps")].rsplit("_", 1)
+        name = f"{prefix}_vecnormalize_{steps}_steps.pkl"
+    else:
+        name = f"{stem}_vecnormalize.pkl"
+    return model_path.with_name(name)
+
+
+def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
+    """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
+    (:func:`normalization_path`), its VecNormalize statistics, and its run's ``env_kwargs.json``
+    (the training env's keywords; older runs saved only the observation's, the rest then
+    default). The run's directory holds the zip, or is one up for a checkpoint
+    (:func:`rrrobot_gym.agents.residual.run_directory`). A run with ``residual.json`` (``train.py
+    --residual-on``) gives a :class:`rrrobot_gym.agents.residual.ResidualAgent`: the policy on its base agent;
+    one with ``mirror.json`` (``train.py --mirror``) a :class:`rrrobot_gym.agents.mirror.MirroredAgent`.
+    Unpickles the model and the statistics: trusted files only.
+    """
+    from stable_baselines3 import PPO
+
+    from ..envs.task import kwargs_from_json
+
+    model_path = Path(model_path)
+    if not model_path.exists():
+        raise FileNotFoundError(f"no PPO model at {model_path}")
+    model = PPO.load(model_path, device=device)
+    if vecnormalize_path is None:
+        candidate = normalization_path(model_path)
+        vecnormalize_path = candidate if candidate.exists() else None
+    run_dir = run_directory(model_path)  # (a checkpoint's run is one directory up)
+    kwargs_path = run_dir / "env_kwargs.json"
+    env_config = kwargs_from_json(json.loads(kwargs_path.read_text())) if kwargs_path.exists() else {}
+    if vecnormalize_path is None:
+        agent = PPOAgent(model, env_config=env_config)
+    else:
+        with open(vecnormalize_path, "rb") as handle:
+            stats = pickle.load(handle)
+        agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
+    if is_mirrored(run_dir):  # train.py --mirror: -Y headings run as mirror images
+        return MirroredAgent(agent)
+    base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
+    return agent if base is None else ResidualAgent(agent, *base)

@@ -1,0 +1,543 @@
+"""Score a learned PPO policy and the paper's gaits on the same RRRobot-v0 evaluation.
+
+Every agent runs 50 s episodes from the paper's start (no start noise) on each model,
+commanded along the 8 compass headings (0, 45, ..., 315 degrees) and along each gait's
+own direction of travel. All agents go through one loop over the batched env and the
+same ``predict`` interface (:mod:`rrrobot_gym.agents`), so gaits and PPO are measured alike.
+
+    python evaluate.py                                  # the shipped policy
+    python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
+    python evaluate.py --gaits agents/searched/plane_own.json        # searched gaits too
+    python evaluate.py --turn-then-run agents/searched/turn_then_run.json \
+        --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
+    python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
+
+A turn-then-run file is scored on the model its JSON names (``"model"``, default plane) as
+"turn-then-run", under that model's physics keywords like every other agent there; a second
+file for the same model is scored beside it as "FILESTEM/turn-then-run". An
+``--also-policy NAME=FILE`` is scored as NAME on the model it was trained on (its
+``env_kwargs.json``), beside "ppo".
+
+Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
+(keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
+and plots with ``--plots DIR``. Loading a policy unpickles it: load only files you trust.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from rrrobot_gym.agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
+from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
+from rrrobot_gym.envs.task import action_to_leg_targets, control_steps
+from rrrobot_gym.envs.vector import RRRobotVectorEnv
+from rrrobot_gym.simulation import DEFAULT_TIMESTEP
+
+HERE = Path(__file__).resolve().parent
+DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
+DEFAULT_PIVOT_POLICY = HERE / "agents" / "pretrained_pivot" / "best_model.zip"
+PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
+                    "frame_skip", "start_halves", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
+                    "contact_quadrature", "action_hold")  # fmt: skip
+"""Env keywords that change what any agent can do (motors, physics, the model checks): an
+evaluation applies a policy's to every agent it is compared with on that model."""
+COMPASS_DEG = tuple(range(0, 360, 45))
+EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
+"""Per-step summaries of the integrator's step record that the evaluation keeps (env info keys)."""
+
+
+def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS, **env_kwargs):
+    """Run every agent once along each heading (degrees), all in one batched env.
+
+    ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
+    Returns {name: run}, each run a dict of arrays: ``times`` (T+1,), ``xy`` (T+1, H, 2)
+    contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``terminated``
+    (H,), and per control step (T, H) the step record's summaries from the env's info
+    (``rrrobot_gym.validity.step_measures``: the torques the integrator applied, not a
+    rebuilt servo law) named by ``info_keys``, by default ``torque_rms``, ``torque_peak`` (N m),
+    ``leg_rate_peak`` (rad/s), ``liftoff_fraction``. After a robot's episode ends its path holds
+    its last position, then NaN (and its step summaries NaN).
+    """
+    names = list(agents)
+    n_head = len(headings_deg)
+    for agent in agents.values():  # the observation a learned policy was trained with (gaits ignore it)
+        env_kwargs = {**getattr(agent, "env_kwargs", {}), **env_kwargs}
+    headings = np.tile(np.radians(np.asarray(headings_deg, dtype=float)), len(names))
+    env = RRRobotVectorEnv(
+        num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
+    )
+    try:  # (the nearest whole number of control steps: score divides by their time)
+        steps = control_steps("duration", duration, env.dt)
+    except ValueError:
+        env.close()
+        raise
+    obs, _ = env.reset(seed=seed, options={"target_direction": headings})
+    xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
+    effort = {key: [] for key in info_keys}
+    agent_states = {name: None for name in names}
+    episode_start = np.ones(n_head, dtype=bool)
+    ended = np.zeros(len(headings), dtype=bool)
+    for _ in range(steps):
+        actions = np.empty((len(headings), 2), dtype=np.float32)
+        for a, name in enumerate(names):
+            rows = slice(a * n_head, (a + 1) * n_head)
+            actions[rows], agent_states[name] = agents[name].predict(
+                obs[rows], state=agent_states[name], episode_start=episode_start, deterministic=True
+            )
+        episode_start = np.zeros(n_head, dtype=bool)
+        obs, _, terminated, _, info = env.step(actions)
+        leg_target = action_to_leg_targets(np.clip(actions, -1, 1))
+        current = env.states.copy()
+        step_effort = {key: np.array(info[key], dtype=float) for key in info_keys}
+        ended_before = ended.copy()
+        if np.any(terminated):
+            # SAME_STEP autoreset has already restarted a finished robot: take its last
+            # position and step summaries from final_info and mark the rest of its episode as missing.
+            final = info["final_info"]
+            for i in np.flatnonzero(terminated & ~ended):
+                current[i, :] = np.nan
+                current[i, 0:2] = final["x_position"][i], final["y_position"][i]
+                for key in info_keys:
+                    step_effort[key][i] = final[key][i]
+            ended |= terminated
+        # Ended at an earlier step: NaN, even when its autoreset episode terminates again now.
+        gone = ended & ~(terminated & ~ended_before)
+        current[gone] = np.nan
+        targets.append(leg_target)
+        xy.append(current[:, 0:2])
+        legs.append(current[:, 6:8])
+        for key in info_keys:
+            step_effort[key][gone] = np.nan
+            effort[key].append(step_effort[key])
+    env.close()
+    arrays = {"xy": np.array(xy), "leg_angles": np.array(legs), "leg_targets": np.array(targets)}
+    arrays.update({key: np.array(values) for key, values in effort.items()})
+    runs = {}
+    for a, name in enumerate(names):
+        rows = slice(a * n_head, (a + 1) * n_head)
+        runs[name] = {key: value[:, rows] for key, value in arrays.items()}
+        runs[name]["times"] = np.arange(steps + 1) * env.dt
+        runs[name]["terminated"] = ended[rows]
+    return runs
+
+
+def score(run, headings_deg, duration=None):
+    """Per heading: speed along it (m/s), lateral drift (m), and from the step record the RMS
+    and peak leg torque applied (N m), the peak leg rate (rad/s) and the share of time
+    without ground contact. Speeds are over the time the run simulated, ``run["times"][-1]``
+    (whole control steps, the nearest to what :func:`run_episodes` was asked); ``duration``, if
+    given, must be that time."""
+    simulated = float(run["times"][-1])
+    if duration is not None and abs(duration - simulated) > 1e-9 * max(1.0, simulated):
+        raise ValueError(f"the run simulated {simulated!r} s (whole control steps), not {duration!r} s")
+    duration = simulated
+    records = []
+    for i, heading in enumerate(headings_deg):
+        direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
+        path = run["xy"][:, i]
+        valid = np.all(np.isfinite(path), axis=1)
+        end = path[valid][-1] - path[0]
+        along = float(end @ direction)
+        lateral = float(direction[0] * end[1] - direction[1] * end[0])
+        records.append(
+            {
+                "heading_deg": float(heading),
+                "speed_mps": along / duration,
+                "lateral_drift_m": lateral,
+                "displacement_m": [float(end[0]), float(end[1])],
+                # Every step has the same number of substep samples, so the episode's RMS is
+                # the root of the mean of the steps' mean squares.
+                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
+                "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
+                "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
+                "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
+                "terminated": bool(run["terminated"][i]),
+            }
+        )
+    return records
+
+
+def physics_of(agents) -> dict:
+    """The :data:`PHYSICS_KEYWORDS` the agents were trained under that differ from the env's
+    defaults (a policy trained with motor limits: its limits). Agents that disagree are an error."""
+    from rrrobot_gym.envs.task import make_task_config
+
+    defaults = make_task_config().to_kwargs()
+    chosen = {}
+    for name, agent in agents.items():
+        for key, value in getattr(agent, "env_kwargs", {}).items():
+            if key in PHYSICS_KEYWORDS and value != defaults[key]:
+                if key in chosen and chosen[key][1] != value:
+                    raise ValueError(f"agents {chosen[key][0]!r} and {name!r} were trained with different {key}: "
+                                     f"{chosen[key][1]!r} and {value!r}; score them in separate evaluations")  # fmt: skip
+                chosen.setdefault(key, (name, value))
+    return {key: value for key, (_, value) in chosen.items()}
+
+
+def parse_physics(specs) -> dict:
+    """``--physics`` KEY=VALUE specs as {key: value} (read by :func:`rrrobot_gym.cli.keyword_value`):
+    keys of :data:`PHYSICS_KEYWORDS` (not ``robot``), checked together by the env's own
+    validation. Raises ValueError naming the bad spec."""
+    from rrrobot_gym.cli import keyword_value
+    from rrrobot_gym.envs.task import make_task_config
+
+    chosen = {}
+    allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
+    for spec in specs:
+        try:
+            key, value = keyword_value(spec)
+        except ValueError as exc:
+            raise ValueError(f"--physics {spec!r}: {exc}") from None
+        if key not in PHYSICS_KEYWORDS or key == "robot":
+            raise ValueError(f"--physics {spec!r}: expected KEY=VALUE with KEY one of {allowed}")
+        if key in chosen:  # (the last one won, silently)
+            raise ValueError(f"--physics {spec!r}: {key} is given twice")
+        chosen[key] = value
+    try:  # together: some keywords need others (a leg-rate limit needs a torque limit)
+        make_task_config(**chosen)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"--physics {' '.join(specs)}: {exc}") from None
+    return chosen
+
+
+def agents_on(model: str, agents: dict, per_model=None) -> dict:
+    """The agents scored on ``model``: ``agents`` with ``per_model[model]``'s in place of same-named ones."""
+    return {**agents, **(per_model or {}).get(model, {})}
+
+
+def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None, physics=None):
+    """Records for every agent, model and heading, plus the runs for plotting.
+
+    Headings: the 8 compass directions and each gait's own direction (the heading of its
+    net displacement in a first episode), so each gait is also scored where it goes.
+    ``per_model`` ({model: {name: agent}}) adds agents on one model only (a policy trained
+    there; it replaces an agent of the same name). On each model every agent runs under the
+    physics keywords its policies were trained with (:func:`physics_of`, e.g. motor limits),
+    so all are held to the same motors; each record names them under ``physics``. ``physics``
+    ({keyword: value}, e.g. motor limits) adds keywords of the caller's on every model; one
+    that differs from a policy's is an error.
+    """
+    records, runs = [], {}
+    for model in models:
+        on_model = agents_on(model, agents, per_model)
+        trained = physics_of(on_model)
+        clash = sorted(key for key, value in (physics or {}).items() if key in trained and trained[key] != value)
+        if clash:
+            raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
+                             f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
+        imposed = {**trained, **(physics or {})}
+        # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
+        gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
+        first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}
+        own = {}
+        for name, run in first.items():
+            path = run["xy"][:, 0]  # NaN after an episode that left the model: use its last position
+            end = path[np.all(np.isfinite(path), axis=1)][-1] - path[0]
+            own[name] = round(math.degrees(math.atan2(end[1], end[0])) % 360.0, 3)
+        headings = list(COMPASS_DEG) + list(own.values())
+        for name, run in run_episodes(on_model, model, headings, duration, seed, **imposed).items():
+            runs[(name, model)] = (headings, run)
+            for record in score(run, headings):
+                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=imposed)
+                record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
+                records.append(record)
+    return records, runs
+
+
+def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = 10):
+    """The agent's speed along the compass headings at the default step and at a ``refine``
+    times finer one (same control step): a learned speed that depends on the step is an
+    artefact of the integrator, not locomotion."""
+    coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG)
+    fine_run = run_episodes(
+        {"agent": agent}, model, COMPASS_DEG, duration, seed, timestep=DEFAULT_TIMESTEP / refine, frame_skip=15 * refine
+    )["agent"]
+    fine = score(fine_run, COMPASS_DEG)
+    return [
+        {"heading_deg": c["heading_deg"], "speed_mps": c["speed_mps"], "fine_step_speed_mps": f["speed_mps"]}
+        for c, f in zip(coarse, fine)
+    ]
+
+
+def ratios(records, model="plane"):
+    """The issue's target, measured: PPO vs gait 1 along every compass heading, and PPO vs
+    each gait along that gait's own direction."""
+    by = {(r["agent"], r["heading_deg"]): r for r in records if r["model"] == model}
+    gait1_own = [r for r in records if r["model"] == model and r["agent"] == "gait1" and "gait1" in r["own_direction_of"]]
+    out = {"model": model}
+    if ("ppo", 0.0) in by and gait1_own:
+        reference = gait1_own[0]["speed_mps"]
+        out["gait1_own_speed_mps"] = reference
+        out["ppo_over_gait1_by_heading"] = {
+            int(h): by[("ppo", float(h))]["speed_mps"] / reference for h in COMPASS_DEG
+        }
+        out["ppo_over_gait_on_its_own_direction"] = {}
+        for r in records:
+            if r["model"] == model and r["agent"] != "ppo" and r["agent"] in r["own_direction_of"]:
+                ppo = by[("ppo", r["heading_deg"])]["speed_mps"]
+                out["ppo_over_gait_on_its_own_direction"][r["agent"]] = {
+                    "heading_deg": r["heading_deg"],
+                    "gait_speed_mps": r["speed_mps"],
+                    "ppo_speed_mps": ppo,
+                    "ratio": ppo / r["speed_mps"] if r["speed_mps"] > 0 else math.inf,
+                }
+    return out
+
+
+def markdown(records, ratio_list):
+    lines = []
+    for model in sorted({r["model"] for r in records}):
+        lines.append(f"### {model}: mean speed along the commanded heading (mm/s), 50 s from rest\n")
+        physics = next(r["physics"] for r in records if r["model"] == model)
+        if physics:
+            lines.append("Every agent under the policy's training keywords: "
+                         + ", ".join(f"{k} = {v}" for k, v in physics.items()) + "\n")  # fmt: skip
+        agents = list(dict.fromkeys(r["agent"] for r in records if r["model"] == model))  # some score on one model only
+        lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
+        lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
+        for agent in agents:
+            rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
+            own = [r for r in rows.values() if agent in r["own_direction_of"]]
+            own_text = f"{own[0]['speed_mps'] * 1e3:.2f} at {own[0]['heading_deg']:.0f} deg" if own else ""
+            cells = []
+            for h in COMPASS_DEG:
+                r = rows[float(h)]
+                cells.append(f"{r['speed_mps'] * 1e3:.2f}" + (" (T)" if r["terminated"] else ""))
+            lines.append(f"| {agent} | " + " | ".join(cells) + f" | {own_text} |")
+        lines.append("")
+        lines.append(f"Lateral drift (m) and RMS leg torque applied (N m, from the step record), {model}:\n")
+        lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " |")
+        lines.append("|---" * (len(COMPASS_DEG) + 1) + "|")
+        for agent in agents:
+            rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
+            cells = [f"{rows[float(h)]['lateral_drift_m']:+.3f} / {rows[float(h)]['effort_rms_torque_nm']:.3f}" for h in COMPASS_DEG]
+            lines.append(f"| {agent} | " + " | ".join(cells) + " |")
+        lines.append("")
+        lines.append(f"Effort over the compass headings (worst heading), {model}:\n")
+        lines.append("| agent | peak torque (N m) | peak leg rate (rad/s) | time without ground contact | episodes ended |")
+        lines.append("|---|---|---|---|---|")
+        for agent in agents:
+            rows = [r for r in records if r["model"] == model and r["agent"] == agent and r["compass"]]
+            lines.append(
+                f"| {agent} | {max(r['peak_torque_nm'] for r in rows):.3f} | {max(r['peak_leg_rate_radps'] for r in rows):.1f} | "
+                f"{max(r['liftoff_fraction'] for r in rows):.2%} | {sum(r['terminated'] for r in rows)} of {len(rows)} |"
+            )
+        lines.append("")
+    for ratio in ratio_list:
+        if "ppo_over_gait1_by_heading" not in ratio:
+            continue
+        lines.append(
+            f"PPO speed / gait 1's speed along its own axis ({ratio['gait1_own_speed_mps'] * 1e3:.2f} mm/s), {ratio['model']}: "
+            + ", ".join(f"{h} deg {v:.2f}" for h, v in ratio["ppo_over_gait1_by_heading"].items())
+        )
+        lines.append("")
+        lines.append(f"PPO / gait on the gait's own direction, {ratio['model']}: " + ", ".join(
+            f"{g} ({v['heading_deg']:.0f} deg) {v['ratio']:.2f}" for g, v in ratio["ppo_over_gait_on_its_own_direction"].items()))
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot(runs, out_dir: Path, models):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = list(dict.fromkeys(name for name, _ in runs))
+    for model in models:
+        fig, axes = plt.subplots(1, 2, figsize=(12, 6))
+        ax = axes[0]
+        if ("ppo", model) in runs:
+            headings, run = runs[("ppo", model)]
+            for i, h in enumerate(headings[: len(COMPASS_DEG)]):
+                ax.plot(run["xy"][:, i, 0], run["xy"][:, i, 1], lw=1.0, label=f"{h} deg")
+                d = np.radians(h)
+                ax.annotate("", xy=(0.8 * math.cos(d) * _reach(run), 0.8 * math.sin(d) * _reach(run)), xytext=(0, 0),
+                            arrowprops={"arrowstyle": "->", "color": "0.7", "lw": 0.8})
+            ax.set_title(f"PPO, commanded along the 8 compass headings ({model})")
+            ax.legend(fontsize=7, ncol=2)
+        ax.plot(0, 0, "ko")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.grid(alpha=0.3)
+        ax = axes[1]
+        for name in names:
+            if name == "ppo" or (name, model) not in runs:
+                continue
+            headings, run = runs[(name, model)]
+            ax.plot(run["xy"][:, 0, 0], run["xy"][:, 0, 1], lw=1.0, label=name)
+        ax.plot(0, 0, "ko")
+        ax.set_aspect("equal")
+        ax.set_title(f"Table II gaits, 50 s ({model})")
+        ax.set_xlabel("x (m)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out_dir / f"paths_{model}.png", dpi=90)
+        plt.close(fig)
+    if ("ppo", "plane") in runs:
+        headings, run = runs[("ppo", "plane")]
+        fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+        window = run["times"] <= 5.0
+        for ax, i in zip(axes, (0, 2)):
+            for leg in range(2):
+                ax.plot(run["times"][window], run["leg_angles"][window, i, leg], label=f"leg {leg + 1} angle")
+            ax.set_ylabel("rad")
+            ax.set_title(f"PPO leg angles, first 5 s, heading {headings[i]} deg (plane)")
+            ax.legend(fontsize=8)
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        fig.tight_layout()
+        fig.savefig(out_dir / "ppo_leg_angles.png", dpi=90)
+        plt.close(fig)
+
+
+def _reach(run):
+    finite = run["xy"][np.isfinite(run["xy"]).all(axis=-1)]
+    return float(np.max(np.abs(finite))) if len(finite) else 1.0
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--policy", type=Path, default=DEFAULT_POLICY, help="PPO model zip (default: the shipped one)")
+    parser.add_argument("--pivot-policy", type=Path, default=None,
+                        help="PPO model zip scored on the pivot model instead of --policy (default: the shipped pivot "
+                             "policy when --policy is the shipped plane one)")
+    parser.add_argument("--no-policy", action="store_true", help="score only the gaits")
+    parser.add_argument("--physics", action="append", default=[], metavar="KEY=VALUE",
+                        help="hold every agent on every model to this env keyword too, e.g. torque_limit=0.5 (motors, "
+                             "the model checks, the step; repeatable; a policy's own must agree). Without a policy, "
+                             "the way to score gaits under motor limits")
+    parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"])
+    parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
+    parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
+    parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
+    parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
+                        help="also score the gaits of a gait-search JSON file (rrrobot gait-search; repeatable; "
+                             "a gait named like one already scored is named FILESTEM/NAME)")
+    parser.add_argument("--turn-then-run", type=Path, action="append", default=[], metavar="FILE",
+                        help="also score the scripted turn-then-run baseline of this file, as 'turn-then-run', on "
+                             "the model its JSON names ('model', default plane): agents/searched/turn_then_run.json "
+                             "(plane), agents/searched/turn_then_run_pivot.json (pivot); repeatable (a second file for a "
+                             "model is scored as 'FILESTEM/turn-then-run')")
+    parser.add_argument("--also-policy", action="append", default=[], metavar="NAME=FILE",
+                        help="also score the PPO model zip FILE as agent NAME, on the model it was trained on "
+                             "(its env_kwargs.json; default plane); repeatable")
+    parser.add_argument("--check-accuracy", action="store_true",
+                        help="also run each model's policy with a 10x finer integration step and compare its speeds")
+    args = parser.parse_args(argv)
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
+    from rrrobot_gym.cli import UsageError, check_output_path
+
+    for flag, path in (("--json", args.json), ("--markdown", args.markdown)):  # before the runs, not after them
+        if path is not None:
+            try:
+                check_output_path(flag, path)
+            except UsageError as exc:
+                parser.error(str(exc))
+    if args.plots is not None and args.plots.exists() and not args.plots.is_dir():
+        parser.error(f"--plots: {args.plots} is a file, not a directory")
+    if args.seed < 0:
+        parser.error(f"--seed must be >= 0, got {args.seed}")
+    if len(set(args.models)) < len(args.models):  # (each was evaluated, and reported, as often as named)
+        parser.error(f"--models names a model twice: {' '.join(args.models)}")
+    try:
+        physics = parse_physics(args.physics)
+    except ValueError as exc:
+        parser.error(str(exc))
+    agents, per_model = {}, {}
+    if not args.no_policy:
+        if not args.policy.is_file():
+            parser.error(f"--policy: no model file at {args.policy}")
+        agents["ppo"] = load_ppo_agent(args.policy)
+        pivot_policy = args.pivot_policy
+        if pivot_policy is None and args.policy == DEFAULT_POLICY and DEFAULT_PIVOT_POLICY.is_file():
+            pivot_policy = DEFAULT_PIVOT_POLICY
+        if pivot_policy is not None:
+            if not pivot_policy.is_file():
+                parser.error(f"--pivot-policy: no model file at {pivot_policy}")
+            per_model["pivot"] = {"ppo": load_ppo_agent(pivot_policy)}
+    for name in GAIT_AGENT_NAMES:
+        agents[name] = gait_agent(name)
+    for path in args.gaits:
+        try:
+            searched = load_gait_agents(path)
+        except ValueError as exc:
+            parser.error(f"--gaits: {exc}")
+        if set(searched) & set(agents):
+            # Two searches of one model and objective name their gaits alike: tell them apart by file.
+            searched = {f"{path.stem}/{name}": agent for name, agent in searched.items()}
+            for name, agent in searched.items():
+                agent.name = name
+        clash = sorted(set(searched) & set(agents))
+        if clash:
+            parser.error(f"--gaits {path}: agent names already taken: {', '.join(clash)}")
+        agents.update(searched)
+    baseline_files = set()
+    for path in args.turn_then_run:
+        try:
+            baseline = load_turn_then_run_agent(path)
+        except ValueError as exc:
+            parser.error(f"--turn-then-run: {exc}")
+        if path.resolve() in baseline_files:
+            parser.error(f"--turn-then-run {path}: given twice")
+        baseline_files.add(path.resolve())
+        on_model = per_model.setdefault(baseline.model, {})
+        if baseline.name in on_model:  # a second baseline for this model: tell them apart by file
+            baseline.name = f"{path.stem}/{baseline.name}"
+            if baseline.name in on_model:
+                parser.error(f"--turn-then-run {path}: agent name {baseline.name!r} already taken")
+        on_model[baseline.name] = baseline
+    for spec in args.also_policy:
+        name, sep, path = spec.partition("=")
+        name = name.strip()
+        if not sep or not name or not path:
+            parser.error(f"--also-policy: expected NAME=FILE, got {spec!r}")
+        taken = set(agents) | {"ppo"} | {n for on_model in per_model.values() for n in on_model}
+        if name in taken:
+            parser.error(f"--also-policy {spec}: agent name {name!r} already taken")
+        if not Path(path).is_file():
+            parser.error(f"--also-policy {spec}: no model file at {path}")
+        policy = load_ppo_agent(path)
+        per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
+    try:
+        records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model, physics)
+    except ValueError as exc:
+        parser.error(str(exc))
+    ratio_list = [ratios(records, model) for model in args.models]
+    text = markdown(records, ratio_list)
+    accuracy = {}
+    for model in args.models if args.check_accuracy else ():
+        policy = agents_on(model, agents, per_model).get("ppo")
+        if policy is None:
+            continue
+        checked = accuracy[model] = accuracy_check(policy, model, args.duration, args.seed)
+        text += f"\nPPO speed (mm/s) at the default step and at a 10x finer one ({model}):\n\n"
+        text += "| heading | " + " | ".join(f"{int(a['heading_deg'])} deg" for a in checked) + " |\n"
+        text += "|---" * (len(checked) + 1) + "|\n"
+        text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
+        text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
+    print(text)
+    if args.markdown:
+        args.markdown.write_text(text + "\n")
+    if args.json:
+        payload = {"records": records, "ratios": ratio_list, "accuracy_check": accuracy, "command": " ".join(sys.argv)}
+        args.json.write_text(json.dumps(payload, indent=1))
+    if args.plots:
+        plot(runs, args.plots, args.models)
+    return records
+
+
+if __name__ == "__main__":
+    main()

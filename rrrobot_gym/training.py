@@ -1,0 +1,624 @@
+"""Train a PPO policy for directional locomotion on RRRobot-v0 (Stable-Baselines3, CPU).
+
+Reads top to bottom: arguments, environments, model, callbacks, learn, save.
+
+    python train.py                       # goal-conditioned: any commanded heading
+    python train.py --direction-deg 45    # a specialist for one heading (degrees from +X towards +Y)
+    python train.py --resume runs/RUN/checkpoints/ppo_500000_steps.zip
+
+Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard logs,
+``evaluations.npz``, ``best_model.zip``, periodic checkpoints, and at the end (or on
+Ctrl-C) ``final_model.zip`` with ``vecnormalize.pkl`` (the observation normalisation)
+beside every saved model; ``env_kwargs.json``, every env keyword of the training env (as
+rl-zoo3 saves them; ``rrrobot_gym.agents.load_ppo_agent`` rebuilds the env from it), ``args.json`` and
+``command.txt``. Loading a model unpickles it: load only files you trust.
+
+``best_model.zip`` is the model of the best evaluation (``EvalCallback``, every
+``--eval-freq`` steps, on the training env's reward; best by the headings' mean return, or
+with ``--select-by worst`` by the worst heading's). A run too short for any evaluation
+has none: then ``best_model.zip`` (and ``vecnormalize.pkl``) is a copy of the final model,
+chosen by nothing, and the log says so.
+
+Training runs in whole rollouts of ``num_envs x n_steps`` env steps, so
+``--total-timesteps`` is rounded up to a whole number of rollouts (the log says by how much).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import random
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .agents.mirror import MIRROR_FILE, is_mirrored, make_mirrored_vec_env, save_mirror
+from .agents.ppo import normalization_path
+from .agents.residual import FEATURES, RESIDUAL_FILE, check_scale, load_base, make_residual_vec_env, run_directory, save_residual
+from .agents.turn_then_run import load_turn_then_run_agent
+from .cli import env_keyword
+from .envs.task import config_to_json, make_task_config
+from . import hyperparams as hp
+from .simulation import BACKENDS
+
+ENV_ID = "RRRobot-v0"
+
+
+@dataclass
+class Args:
+    exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
+    seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
+    total_timesteps: int = field(
+        default=20_000_000,
+        metadata={"help": "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps"},
+    )
+    model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
+    direction_deg: float | None = field(
+        default=None,
+        metadata={"help": "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading"},
+    )
+    num_envs: int = field(default=hp.NUM_ENVS, metadata={"help": "robots simulated together in the batched env"})
+    n_steps: int = field(default=hp.N_STEPS, metadata={"help": "PPO rollout length per env"})
+    batch_size: int = field(default=hp.MAX_BATCH_SIZE, metadata={"help": "PPO minibatch size"})
+    n_epochs: int = field(default=hp.N_EPOCHS, metadata={"help": "PPO epochs per rollout"})
+    learning_rate: float = field(default=hp.LEARNING_RATE, metadata={"help": "Adam learning rate (at the start, with --learning-rate-final)"})
+    learning_rate_final: float | None = field(
+        default=hp.LEARNING_RATE_FINAL,
+        metadata={"help": "Adam learning rate at the run's end, reached linearly from --learning-rate; none: constant"},
+    )
+    gamma: float = field(default=hp.GAMMA, metadata={"help": "discount factor (per 0.05 s control step)"})
+    gae_lambda: float = field(default=hp.GAE_LAMBDA, metadata={"help": "GAE lambda"})
+    clip_range: float = field(default=hp.CLIP_RANGE, metadata={"help": "PPO clip range"})
+    ent_coef: float = field(default=hp.ENT_COEF, metadata={"help": "entropy bonus coefficient"})
+    log_std_init: float = field(default=hp.LOG_STD_INIT, metadata={"help": "initial log std of the Gaussian policy"})
+    net_arch: str = field(default=",".join(map(str, hp.NET_ARCH)), metadata={"help": "hidden layer sizes of policy and value nets"})
+    healthy_reward: float = field(
+        default=1.0, metadata={"help": "env reward per step that stays inside the model (survival first, then speed)"}
+    )
+    clock_frequency: float | None = field(
+        default=None, metadata={"help": "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none"}
+    )
+    torque_limit: float | None = field(
+        default=None, metadata={"help": "N m, the leg motors' stall torque (the env's torque_limit); default unlimited"}
+    )
+    leg_rate_limit: float | None = field(
+        default=None,
+        metadata={"help": "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default unlimited"},
+    )
+    backend: str = field(
+        default="auto",
+        metadata={"help": "simulator backend (the env's backend): auto (numba where installed), numba or numpy"},
+    )
+    env: list[str] | None = field(
+        default=None,
+        metadata={"help": "another env keyword as KEY=VALUE, e.g. contact_quadrature=trapezoid (repeatable, as "
+                          "gait-search's; not those with options of their own; saved in env_kwargs.json, so "
+                          "evaluate.py holds the agents compared to them)"},
+    )
+    episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
+    eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
+    checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
+    resume: str | None = field(default=None, metadata={"help": "a model zip to continue from (its vecnormalize.pkl beside it)"})
+    runs_dir: str = field(default="runs", metadata={"help": "where runs are written"})
+    progress_bar: bool = field(default=True, metadata={"help": "show a progress bar (needs tqdm and rich)"})
+    residual_on: str | None = field(
+        default=None,
+        metadata={"help": "a turn-then-run JSON (agents/searched/turn_then_run.json): learn a residual on that agent's actions"},
+    )
+    residual_scale: float = field(
+        default=0.05, metadata={"help": "with --residual-on: the largest change of the base's action (action units)"}
+    )
+    mirror: bool | None = field(
+        default=None,
+        metadata={"help": "run headings towards -Y as mirror images of those towards +Y (rrrobot_gym/agents/mirror.py): "
+                          "the policy learns half the compass; default: on for a goal-conditioned policy, off "
+                          "for a --direction-deg specialist or a --residual-on policy, and as the --resume run was"},
+    )
+    select_by: str = field(
+        default="worst",
+        metadata={"help": "which evaluation picks best_model.zip: mean (the headings' mean return) or worst "
+                          "(the worst heading's return)"},
+    )
+    torch_threads: int = field(
+        default=2,
+        metadata={"help": "torch CPU threads for PPO's updates; the model's construction, the rollouts and the "
+                          "evaluations run on one (the env steps between updates, so its core is free then)"},
+    )
+
+
+RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
+"""PPO settings a resumed run takes from the command line when given there (else the model's own)."""
+FIXED_ON_RESUME = ("net_arch", "log_std_init", "gamma")
+"""PPO settings a resumed model keeps: the networks' shape, the initial noise, and the discount its
+value function and return normalisation were trained with."""
+
+
+def _parser(given_only=False):
+    """The command line of :class:`Args`; with ``given_only`` every default is left out, so the
+    parsed namespace holds only the flags given."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     argument_default=argparse.SUPPRESS if given_only else None)
+    for f in dataclasses.fields(Args):
+        flag = "--" + f.name.replace("_", "-")
+        help_text = f"{f.metadata['help']} (default: {f.default})"
+        default = {} if given_only else {"default": f.default}
+        if f.type in ("bool", "bool | None"):
+            parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
+        elif f.type == "list[str] | None":  # repeatable
+            parser.add_argument(flag, action="append", metavar="KEY=VALUE", help=help_text, **default)
+        else:  # "float", "float | None", ...: the field's annotation names the type
+            kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
+            if f.type.endswith(" | None"):
+                kind = _or_none(kind)
+            parser.add_argument(flag, type=kind, help=help_text, **default)
+    return parser
+
+
+def _or_none(kind):
+    """An argparse type that also takes "none" (an optional setting left unset)."""
+
+    def parse(text):
+        return None if text.strip().lower() == "none" else kind(text)
+
+    parse.__name__ = kind.__name__  # (argparse names the type in its error messages)
+    return parse
+
+
+def given_flags(argv=None) -> set:
+    """The :class:`Args` fields set on the command line ``argv`` (default: sys.argv)."""
+    return set(vars(_parser(given_only=True).parse_args(argv)))
+
+
+def resume_overrides(args: Args, argv=None) -> dict:
+    """The :data:`RESUME_SETTINGS` given on the command line: what a resumed model changes (the
+    learning rate as SB3's setting: a number, or with --learning-rate-final its schedule)."""
+    given = given_flags(argv)
+    overrides = {name: getattr(args, name) for name in RESUME_SETTINGS if name in given}
+    if "learning_rate_final" in overrides or "learning_rate" in overrides:
+        overrides.pop("learning_rate_final", None)
+        overrides["learning_rate"] = learning_rate(args)
+    return overrides
+
+
+def learning_rate(args: Args):
+    """SB3's learning_rate: --learning-rate, or a :class:`rrrobot_gym.hyperparams.LinearRate` to
+    --learning-rate-final."""
+    return hp.learning_rate_schedule(args.learning_rate, args.learning_rate_final)
+
+
+def parse_args(argv=None) -> Args:
+    parser = _parser()
+    args = Args(**vars(parser.parse_args(argv)))
+    if args.model not in ("plane", "pivot"):
+        parser.error(f"--model must be plane or pivot, got {args.model!r}")
+    if args.select_by not in ("mean", "worst"):
+        parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
+    resumed_mirrored = args.resume is not None and is_mirrored(run_directory(args.resume))
+    if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
+        if args.direction_deg is not None or args.residual_on is not None:
+            args.mirror = False
+        else:
+            args.mirror = resumed_mirrored if args.resume is not None else True
+    if args.mirror and args.residual_on is not None:
+        parser.error("--mirror and --residual-on cannot be combined (the base agent is not mirrored)")
+    if args.mirror and args.direction_deg is not None:
+        parser.error("--mirror is for the goal-conditioned policy (any heading), not a --direction-deg specialist")
+    if args.backend not in BACKENDS:
+        parser.error(f"--backend must be one of {', '.join(BACKENDS)}, got {args.backend!r}")
+    if args.direction_deg is not None and not math.isfinite(args.direction_deg):
+        parser.error("--direction-deg must be a finite number of degrees")
+    if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
+        parser.error("--clock-frequency must be a positive number of rad/s")
+    for name in ("learning_rate", "learning_rate_final"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            parser.error(f"--{name.replace('_', '-')} must be a number >= 0, got {value}")
+    for name in ("torque_limit", "leg_rate_limit"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value > 0):
+            parser.error(f"--{name.replace('_', '-')} must be a positive number, got {value}")
+    if args.leg_rate_limit is not None and args.torque_limit is None:
+        parser.error("--leg-rate-limit needs --torque-limit (a motor's speed limit is where its torque reaches zero)")
+    try:  # the env's own checks, on every keyword together (a step past the servo's stability limit, ...)
+        make_task_config(**env_kwargs(args))
+    except (TypeError, ValueError) as exc:
+        parser.error(f"--env {' '.join(args.env)}: {exc}" if args.env else str(exc))
+    for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
+                 "checkpoint_freq", "torch_threads"):
+        if getattr(args, name) < 1:
+            parser.error(f"--{name.replace('_', '-')} must be a positive integer, got {getattr(args, name)}")
+    _check_ppo_settings(parser, args)
+    try:
+        check_scale(args.residual_scale)
+    except ValueError as exc:
+        parser.error(f"--residual-scale: {exc}")
+    if args.residual_on is not None:
+        try:
+            base = load_turn_then_run_agent(args.residual_on)
+        except ValueError as exc:
+            parser.error(f"--residual-on: {exc}")
+        if base.model != args.model:
+            parser.error(f"--residual-on: {args.residual_on} was made for the {base.model} model, not {args.model}")
+    if args.resume is not None:
+        if not Path(args.resume).is_file():
+            parser.error(f"--resume: no model file at {args.resume}")
+        fixed = sorted(given_flags(argv) & set(FIXED_ON_RESUME))
+        if fixed:
+            parser.error(f"--resume keeps the model's {', '.join('--' + n.replace('_', '-') for n in fixed)}: "
+                         "leave it out")
+        _check_resumed_residual(parser, args)
+        if resumed_mirrored and not args.mirror:
+            parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
+                         "give --mirror")
+        _check_resumed_model(parser, args)
+    return args
+
+
+LOG_STD_INIT_RANGE = (-20.0, 5.0)
+"""--log-std-init's range: e^-20 is no noise at all, e^5 = 148 action units is noise over [-1, 1] many times."""
+
+
+def _check_ppo_settings(parser, args):
+    """The PPO settings SB3 and torch would take and fail on later (NaN in the first rollout's
+    update, an assertion, a bad seed) or train on without meaning (a discount above 1)."""
+    for name in ("gamma", "gae_lambda"):
+        value = getattr(args, name)
+        if not 0.0 <= value <= 1.0:
+            parser.error(f"--{name.replace('_', '-')} must be in [0, 1], got {value}")
+    if not (math.isfinite(args.clip_range) and args.clip_range > 0):
+        parser.error(f"--clip-range must be a positive number, got {args.clip_range}")
+    if not (math.isfinite(args.ent_coef) and args.ent_coef >= 0):
+        parser.error(f"--ent-coef must be a number >= 0, got {args.ent_coef}")
+    low, high = LOG_STD_INIT_RANGE
+    if not low <= args.log_std_init <= high:
+        parser.error(f"--log-std-init must be in [{low:g}, {high:g}], got {args.log_std_init}")
+    sizes = args.net_arch.split(",")
+    if not all(size.strip().isascii() and size.strip().isdigit() and int(size) > 0 for size in sizes):
+        parser.error(f"--net-arch must be positive layer sizes joined by commas, e.g. 128,128, got {args.net_arch!r}")
+    if args.batch_size < 2:  # (SB3 normalises each minibatch's advantages)
+        parser.error(f"--batch-size must be at least 2, got {args.batch_size}")
+    if not 0 <= args.seed < 2**32 - 100_000:  # (numpy's seeds end at 2**32; the envs' are seed + 10,000 + i)
+        parser.error(f"--seed must be in [0, 2**32 - 100000), got {args.seed}")
+    if Path(args.runs_dir).exists() and not Path(args.runs_dir).is_dir():
+        parser.error(f"--runs-dir: {args.runs_dir} is a file, not a directory")
+
+
+def _check_resumed_model(parser, args):
+    """The --resume zip is an SB3 model with its normalisation statistics beside it, observing as
+    many numbers as this run's env gives (SB3 found out only after the env was made, by assertion)."""
+    import zipfile
+
+    data = None
+    if zipfile.is_zipfile(args.resume):
+        with zipfile.ZipFile(args.resume) as archive:
+            data = archive.read("data") if "data" in archive.namelist() else None
+    if data is None:
+        parser.error(f"--resume: {args.resume} is not a Stable-Baselines3 model zip")
+    stats = normalization_path(args.resume)
+    if not stats.exists():
+        parser.error(f"--resume needs the normalisation statistics {stats}")
+    try:
+        shape = json.loads(data)["observation_space"]["_shape"]
+    except (KeyError, TypeError, ValueError):
+        return  # (no readable shape: SB3 checks it when it loads)
+    # (a residual policy, which _check_resumed_residual has matched to --residual-on, observes its base too)
+    size = make_task_config(**env_kwargs(args)).observation_size + (len(FEATURES) if args.residual_on is not None else 0)
+    if list(shape) != [size]:
+        parser.error(f"--resume: the model observes {shape[0] if len(shape) == 1 else shape} numbers, this run's env "
+                     f"{size}: an option that changes the observation (--clock-frequency, "
+                     "--env exclude_current_positions_from_observation=...) differs from the model's run "
+                     "(its env_kwargs.json)")
+
+
+def _check_resumed_residual(parser, args):
+    """A residual policy (residual.json in its run directory) resumes only as one, on the same scale;
+    a plain one never does (their observations differ in size, which SB3 would report unnamed)."""
+    run_dir = run_directory(args.resume)
+    try:
+        saved = load_base(run_dir)
+    except ValueError as exc:
+        parser.error(f"--resume: {exc}")
+    if saved is None:
+        if args.residual_on is not None:
+            parser.error(f"--residual-on: the --resume model {args.resume} is not a residual policy "
+                         f"(no {run_dir / RESIDUAL_FILE})")
+        return
+    scale = saved[1]
+    if args.residual_on is None:
+        parser.error(f"--resume: {args.resume} is a residual policy ({run_dir / RESIDUAL_FILE}): give --residual-on "
+                     f"(its base is copied in {run_dir / 'residual_base'}) and --residual-scale {scale} as it was trained")
+    if args.residual_scale != scale:
+        parser.error(f"--residual-scale: the --resume model was trained with scale {scale}, not {args.residual_scale}")
+
+
+ENV_OPTIONS = {"model": "--model", "target_direction": "--direction-deg", "healthy_reward": "--healthy-reward",
+               "clock_frequency": "--clock-frequency", "torque_limit": "--torque-limit",
+               "leg_rate_limit": "--leg-rate-limit", "backend": "--backend"}  # fmt: skip
+"""The env keywords train.py sets by options of their own (``--env`` refuses them)."""
+
+
+def extra_env_kwargs(specs) -> dict:
+    """The ``--env`` KEY=VALUE specs as {key: value} (:func:`rrrobot_gym.cli.env_keyword`). Raises
+    ValueError naming a bad or repeated spec, or a keyword with an option of its own."""
+    chosen = {}
+    for spec in specs or ():
+        name, value = env_keyword(spec, ENV_OPTIONS)
+        if name in chosen:
+            raise ValueError(f"{name} given twice")
+        chosen[name] = value
+    return chosen
+
+
+def env_kwargs(args: Args) -> dict:
+    """The training env's keywords (the env's heading keyword is in radians)."""
+    direction = None if args.direction_deg is None else math.radians(args.direction_deg)
+    return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
+            "clock_frequency": args.clock_frequency, "torque_limit": args.torque_limit,
+            "leg_rate_limit": args.leg_rate_limit, "backend": args.backend, **extra_env_kwargs(args.env)}
+
+
+def env_config(args: Args) -> dict:
+    """Every env keyword of the training env, defaults included, as JSON (saved as env_kwargs.json)."""
+    return config_to_json(make_task_config(**env_kwargs(args)))
+
+
+def ppo_kwargs(args: Args) -> dict:
+    """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this
+    run's settings."""
+    settings = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda",
+                "clip_range", "ent_coef", "log_std_init")
+    return hp.ppo_hyperparams(args.num_envs, net_arch=[int(n) for n in args.net_arch.split(",")],
+                              **{name: getattr(args, name) for name in settings})
+
+
+def rounded_timesteps(args: Args) -> int:
+    """--total-timesteps rounded up to whole rollouts of num_envs x n_steps: what PPO will run."""
+    rollout = args.num_envs * args.n_steps
+    return -(-args.total_timesteps // rollout) * rollout
+
+
+def make_env(args: Args, num_envs: int, seed: int):
+    """The batched env behind SB3's VecEnv API, with episode statistics."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from .envs.sb3 import RRRobotSB3VecEnv
+
+    venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
+    venv.seed(seed)
+    return mirrored(args, on_base(args, VecMonitor(venv)))
+
+
+def on_base(args: Args, venv):
+    """With --residual-on, the policy's actions become residuals on the base agent's (rrrobot_gym/agents/residual.py)."""
+    if args.residual_on is None:
+        return venv
+    return make_residual_vec_env(venv, load_turn_then_run_agent(args.residual_on), args.residual_scale)
+
+
+def mirrored(args: Args, venv):
+    """With --mirror, the env as a mirrored policy sees it (rrrobot_gym/agents/mirror.py)."""
+    if not args.mirror:
+        return venv
+    return make_mirrored_vec_env(venv, make_task_config(**env_kwargs(args)))
+
+
+class CompassEval:
+    """Fixed evaluation headings: the 8 compass directions (or the specialist's one), one env each."""
+
+    @staticmethod
+    def headings(args: Args):
+        if args.direction_deg is not None:
+            return np.array([math.radians(args.direction_deg)])
+        if args.mirror:  # the others are these headings' mirror images: the same episodes
+            return np.radians(np.arange(0, 181, 45, dtype=float))
+        return np.radians(np.arange(0, 360, 45, dtype=float))
+
+
+def make_eval_env(args: Args, seed: int):
+    """One env per evaluation heading, from the paper's start (no start noise).
+
+    Otherwise the training env: the same keywords (so the same reward: best_model.zip is
+    chosen on the reward that is logged) and the same episode length, --episode-steps.
+    """
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from .envs.sb3 import RRRobotSB3VecEnv
+
+    headings = CompassEval.headings(args)
+
+    class _FixedHeadings(RRRobotSB3VecEnv):
+        def reset(self):
+            self.set_options({"target_direction": headings})
+            return super().reset()
+
+    venv = _FixedHeadings(
+        num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
+    )
+    venv.seed(seed)
+    return mirrored(args, on_base(args, VecMonitor(venv)))
+
+
+def stop_on_ctrl_c():
+    """A callback that ends training at the next env step after Ctrl-C.
+
+    Ctrl-C raising KeyboardInterrupt wherever it lands could land inside a checkpoint's
+    torch.save, which then fails with a RuntimeError (a broken zip) instead of the interrupt,
+    and the run died without its final model. Here the first Ctrl-C only sets a flag; learn()
+    returns at the next step and main() saves. A second Ctrl-C interrupts at once.
+    """
+    import contextlib
+    import signal
+    import threading
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Stop(BaseCallback):
+        requested = False
+
+        def _on_step(self) -> bool:
+            return not self.requested
+
+        def _request(self, signum, frame):
+            self.requested = True
+            print("interrupted: saving the model before exiting", flush=True)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+
+        @contextlib.contextmanager
+        def handling_ctrl_c(self):
+            if threading.current_thread() is not threading.main_thread():
+                yield  # signal handlers belong to the main thread: plain KeyboardInterrupt there
+                return
+            previous = signal.signal(signal.SIGINT, self._request)
+            try:
+                yield
+            finally:
+                signal.signal(signal.SIGINT, previous)
+
+    return Stop()
+
+
+def threads_for_updates(threads: int):
+    """An SB3 callback that runs torch on ``threads`` CPU threads while PPO updates and on one while
+    it collects a rollout. The two phases take turns, so the core the env used is idle during the
+    update, where minibatches of 4096 give torch's matrix products work to share (--torch-threads 2:
+    about 0.7x the wall time of one thread, ``python -m benchmarks.train_time --threads``). Rollouts
+    stay on one thread (their forward passes are 64 rows, which a second thread only slows), and so
+    does the model's construction: its orthogonal initial weights come from a QR factorisation whose
+    bits depend on the thread count. The updates' sums are below torch's grain for splitting, and on
+    our machine a run's model came out the same to the bit on one thread or two (the benchmark
+    checks it); on others that is likely, not promised."""
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class ThreadsForUpdates(BaseCallback):
+        def _on_rollout_start(self) -> None:
+            torch.set_num_threads(1)
+
+        def _on_rollout_end(self) -> None:
+            torch.set_num_threads(threads)
+
+        def _on_step(self) -> bool:
+            return True
+
+    return ThreadsForUpdates()
+
+
+def run_name(args: Args) -> str:
+    return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
+
+
+def main(argv=None) -> Path:
+    args = parse_args(argv)
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.utils import set_random_seed
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)  # (until the first update: ThreadsForUpdates)
+    random.seed(args.seed)
+    np.random.seed(args.seed)
+    set_random_seed(args.seed)
+
+    run_dir = Path(args.runs_dir) / run_name(args)
+    run_dir.mkdir(parents=True, exist_ok=False)
+    (run_dir / "args.json").write_text(json.dumps(dataclasses.asdict(args), indent=2))
+    (run_dir / "command.txt").write_text(" ".join([sys.executable, *sys.argv]) + "\n")
+    (run_dir / "env_kwargs.json").write_text(json.dumps(env_config(args), indent=2))
+    if args.residual_on is not None:
+        save_residual(run_dir, args.residual_on, args.residual_scale)
+    if args.mirror:
+        save_mirror(run_dir)
+
+    train_env = make_env(args, args.num_envs, args.seed)
+    eval_env = make_eval_env(args, args.seed + 10_000)
+    if args.resume:
+        train_env = VecNormalize.load(str(normalization_path(args.resume)), train_env)  # (parse_args found it)
+        train_env.training = True
+        overrides = resume_overrides(args, argv)
+        model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir), **overrides)
+        if overrides:
+            print("resumed with " + ", ".join(f"{name} {value}" for name, value in overrides.items()), flush=True)
+    else:
+        train_env = VecNormalize(train_env, **hp.vecnormalize_kwargs(gamma=args.gamma))
+        model = PPO("MlpPolicy", train_env, **ppo_kwargs(args), tensorboard_log=str(run_dir), seed=args.seed, verbose=0)
+    eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
+
+    class SaveBest(EvalCallback):
+        """EvalCallback that saves best_model.zip, with the normalisation statistics beside it, at
+        the evaluation best by --select-by: the mean or the minimum of the headings' returns."""
+
+        best_score = -math.inf
+
+        def _on_step(self) -> bool:
+            done = len(self.evaluations_results)
+            result = super()._on_step()
+            if len(self.evaluations_results) > done:
+                returns = np.asarray(self.evaluations_results[-1], dtype=float)
+                score = float(returns.min() if args.select_by == "worst" else returns.mean())
+                if score > self.best_score:
+                    self.best_score = score
+                    self.model.save(run_dir / "best_model.zip")
+                    train_env.save(str(run_dir / "vecnormalize.pkl"))
+                    print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
+                          f"return {score:,.0f}", flush=True)
+            return result
+
+    evaluation = SaveBest(
+        eval_env,
+        n_eval_episodes=len(CompassEval.headings(args)),
+        eval_freq=max(1, args.eval_freq // args.num_envs),
+        log_path=str(run_dir),
+        deterministic=True,
+    )
+    checkpoints = CheckpointCallback(
+        save_freq=max(1, args.checkpoint_freq // args.num_envs),
+        save_path=str(run_dir / "checkpoints"),
+        name_prefix="ppo",
+        save_vecnormalize=True,
+    )
+    print(f"run: {run_dir}", flush=True)
+    total_timesteps = rounded_timesteps(args)
+    if total_timesteps != args.total_timesteps:
+        print(
+            f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
+            f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}",
+            flush=True,
+        )
+    stop = stop_on_ctrl_c()
+    try:
+        with stop.handling_ctrl_c():
+            model.learn(
+                total_timesteps=total_timesteps,
+                callback=CallbackList([stop, evaluation, checkpoints, threads_for_updates(args.torch_threads)]),
+                progress_bar=args.progress_bar,
+                reset_num_timesteps=args.resume is None,
+                tb_log_name="tb",
+            )
+    except KeyboardInterrupt:  # a second Ctrl-C: stop at once
+        stop.requested = True
+        print("interrupted again: saving the model before exiting", flush=True)
+    interrupted = stop.requested
+    model.save(run_dir / "final_model.zip")
+    train_env.save(str(run_dir / "final_vecnormalize.pkl"))
+    if not (run_dir / "best_model.zip").exists():
+        # No evaluation ran (a run shorter than --eval-freq): the final model stands in, chosen by nothing.
+        shutil.copy(run_dir / "final_model.zip", run_dir / "best_model.zip")
+        shutil.copy(run_dir / "final_vecnormalize.pkl", run_dir / "vecnormalize.pkl")
+        print("no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of final_model.zip", flush=True)
+    print(f"saved: {run_dir / 'final_model.zip'} (best: {run_dir / 'best_model.zip'})", flush=True)
+    train_env.close()
+    eval_env.close()
+    if interrupted:
+        raise SystemExit(130)
+    return run_dir
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,585 @@
+"""Turn-then-run search: the parameters of the turn-then-run agent for a running gait.
+
+The agent (:class:`rrrobot_gym.agents.turn_then_run.TurnThenRunAgent`) turns the body with a
+turning sinusoid until a searched running gait points along the commanded heading, blends into
+that gait and runs it. This module finds, for a running gait from a gait-search file:
+
+1. **direction**: the running gait's direction of travel minus the body's yaw (the agent's
+   ``direction_offset_deg``), measured from the paper's start and two noisy starts, the gait and
+   its mirror image, after the first 2 s, to the whole degree;
+2. **turning gait**: the sinusoid that turns the body fastest inside the model (largest
+   sustained yaw rate over 10 s, from the paper's start and two noisy starts);
+3. **maneuver**: the turning gait, the switch's lead time and the blend time together, scored
+   through the agent itself on ``headings_deg`` x starts: the mean speed along the heading (the
+   contact point's displacement / ``duration``), penalised for leaving the model as the gait
+   search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`). Its screen holds
+   the turning gait of step 2, gentler copies of it and a warm start's maneuver.
+
+Steps 2 and 3 are a random screen then CMA-ES within a wall-clock budget
+(:func:`rrrobot_gym.gait_search.maximise`), each population one batched env, or chunks of it as
+Ray tasks (``ray_address``). The heading correction's gains are tuned afterwards on a grid through
+the agent (:func:`tune_steering`): 50 s on the 8 compass headings from the paper's start and noisy
+starts; the combination whose runs end least, then with the best worst heading, then the best
+mean, is written.
+
+    rrrobot turn-then-run-search --model plane --run-gaits agents/searched/plane_own.json \\
+        --budget 900 --out agents/searched/turn_then_run.json
+    rrrobot turn-then-run-steer --agent agents/searched/turn_then_run.json --gain 0.5 1 \\
+        --limit 0.05 0.1 --out agents/searched/turn_then_run.json
+
+Every env of a search gets the running gait file's env keywords (its ``env_kwargs``: motor
+limits, say) updated by ``env_kwargs``; the agent's file records them as ``env_kwargs``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import dynamics
+from .envs import task
+from .gait_search import (
+    BOUNDS,
+    PARAMETER_NAMES,
+    load_gaits,
+    maximise,
+    penalised_fitness,
+    ray_map,
+    ramp_factor,
+    repair,
+)
+
+COMPASS_DEG = tuple(range(0, 360, 45))
+DEFAULT_HEADINGS_DEG = (0.0, 45.0, 135.0, 180.0)
+"""Headings the maneuver is scored on: from the paper's start a running gait travelling at yaw +-90
+deg needs a quarter turn for 0 and 180 deg and a 45 deg turn either way for 45 and 135 deg, so every
+turn the agent makes on the compass is scored (a 45 deg turn in one sense left unscored has
+overshot by tens of degrees)."""
+WINDOW_STEPS = 15
+"""Control steps of the agent's yaw moving average (about one period of the gaits searched)."""
+TURN_SECONDS, SETTLE_SECONDS = 10.0, 1.0
+"""s, the turning gait's runs, and the start left out of its yaw rate's fit."""
+DIRECTION_SECONDS, DIRECTION_SETTLE = 20.0, 2.0
+"""s, the running gait's runs for its direction, and the start left out (its first period)."""
+TURN_POPSIZE = 64
+LEAD_MAX, BLEND_MAX, BLEND_MIN = 1.5, 2.0, 0.05
+"""s, the bounds of the switch's lead and of the blend. A running gait with a swing ramp from rest
+slips when blended into quickly after a turn: its blend may take up to five of its ramps and its
+lead up to 3 s (:func:`maneuver_bounds`)."""
+
+
+class SearchError(ValueError):
+    """A bad input of the turn-then-run search, named."""
+
+
+# ---------------------------------------------------------------- rollouts
+
+
+def body_yaw(states) -> np.ndarray:
+    """rad (N,): the heading of the body's x axis, atan2(R10, R00) of its rotation."""
+    q = np.asarray(states)[:, dynamics.QUAT]
+    qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.arctan2(2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def start_states(seeds, reset_noise_scale: float) -> np.ndarray:
+    """States (N, 13): None is the paper's start; a seed s the env's start after ``reset(seed=s)``
+    with that ``reset_noise_scale``."""
+    from gymnasium.utils import seeding
+
+    noise = np.zeros((len(seeds), 10))
+    for i, seed in enumerate(seeds):
+        if seed is not None:
+            noise[i] = seeding.np_random(int(seed))[0].uniform(-reset_noise_scale, reset_noise_scale, size=10)
+    return task.start_states(noise)
+
+
+def rollout(act, starts, headings_rad, duration, *, model, env_kwargs, record=False):
+    """Run robots from ``starts`` (N, 13) along ``headings_rad`` (N,) in ONE env for ``duration`` s.
+
+    ``act(k, observations, dt)`` returns the actions (N, 2) of control step k. A robot's run ends
+    at its first termination (the env's envelope); it is not tracked after. Returns a dict:
+    ``displacement`` (N, 2) m of the contact point up to the end, ``end_time`` (N,) s,
+    ``terminated`` (N,), ``dt`` and ``duration`` (s, whole control steps); with ``record`` also
+    ``upright`` (T + 1, N, 2) m, the upright contact point (below the centre: free of the contact
+    point's swing with the body's tilt), and ``yaw`` (T + 1, N) rad, the body's yaw unwrapped,
+    both held at their last value inside the model after a robot's end.
+    """
+    from .envs.vector import RRRobotVectorEnv
+
+    n = len(starts)
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs)
+    try:
+        steps = task.control_steps("duration", duration, env.dt)
+        obs, _ = env.reset(seed=0, options={"state": starts, "target_direction": headings_rad})
+        first = last = env.states[:, 0:2].copy()
+        radius = env.config.sim.robot.radius
+        up, yaw = [task.upright_contact_points(env.states, radius)], [body_yaw(env.states)]
+        end_step, alive = np.full(n, steps), np.ones(n, dtype=bool)
+        for k in range(steps):
+            actions = np.clip(np.asarray(act(k, obs, env.dt), dtype=np.float64), -1.0, 1.0).astype(np.float32)
+            obs, _, terminated, _, info = env.step(actions)
+            ending = terminated & alive
+            here = np.where(alive[:, None], env.states[:, 0:2], last)
+            if ending.any():  # (autoreset restarted these robots: their last position is in final_info)
+                here[ending, 0] = info["final_info"]["x_position"][ending]
+                here[ending, 1] = info["final_info"]["y_position"][ending]
+                end_step[ending] = k + 1
+            alive &= ~terminated
+            last = here
+            if record:
+                upright = np.where(alive[:, None], task.upright_contact_points(env.states, radius), up[-1])
+                if ending.any():
+                    upright[ending, 0] = info["final_info"]["x_upright"][ending]
+                    upright[ending, 1] = info["final_info"]["y_upright"][ending]
+                up.append(upright)
+                yaw.append(np.where(alive, body_yaw(env.states), yaw[-1]))
+        out = {"displacement": last - first, "end_time": end_step * env.dt, "terminated": ~alive, "dt": env.dt,
+               "duration": steps * env.dt}  # fmt: skip
+        if record:
+            out["upright"], out["yaw"] = np.array(up), np.unwrap(np.array(yaw), axis=0)
+        return out
+    finally:
+        env.close()
+
+
+def yaw_rate(yaw, dt, after: float) -> np.ndarray:
+    """rad/s (N,): the least-squares slope of yaw (T + 1, N) against time from ``after`` s on
+    (the fit removes the wobble within a gait period)."""
+    t = np.arange(len(yaw)) * dt
+    fit = t >= after
+    tt = t[fit] - t[fit].mean()
+    return (tt[:, None] * (yaw[fit] - yaw[fit].mean(axis=0))).sum(axis=0) / (tt**2).sum()
+
+
+def mirror_gait(parameters) -> np.ndarray:
+    """The six numbers of a sinusoid's leg-exchanged mirror image, up to a phase: it turns, or
+    travels, the other way."""
+    a1, a2, o1, o2, w, gap = np.asarray(parameters, dtype=float)
+    return np.array([a2, a1, o2, o1, w, -gap])
+
+
+def _sinusoids(rows, ramp_s=0.0, mirror=None):
+    """``act`` for :func:`rollout`: each robot runs its sinusoid (rows (N, 6)), or where ``mirror``
+    (N,) its leg-exchanged mirror image (the same legs' motions, exchanged), the swing ramped in
+    over ``ramp_s`` s; targets commanded at the end of each step as the gait agents do."""
+    from .agents.turn_then_run import per_leg_angles, per_leg_gait
+
+    rows = np.asarray(rows, dtype=float)
+    mirror = np.zeros(len(rows), dtype=bool) if mirror is None else np.asarray(mirror, dtype=bool)
+    per_leg = np.array([per_leg_gait(g, m) for g, m in zip(rows, mirror)])
+
+    def act(k, obs, dt):
+        t = (k + 1) * dt
+        g = per_leg.copy()
+        g[:, :2] *= ramp_factor(t, ramp_s)
+        return task.leg_targets_to_action(per_leg_angles(g, g[:, 4] * t))
+
+    return act
+
+
+# ---------------------------------------------------------------- step 1: direction
+
+
+def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, seeds=(None, 1, 2)) -> dict:
+    """The running gait's direction of travel minus the body's mean yaw (deg), after the first
+    :data:`DIRECTION_SETTLE` s of :data:`DIRECTION_SECONDS`, from each start of ``seeds`` (None:
+    the paper's), for the gait and its mirror (whose offset is the gait's negated). Returns
+    {"direction_offset_deg": the mean in the gait's sense, "offsets_deg", "ended"}."""
+    seeds = list(seeds)
+    rows = np.array([run_gait.as_array()] * (2 * len(seeds)))
+    mirror = np.arange(len(rows)) >= len(seeds)
+    runs = rollout(_sinusoids(rows, run_gait.ramp_s, mirror), start_states(seeds * 2, reset_noise_scale), np.zeros(len(rows)),
+                   DIRECTION_SECONDS, model=model, env_kwargs=env_kwargs, record=True)  # fmt: skip
+    k0 = int(round(DIRECTION_SETTLE / runs["dt"]))
+    travel = runs["upright"][-1] - runs["upright"][k0]
+    yaw = runs["yaw"][k0:].mean(axis=0)
+    offsets = np.degrees(_wrap(np.arctan2(travel[:, 1], travel[:, 0]) - yaw))
+    kept = ~runs["terminated"]
+    if not kept.any():
+        raise SearchError(f"the running gait {run_gait.name} left the model on every start: it has no direction")
+    signed = np.where(np.arange(len(rows)) < len(seeds), offsets, -offsets)
+    return {"direction_offset_deg": float(signed[kept].mean()), "offsets_deg": offsets.tolist(),
+            "ended": runs["terminated"].tolist()}  # fmt: skip
+
+
+def _wrap(angle):
+    return (np.asarray(angle) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ---------------------------------------------------------------- step 2: the turning gait
+
+
+def _to_params_6(unit):
+    lows, highs = _box(0)
+    return repair(lows + np.clip(unit, 0.0, 1.0) * (highs - lows))
+
+
+def _box(extra):
+    """Lows and highs of the sinusoid's six numbers, then ``extra`` more (set by the caller)."""
+    lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES] + [0.0] * extra)
+    highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES] + [1.0] * extra)
+    return lows, highs
+
+
+def score_turning(params, settings) -> np.ndarray:
+    """Turning gaits (P, 6) -> (P, 2 + S): fitness, mean yaw rate (rad/s) and each start's yaw rate.
+    Fitness: |mean yaw rate| when no start left the model, else below -0.5 (as gait search
+    penalises, the yaw rate in place of the speed)."""
+    params = np.asarray(params, dtype=float)
+    seeds = settings["seeds"]
+    s = len(seeds)
+    runs = rollout(_sinusoids(np.repeat(params, s, axis=0)), np.tile(start_states(seeds, settings["reset_noise_scale"]), (len(params), 1)),
+                   np.zeros(len(params) * s), TURN_SECONDS, model=settings["model"], env_kwargs=settings["env_kwargs"],
+                   record=True)  # fmt: skip
+    rates = yaw_rate(runs["yaw"], runs["dt"], SETTLE_SECONDS).reshape(len(params), s)
+    mean = rates.mean(axis=1)
+    fitness = penalised_fitness(np.abs(mean), (runs["end_time"] / runs["duration"]).reshape(len(params), s),
+                                runs["terminated"].reshape(len(params), s))  # fmt: skip
+    return np.column_stack([fitness, mean, rates])
+
+
+# ---------------------------------------------------------------- step 3: the maneuver
+
+
+def maneuver_bounds(run_gait):
+    """(lead max, blend max) in s for a running gait (:data:`LEAD_MAX`)."""
+    if run_gait.ramp_s > 0.0:
+        return 3.0, max(BLEND_MAX, 5.0 * run_gait.ramp_s)
+    return LEAD_MAX, BLEND_MAX
+
+
+def make_agent(maneuver, settings):
+    """The agent of a maneuver (turning gait's six numbers, lead s, blend s) for ``settings``' running gait."""
+    from .agents.turn_then_run import TurnThenRunAgent
+
+    m = np.asarray(maneuver, dtype=float)
+    return TurnThenRunAgent(m[:6], settings["run_gait"], dt=settings["dt"], lead=float(m[6]), ramp=float(m[7]),
+                            direction_offset=math.radians(settings["direction_offset_deg"]), window=WINDOW_STEPS,
+                            run_ramp=settings["run_ramp"], run_at_once_below=settings["run_at_once_below_deg"],
+                            **settings.get("steer", {}))  # fmt: skip
+
+
+def run_agents(agents, headings_deg, seeds, duration, *, model, env_kwargs, reset_noise_scale, record=False):
+    """Each agent on every (heading, start) case, all in ONE env: speeds (A, K) m/s along the
+    heading (contact point displacement / duration), terminated (A, K), end_time (A, K), with K =
+    len(headings_deg) x len(seeds), headings varying fastest; with ``record`` the rollout too."""
+    cases = [(h, s) for s in seeds for h in headings_deg]
+    k_cases, n = len(cases), len(agents) * len(cases)
+    heads = np.radians([h for h, _ in cases] * len(agents))
+    starts = np.tile(start_states([s for _, s in cases], reset_noise_scale), (len(agents), 1))
+    memory = [None] * len(agents)
+
+    def act(k, obs, dt):
+        actions = np.empty((n, 2), dtype=np.float32)
+        for a, agent in enumerate(agents):
+            rows = slice(a * k_cases, (a + 1) * k_cases)
+            actions[rows], memory[a] = agent.predict(obs[rows], state=memory[a], episode_start=np.full(k_cases, k == 0))
+        return actions
+
+    runs = rollout(act, starts, heads, duration, model=model, env_kwargs=env_kwargs, record=record)
+    speed = (runs["displacement"][:, 0] * np.cos(heads) + runs["displacement"][:, 1] * np.sin(heads)) / runs["duration"]
+    shape = (len(agents), k_cases)
+    return speed.reshape(shape), runs["terminated"].reshape(shape), runs["end_time"].reshape(shape), runs
+
+
+def score_maneuvers(params, settings) -> np.ndarray:
+    """Maneuvers (P, 8) -> (P, 1 + K): fitness (mean speed along the heading over the cases,
+    penalised for leaving the model) and each case's speed."""
+    params = np.asarray(params, dtype=float)
+    agents = [make_agent(m, settings) for m in params]
+    speed, ended, end_time, runs = run_agents(agents, settings["headings_deg"], settings["seeds"], settings["duration"],
+                                              model=settings["model"], env_kwargs=settings["env_kwargs"],
+                                              reset_noise_scale=settings["reset_noise_scale"])  # fmt: skip
+    fitness = penalised_fitness(speed.mean(axis=1), end_time / runs["duration"], ended)
+    return np.column_stack([fitness, speed])
+
+
+def _scored(function, settings, ray_address, ray_chunks):
+    """``function(params, settings)`` locally, or in chunks as Ray tasks."""
+    if ray_address is None:
+        return lambda params: function(params, settings)
+    return lambda params: np.concatenate(ray_map(function, np.asarray(params), settings, ray_address, ray_chunks))
+
+
+# ---------------------------------------------------------------- the search
+
+
+def _check_seconds(label, value, minimum=0.0):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (
+        math.isfinite(value) and value > minimum
+    ):
+        raise SearchError(f"{label} must be a number of seconds > {minimum:g}, got {value!r}")
+    return float(value)
+
+
+def load_run_gait(path, name=None):
+    """(gait, file's JSON) of the running gait: the file's best gait, or the one named ``name``."""
+    gaits = load_gaits(path)  # (a ValueError naming the problem)
+    if name is None:
+        gait = gaits[0]
+    else:
+        found = [g for g in gaits if g.name == name]
+        if not found:
+            raise SearchError(f"gait file {path} has no gait {name!r} (it has {', '.join(g.name for g in gaits)})")
+        gait = found[0]
+    return gait, json.loads(Path(path).read_text())
+
+
+def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, headings_deg=DEFAULT_HEADINGS_DEG,
+           starts=2, duration=None, turning_share=0.5, warm_start=None, run_at_once_below_deg=10.0,
+           popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, progress=None,
+           command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
+    """Search the turn-then-run agent's maneuver for the running gait of ``run_gaits`` (a gait-search
+    file; its best gait, or ``run_gait`` by name): the module docstring's steps 1-3 within
+    ``budget_seconds`` of wall clock (a ``turning_share`` of it for step 2; each step scores at
+    least its screen's first candidates, so a tiny budget still ends with an agent).
+
+    The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy
+    starts (env reset seeds 1, 2, ...; ``reset_noise_scale``) over ``duration`` s (default 20 s, 30 s
+    for a running gait with a swing ramp, whose blends are longer). ``warm_start``: an agent file
+    whose maneuver joins the screen (with longer blends too where allowed). ``seed`` seeds the
+    screens and CMA-ES. ``popsize``: the turning gait's CMA-ES population (its screen 8 x that), the
+    maneuver's is half of it (its screen 2 x that). Env keywords: the gait file's ``env_kwargs`` updated by ``env_kwargs``.
+    ``progress``: a callable given a line per stage and, at most every 10 s, the search's progress; or None.
+
+    Returns the agent file's dict (:func:`write_agent`), ``run_gait_file`` relative to
+    ``out_path``'s folder (the loader looks there), with the search's record under ``"search"``.
+    """
+    from .params import MODELS
+
+    if model not in MODELS:
+        raise SearchError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
+    budget_seconds = _check_seconds("budget_seconds", budget_seconds)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise SearchError(f"seed must be a whole number >= 0, got {seed!r}")
+    if isinstance(starts, bool) or not isinstance(starts, (int, np.integer)) or starts < 1:
+        raise SearchError(f"starts must be a whole number >= 1 (the paper's start and starts - 1 noisy ones), got {starts!r}")
+    if isinstance(popsize, bool) or not isinstance(popsize, (int, np.integer)) or popsize < 4:
+        raise SearchError(f"popsize must be a whole number >= 4, got {popsize!r}")
+    if not (isinstance(turning_share, (int, float)) and 0.0 < turning_share < 1.0):
+        raise SearchError(f"turning_share must be a fraction in (0, 1), got {turning_share!r}")
+    heads = [float(h) for h in headings_deg]
+    if not heads or not all(math.isfinite(h) and -360.0 <= h <= 360.0 for h in heads):
+        raise SearchError(f"headings_deg must be one or more finite headings in deg within +-360, got {headings_deg!r}")
+    if not (isinstance(run_at_once_below_deg, (int, float)) and 0.0 <= run_at_once_below_deg <= 180.0):
+        raise SearchError(f"run_at_once_below_deg must be a number of degrees in [0, 180], got {run_at_once_below_deg!r}")
+    gait, gait_file = load_run_gait(run_gaits, run_gait)
+    if gait_file.get("model", "plane") != model:
+        raise SearchError(f"the running gait's file {run_gaits} was searched on the {gait_file.get('model')} model, not {model}")
+    env_kwargs = {**(gait_file.get("env_kwargs") or {}), **env_kwargs}
+    duration = _check_seconds("duration", duration) if duration is not None else (30.0 if gait.ramp_s > 0 else 20.0)
+    warm = None
+    if warm_start is not None:
+        from .agents.turn_then_run import load_turn_then_run_agent
+
+        agent = load_turn_then_run_agent(warm_start)  # (a ValueError naming the problem)
+        warm = np.r_[agent.turn_gait, agent.lead, agent.ramp]
+    from .envs.vector import RRRobotVectorEnv
+
+    probe = RRRobotVectorEnv(num_envs=1, model=model, **env_kwargs)  # (a bad keyword fails now, not after a stage)
+    dt = probe.dt
+    probe.close()
+    say = progress or (lambda line: None)
+    began = time.perf_counter()
+    said = {"at": -math.inf}
+
+    def say_now_and_then(line):  # (a population's line at most every 10 s)
+        if time.perf_counter() - said["at"] >= 10.0:
+            said["at"] = time.perf_counter()
+            say(line)
+
+    seeds = [None] + list(range(1, starts))
+
+    # 1. direction
+    direction = measure_direction(gait, model=model, env_kwargs=env_kwargs, reset_noise_scale=reset_noise_scale)
+    offset = float(round(direction["direction_offset_deg"]))
+    say(f"direction: {gait.name} travels at the body's yaw {direction['direction_offset_deg']:+.2f} deg (used: {offset:+.0f})")
+
+    # 2. turning gait
+    turning_settings = dict(model=model, env_kwargs=env_kwargs, seeds=[None, 11, 12], reset_noise_scale=reset_noise_scale)
+    turning = {"params": [], "out": []}
+    turn_score = _scored(score_turning, turning_settings, ray_address, ray_chunks)
+
+    def score_turn(params):
+        out = turn_score(params)
+        turning["params"] += list(params)
+        turning["out"] += list(out)
+        best = max(turning["out"], key=lambda o: o[0])
+        say_now_and_then(f"turning gait: {len(turning['out'])} scored, {time.perf_counter() - began:.0f} s, best {best[1]:+.3f} rad/s")
+        return out[:, 0]
+
+    guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
+               [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
+    lows6, highs6 = _box(0)
+    turn_deadline = began + turning_share * budget_seconds
+    turn_used = maximise(score_turn, _to_params_6, lambda p: (np.asarray(p) - lows6) / (highs6 - lows6), dimension=6,
+                         first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize,
+                         sigma0=0.2, seed=seed, remaining=_until(turn_deadline))  # fmt: skip
+    best_turn = int(np.argmax([o[0] for o in turning["out"]]))
+    turn = np.asarray(turning["params"][best_turn])
+    turn_rate = float(turning["out"][best_turn][1])
+    if turn_rate > 0:  # the agent's turning gait turns clockwise (its mirror anticlockwise)
+        turn = mirror_gait(turn)
+
+    # 3. maneuver
+    lead_max, blend_max = maneuver_bounds(gait)
+    lows, highs = _box(2)
+    lows[6:], highs[6:] = (0.0, BLEND_MIN), (lead_max, blend_max)
+
+    def to_params(unit):
+        p = lows + np.clip(unit, 0.0, 1.0) * (highs - lows)
+        p[:6] = repair(p[:6])
+        return p
+
+    def to_unit(p):
+        return (np.asarray(p) - lows) / (highs - lows)
+
+    settings = dict(model=model, env_kwargs=env_kwargs, seeds=seeds, headings_deg=heads, duration=duration, dt=dt,
+                    run_gait=gait.as_array(), run_ramp=gait.ramp_s, direction_offset_deg=offset,
+                    run_at_once_below_deg=float(run_at_once_below_deg), reset_noise_scale=reset_noise_scale)  # fmt: skip
+    maneuvers = {"params": [], "out": []}
+    maneuver_score = _scored(score_maneuvers, settings, ray_address, ray_chunks)
+
+    def score_maneuver(params):
+        out = maneuver_score(params)
+        maneuvers["params"] += list(params)
+        maneuvers["out"] += list(out)
+        best = max(o[0] for o in maneuvers["out"])
+        say_now_and_then(f"maneuver: {len(maneuvers['out'])} scored, {time.perf_counter() - began:.0f} s, best fitness {1e3 * best:.1f} mm/s")
+        return out[:, 0]
+
+    first = [to_params(to_unit(np.r_[turn, 0.6, 1.0]))]
+    for factor in (0.3, 0.5, 0.7):  # gentler copies of the fastest turn: a spin overshoots
+        gentle = turn.copy()
+        gentle[:2] *= factor
+        first.append(to_params(to_unit(np.r_[gentle, 0.4, 1.0])))
+    if warm is not None:
+        first.append(to_params(to_unit(warm)))
+        first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
+    man_used = maximise(score_maneuver, to_params, to_unit, dimension=8, first=first, screen=popsize,
+                        popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds))  # fmt: skip
+    best = int(np.argmax([o[0] for o in maneuvers["out"]]))
+    maneuver, scores = np.asarray(maneuvers["params"][best]), maneuvers["out"][best]
+    seconds = time.perf_counter() - began
+    spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
+    spec["search"] = {
+        "seed": seed, "budget_seconds": budget_seconds, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
+        "direction": direction,
+        "turning_gait": {"parameters": turning["params"][best_turn].tolist(), "yaw_rate_radps": turn_rate,
+                         "evaluations": len(turning["out"]), "generations": turn_used[0], "seeds": [None, 11, 12],
+                         "duration_s": TURN_SECONDS},
+        "maneuver": {"headings_deg": heads, "seeds": seeds, "duration_s": duration, "fitness": float(scores[0]),
+                     "speeds_mps": [float(v) for v in scores[1:]], "evaluations": len(maneuvers["out"]),
+                     "generations": man_used[0], "lead_max_s": lead_max, "blend_max_s": blend_max,
+                     "warm_start": None if warm_start is None else str(warm_start)},
+    }  # fmt: skip
+    return spec
+
+
+def _until(deadline):
+    """``remaining`` for :func:`rrrobot_gym.gait_search.maximise`: unbounded until ``deadline``
+    (perf_counter s), then none."""
+    return lambda: 0 if time.perf_counter() >= deadline else math.inf
+
+
+def agent_spec(maneuver, gait, run_gaits, out_path, offset_deg, dt, model, env_kwargs, run_at_once_below_deg, command):
+    """The agent file's dict (the format :func:`rrrobot_gym.agents.turn_then_run.load_turn_then_run_agent`
+    reads): the maneuver, the running gait by file and name, the direction offset, and how it was made."""
+    run_gaits = Path(run_gaits)
+    folder = Path(out_path).resolve().parent if out_path is not None else run_gaits.resolve().parent
+    spec = {
+        "turn_gait": [float(v) for v in maneuver[:6]], "lead_s": float(maneuver[6]), "ramp_s": float(maneuver[7]),
+        "run_gait_file": os.path.relpath(run_gaits.resolve(), folder), "run_gait": gait.name,
+        "direction_offset_deg": float(offset_deg), "window_steps": WINDOW_STEPS, "dt": float(dt), "model": model,
+    }  # fmt: skip
+    if env_kwargs:
+        spec["env_kwargs"] = dict(env_kwargs)
+    spec["run_at_once_below_deg"] = float(run_at_once_below_deg)
+    spec["made_by"] = [command] if command else []
+    spec["parameter_names"] = {"turn_gait": list(PARAMETER_NAMES)}
+    return spec
+
+
+def write_agent(spec, path) -> None:
+    Path(path).write_text(json.dumps(spec, indent=1, allow_nan=False) + "\n")
+
+
+# ---------------------------------------------------------------- the heading correction
+
+
+STEER_KEYS = ("steer_param", "steer_gain", "steer_integral", "steer_limit", "steer_after_s")
+
+
+def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, headings_deg=COMPASS_DEG,
+                  reset_noise_scale=0.01, command=None, progress=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
+    """The heading correction's gains for an agent file, on a grid through the agent itself.
+
+    ``grid`` maps some of ``steer_param``, ``steer_gain``, ``steer_integral``, ``steer_limit`` and
+    ``steer_after_s`` to lists of values; every combination is run (with the file's own keys for
+    the rest, and the file without any correction first) for ``duration`` s along
+    ``headings_deg`` from each start of ``seeds`` (None: the paper's). The combination whose runs
+    end least, then with the best worst speed, then the best mean, is kept. Env keywords: the
+    file's ``env_kwargs`` updated by ``env_kwargs``. Returns the file's dict with the kept keys and
+    the grid's record under ``"steer_tune"``, its ``run_gait_file`` relative to ``out_path``'s folder.
+    """
+    from .agents.turn_then_run import load_turn_then_run_agent
+
+    agent_file = Path(agent_file)
+    load_turn_then_run_agent(agent_file)  # (a ValueError naming the problem)
+    spec = json.loads(agent_file.read_text())
+    unknown = sorted(set(grid) - set(STEER_KEYS))
+    if unknown:
+        raise SearchError(f"unknown steering key(s) {', '.join(unknown)}: expected some of {', '.join(STEER_KEYS)}")
+    if not grid or any(not isinstance(v, (list, tuple)) or not v for v in grid.values()):
+        raise SearchError(f"give each steering key of the grid one or more values, got {grid!r}")
+    duration = _check_seconds("duration", duration)
+    base = {k: v for k, v in spec.items() if k not in STEER_KEYS}
+    keys = list(grid)
+    combos = [{}] + [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
+    folder = agent_file.resolve().parent
+    agents = []
+    for combo in combos:
+        trial = {**base, **({} if not combo else {k: spec[k] for k in STEER_KEYS if k in spec}), **combo}
+        agents.append(_agent_from_spec(trial, folder))  # (a bad value: a ValueError naming it)
+    model = spec.get("model", "plane")
+    env_kwargs = {**(spec.get("env_kwargs") or {}), **env_kwargs}
+    seeds = list(seeds)
+    say = progress or (lambda line: None)
+    began = time.perf_counter()
+    rows = []
+    for i in range(0, len(agents), 12):  # (12 agents x 24 runs an env)
+        speed, ended, end_time, _ = run_agents(agents[i:i + 12], headings_deg, seeds, duration, model=model,
+                                               env_kwargs=env_kwargs, reset_noise_scale=reset_noise_scale)  # fmt: skip
+        for j in range(len(speed)):
+            rows.append({"combo": combos[i + j], "ended": int(ended[j].sum()), "worst_mps": float(speed[j].min()),
+                         "mean_mps": float(speed[j].mean()), "speeds_mps": speed[j].tolist()})  # fmt: skip
+        say(f"steering: {len(rows)} of {len(combos)} combinations, {time.perf_counter() - began:.0f} s")
+    ranked = sorted(range(len(rows)), key=lambda r: (rows[r]["ended"], -rows[r]["worst_mps"], -rows[r]["mean_mps"]))
+    best = rows[ranked[0]]
+    out = {**base, **({} if not best["combo"] else {k: spec[k] for k in STEER_KEYS if k in spec}), **best["combo"]}
+    if out_path is not None:
+        out["run_gait_file"] = os.path.relpath((folder / spec["run_gait_file"]).resolve(), Path(out_path).resolve().parent)
+    out["made_by"] = list(spec.get("made_by") or []) + ([command] if command else [])
+    out["steer_tune"] = {"grid": grid, "seeds": seeds, "headings_deg": list(headings_deg), "duration_s": duration,
+                         "seconds": round(time.perf_counter() - began, 1), "rows": [rows[r] for r in ranked]}  # fmt: skip
+    return out
+
+
+def _agent_from_spec(spec, folder):
+    """The agent of an agent file's dict whose ``run_gait_file`` is relative to ``folder``."""
+    import tempfile
+
+    from .agents.turn_then_run import load_turn_then_run_agent
+
+    spec = {**spec, "run_gait_file": str((Path(folder) / spec["run_gait_file"]).resolve())}
+    with tempfile.TemporaryDirectory() as scratch:
+        path = Path(scratch) / "agent.json"
+        path.write_text(json.dumps(spec))
+        return load_turn_then_run_agent(path)
