@@ -190,6 +190,7 @@ def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_
     run_dir = tmp_path / "run"
     shutil.copytree(shipped / "residual_base", run_dir / "residual_base")
     shutil.copy(shipped / "residual.json", run_dir / "residual.json")
+    shutil.copy(shipped / "env_kwargs.json", run_dir / "env_kwargs.json")
     (run_dir / "checkpoints").mkdir()
     checkpoint = run_dir / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(SHIPPED_RESIDUAL, checkpoint)

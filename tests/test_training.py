@@ -277,6 +277,7 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     shutil.copy(shipped / "env_kwargs.json", tmp_path / "env_kwargs.json")
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
+    shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
     assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
