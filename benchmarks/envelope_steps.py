@@ -26,7 +26,7 @@ import numpy as np
 
 from rrrobot_gym.agents import load_gait_agents
 from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
-from evaluate import run_episodes
+from rrrobot_gym.evaluation import run_episodes
 from rrrobot_gym.envs.task import STARTUP_GRACE, make_task_config
 from rrrobot_gym.validity import QUADRATURES
 

@@ -47,14 +47,15 @@ COMPARISONS = [
 
 def compass_runs(physics, duration: float) -> dict:
     """{(agent, heading_deg): (ended early, speed m/s)} of the compass runs of one evaluation."""
-    import evaluate
+    from rrrobot_gym import evaluation
 
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "records.json"
         args = [*EVALUATION, "--duration", str(duration), "--json", str(out)]
         for keyword in physics:
             args += ["--physics", keyword]
-        evaluate.main(args)
+        evaluation.main(args, default_policy=ROOT / "agents" / "pretrained" / "best_model.zip",
+                        default_pivot_policy=ROOT / "agents" / "pretrained_pivot" / "best_model.zip")
         records = json.loads(out.read_text())
     records = records["records"] if isinstance(records, dict) else records
     return {(r["agent"], round(r["heading_deg"])): (bool(r["terminated"]), r["speed_mps"])

@@ -20,7 +20,7 @@ sys.path.insert(0, str(ROOT))
 
 from rrrobot_gym.agents import load_ppo_agent  # noqa: E402
 from rrrobot_gym.agents.searched import load_gait_agents  # noqa: E402
-from evaluate import COMPASS_DEG, run_episodes  # noqa: E402
+from rrrobot_gym.evaluation import COMPASS_DEG, run_episodes  # noqa: E402
 
 
 def describe(legs, dt):

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from rrrobot_gym.agents import load_ppo_agent  # noqa: E402
-from evaluate import COMPASS_DEG  # noqa: E402
+from rrrobot_gym.evaluation import COMPASS_DEG  # noqa: E402
 from rrrobot_gym.envs.vector import RRRobotVectorEnv  # noqa: E402
 
 policy = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "agents" / "pretrained" / "best_model.zip"

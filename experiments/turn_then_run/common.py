@@ -9,7 +9,7 @@ from rrrobot_gym import dynamics
 
 ROOT = Path(__file__).resolve().parents[2]
 import sys
-sys.path.insert(0, str(ROOT))  # the agents package (the controller's gait helpers) lives at the repo root
+sys.path.insert(0, str(ROOT))  # this checkout's rrrobot_gym
 
 
 def _model_from_argv(argv):
@@ -33,8 +33,8 @@ def _pivot_physics():
     from types import SimpleNamespace
     from rrrobot_gym.agents.ppo import SCENE_KEYWORDS
     from rrrobot_gym.envs.task import kwargs_from_json
-    from evaluate import DEFAULT_PIVOT_POLICY, physics_of
-    trained = kwargs_from_json(json.loads(DEFAULT_PIVOT_POLICY.with_name("env_kwargs.json").read_text()))
+    from rrrobot_gym.evaluation import physics_of
+    trained = kwargs_from_json(json.loads((ROOT / "agents" / "pretrained_pivot" / "env_kwargs.json").read_text()))
     return physics_of({"ppo": SimpleNamespace(env_kwargs={k: v for k, v in trained.items() if k not in SCENE_KEYWORDS})})
 
 
