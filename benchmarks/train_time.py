@@ -34,8 +34,7 @@ HERE = Path(__file__).resolve().parents[1]
 
 def default_run_steps() -> int:
     """train.py's default --total-timesteps."""
-    sys.path.insert(0, str(HERE))
-    from train import Args
+    from rrrobot_gym.training import Args
 
     return Args().total_timesteps
 

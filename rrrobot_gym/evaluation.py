@@ -1,6 +1,6 @@
 """Score a learned PPO policy and the paper's gaits on the same RRRobot-v0 evaluation.
 
-Every agent runs 50 s episodes from the paper's start (no start noise) on each model,
+Every agent runs episodes of ``--duration`` (default 50 s) from the paper's start (no start noise) on each model,
 commanded along the 8 compass headings (0, 45, ..., 315 degrees) and along each gait's
 own direction of travel. All agents go through one loop over the batched env and the
 same ``predict`` interface (:mod:`rrrobot_gym.agents`), so gaits and PPO are measured alike.
@@ -33,15 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
-from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
-from rrrobot_gym.envs.task import action_to_leg_targets, control_steps
-from rrrobot_gym.envs.vector import RRRobotVectorEnv
-from rrrobot_gym.simulation import DEFAULT_TIMESTEP
+from .agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
+from .agents.turn_then_run import load_turn_then_run_agent
+from .cli import UsageError, check_output_path, keyword_value
+from .envs.task import action_to_leg_targets, control_steps, make_task_config
+from .envs.vector import RRRobotVectorEnv
+from .simulation import DEFAULT_TIMESTEP
 
-HERE = Path(__file__).resolve().parent
-DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
-DEFAULT_PIVOT_POLICY = HERE / "agents" / "pretrained_pivot" / "best_model.zip"
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
                     "frame_skip", "start_halves", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
@@ -166,8 +164,6 @@ def score(run, headings_deg, duration=None):
 def physics_of(agents) -> dict:
     """The :data:`PHYSICS_KEYWORDS` the agents were trained under that differ from the env's
     defaults (a policy trained with motor limits: its limits). Agents that disagree are an error."""
-    from rrrobot_gym.envs.task import make_task_config
-
     defaults = make_task_config().to_kwargs()
     chosen = {}
     for name, agent in agents.items():
@@ -184,9 +180,6 @@ def parse_physics(specs) -> dict:
     """``--physics`` KEY=VALUE specs as {key: value} (read by :func:`rrrobot_gym.cli.keyword_value`):
     keys of :data:`PHYSICS_KEYWORDS` (not ``robot``), checked together by the env's own
     validation. Raises ValueError naming the bad spec."""
-    from rrrobot_gym.cli import keyword_value
-    from rrrobot_gym.envs.task import make_task_config
-
     chosen = {}
     allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
     for spec in specs:
@@ -290,10 +283,20 @@ def ratios(records, model="plane"):
     return out
 
 
-def markdown(records, ratio_list):
+TERMINATED_NOTE = ("(T): the episode ended early, the robot having left the model (the env's termination); "
+                   "its speed is its displacement up to then over the whole duration.")
+
+
+def seconds_text(seconds: float) -> str:
+    """A duration for titles: 50 s as "50 s", 2.55 s as "2.55 s"."""
+    return f"{round(float(seconds), 3):g} s"
+
+
+def markdown(records, ratio_list, duration: float = 50.0):
+    """The evaluation's Markdown tables; ``duration`` (s) is the episodes' simulated time."""
     lines = []
     for model in sorted({r["model"] for r in records}):
-        lines.append(f"### {model}: mean speed along the commanded heading (mm/s), 50 s from rest\n")
+        lines.append(f"### {model}: mean speed along the commanded heading (mm/s), {seconds_text(duration)} from rest\n")
         physics = next(r["physics"] for r in records if r["model"] == model)
         if physics:
             lines.append("Every agent under the policy's training keywords: "
@@ -310,6 +313,8 @@ def markdown(records, ratio_list):
                 r = rows[float(h)]
                 cells.append(f"{r['speed_mps'] * 1e3:.2f}" + (" (T)" if r["terminated"] else ""))
             lines.append(f"| {agent} | " + " | ".join(cells) + f" | {own_text} |")
+        if any(r["terminated"] for r in records if r["model"] == model and r["compass"]):
+            lines.append("\n" + TERMINATED_NOTE)
         lines.append("")
         lines.append(f"Lateral drift (m) and RMS leg torque applied (N m, from the step record), {model}:\n")
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " |")
@@ -343,7 +348,7 @@ def markdown(records, ratio_list):
     return "\n".join(lines)
 
 
-def plot(runs, out_dir: Path, models):
+def plot(runs, out_dir: Path, models, duration: float = 50.0):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -376,7 +381,7 @@ def plot(runs, out_dir: Path, models):
             ax.plot(run["xy"][:, 0, 0], run["xy"][:, 0, 1], lw=1.0, label=name)
         ax.plot(0, 0, "ko")
         ax.set_aspect("equal")
-        ax.set_title(f"Table II gaits, 50 s ({model})")
+        ax.set_title(f"Table II gaits, {seconds_text(duration)} ({model})")
         ax.set_xlabel("x (m)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
@@ -405,9 +410,10 @@ def _reach(run):
     return float(np.max(np.abs(finite))) if len(finite) else 1.0
 
 
-def main(argv=None):
+def build_parser() -> argparse.ArgumentParser:
+    """evaluate.py's command line."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--policy", type=Path, default=DEFAULT_POLICY, help="PPO model zip (default: the shipped one)")
+    parser.add_argument("--policy", type=Path, default=None, help="PPO model zip (default: the shipped one)")
     parser.add_argument("--pivot-policy", type=Path, default=None,
                         help="PPO model zip scored on the pivot model instead of --policy (default: the shipped pivot "
                              "policy when --policy is the shipped plane one)")
@@ -416,9 +422,12 @@ def main(argv=None):
                         help="hold every agent on every model to this env keyword too, e.g. torque_limit=0.5 (motors, "
                              "the model checks, the step; repeatable; a policy's own must agree). Without a policy, "
                              "the way to score gaits under motor limits")
-    parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"])
+    parser.add_argument("--models", nargs="+", default=["plane", "pivot"], choices=["plane", "pivot"],
+                        help="the dynamic models to evaluate on (default: both)")
     parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the envs' reset (default 0; every episode starts from the paper's start, "
+                             "without noise)")
     parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
@@ -435,11 +444,29 @@ def main(argv=None):
                              "(its env_kwargs.json; default plane); repeatable")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run each model's policy with a 10x finer integration step and compare its speeds")
+    return parser
+
+
+def load_policy(parser, flag: str, path):
+    """:func:`rrrobot_gym.agents.load_ppo_agent`, its refusal of an incomplete run (a file
+    missing beside the model) as the command line's error."""
+    try:
+        return load_ppo_agent(path)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(f"{flag}: {exc}")
+
+
+def main(argv=None, default_policy=None, default_pivot_policy=None):
+    """Run evaluate.py's command line ``argv`` (default: sys.argv). ``default_policy`` is the
+    model zip scored without ``--policy`` (evaluate.py passes the repository's shipped
+    ``agents/pretrained/best_model.zip``; None: ``--policy`` or ``--no-policy`` is needed), and
+    ``default_pivot_policy`` the one scored on the pivot model with it."""
+    parser = build_parser()
+    default_policy = None if default_policy is None else Path(default_policy)
+    default_pivot_policy = None if default_pivot_policy is None else Path(default_pivot_policy)
     args = parser.parse_args(argv)
     if not (math.isfinite(args.duration) and args.duration > 0):
         parser.error(f"--duration must be a positive number of seconds, got {args.duration}")
-    from rrrobot_gym.cli import UsageError, check_output_path
-
     for flag, path in (("--json", args.json), ("--markdown", args.markdown)):  # before the runs, not after them
         if path is not None:
             try:
@@ -457,17 +484,25 @@ def main(argv=None):
     except ValueError as exc:
         parser.error(str(exc))
     agents, per_model = {}, {}
-    if not args.no_policy:
-        if not args.policy.is_file():
-            parser.error(f"--policy: no model file at {args.policy}")
-        agents["ppo"] = load_ppo_agent(args.policy)
+    if args.no_policy:
+        given = [flag for flag, value in (("--policy", args.policy), ("--pivot-policy", args.pivot_policy)) if value]
+        if given:
+            parser.error(f"--no-policy scores only the gaits: leave out {' and '.join(given)}")
+    else:
+        policy = args.policy if args.policy is not None else default_policy
+        if policy is None:
+            parser.error("--policy: give a PPO model zip (this installation has no default), or --no-policy")
+        if not policy.is_file():
+            parser.error(f"--policy: no model file at {policy}")
+        agents["ppo"] = load_policy(parser, "--policy", policy)
         pivot_policy = args.pivot_policy
-        if pivot_policy is None and args.policy == DEFAULT_POLICY and DEFAULT_PIVOT_POLICY.is_file():
-            pivot_policy = DEFAULT_PIVOT_POLICY
+        if (pivot_policy is None and args.policy is None and default_pivot_policy is not None
+                and default_pivot_policy.is_file()):
+            pivot_policy = default_pivot_policy
         if pivot_policy is not None:
             if not pivot_policy.is_file():
                 parser.error(f"--pivot-policy: no model file at {pivot_policy}")
-            per_model["pivot"] = {"ppo": load_ppo_agent(pivot_policy)}
+            per_model["pivot"] = {"ppo": load_policy(parser, "--pivot-policy", pivot_policy)}
     for name in GAIT_AGENT_NAMES:
         agents[name] = gait_agent(name)
     for path in args.gaits:
@@ -509,14 +544,15 @@ def main(argv=None):
             parser.error(f"--also-policy {spec}: agent name {name!r} already taken")
         if not Path(path).is_file():
             parser.error(f"--also-policy {spec}: no model file at {path}")
-        policy = load_ppo_agent(path)
+        policy = load_policy(parser, f"--also-policy {spec}", path)
         per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
     try:
         records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model, physics)
     except ValueError as exc:
         parser.error(str(exc))
     ratio_list = [ratios(records, model) for model in args.models]
-    text = markdown(records, ratio_list)
+    simulated = float(next(iter(runs.values()))[1]["times"][-1])  # (whole control steps: what was scored)
+    text = markdown(records, ratio_list, simulated)
     accuracy = {}
     for model in args.models if args.check_accuracy else ():
         policy = agents_on(model, agents, per_model).get("ppo")
@@ -535,7 +571,7 @@ def main(argv=None):
         payload = {"records": records, "ratios": ratio_list, "accuracy_check": accuracy, "command": " ".join(sys.argv)}
         args.json.write_text(json.dumps(payload, indent=1))
     if args.plots:
-        plot(runs, args.plots, args.models)
+        plot(runs, args.plots, args.models, simulated)
     return records
 
 

@@ -15,24 +15,39 @@ rollouts from many robots and large minibatches:
     model.learn(1_000_000)
 
 Save the VecNormalize statistics beside the model and evaluate with
-``training=False, norm_reward=False``. The same values are ``train.py``'s defaults (a
-test keeps the two equal); ``train.py`` also runs a goal-conditioned policy mirrored
-(:mod:`rrrobot_gym.agents.mirror`: headings towards -Y as mirror images of those towards +Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and keeps the evaluation with the best
-worst heading.
+``training=False, norm_reward=False``. These constants are the one declaration of the PPO
+defaults: :class:`rrrobot_gym.training.Args` (``train.py``'s options) takes its defaults from
+them, and ``train.py`` builds its model with :func:`ppo_hyperparams`. ``train.py`` also runs a
+goal-conditioned policy mirrored (:mod:`rrrobot_gym.agents.mirror`: headings towards -Y as
+mirror images of those towards +Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and
+keeps the evaluation with the best worst heading.
 """
 
 from __future__ import annotations
 
+NUM_ENVS = 64
+"""robots simulated together in the batched env."""
 N_STEPS = 256
 """control steps per env per rollout (12.8 s of robot time)."""
 MAX_BATCH_SIZE = 4096
 """minibatch size, capped at one rollout (n_steps x num_envs) for small batches of envs."""
+N_EPOCHS = 10
+"""passes over each rollout."""
 GAMMA = 0.99
 """per 0.05 s control step: a horizon of about 100 steps, 5 s, several gait periods."""
+GAE_LAMBDA = 0.95
+CLIP_RANGE = 0.2
+ENT_COEF = 0.0
+"""no entropy bonus."""
 LEARNING_RATE = 3e-4
 """Adam's learning rate at the start of a run ..."""
 LEARNING_RATE_FINAL = 0.0
 """... falling linearly to this at its end (:class:`LinearRate`)."""
+NET_ARCH = (128, 128)
+"""hidden layer sizes of the policy and value networks."""
+LOG_STD_INIT = -2.0
+"""initial log std of the Gaussian policy: std 0.14 in action units, so the servo targets barely
+jitter at first and early episodes do not end by leaving the model."""
 
 
 class LinearRate:
@@ -52,32 +67,41 @@ class LinearRate:
         return f"{self.start:g} to {self.final:g}"
 
 
-def ppo_hyperparams(num_envs: int = 64) -> dict:
+def learning_rate_schedule(start: float, final: float | None):
+    """SB3's ``learning_rate``: ``start`` falling linearly to ``final`` (a :class:`LinearRate`), or
+    the constant ``start`` when ``final`` is None."""
+    return start if final is None else LinearRate(start, final)
+
+
+def ppo_hyperparams(num_envs: int = NUM_ENVS, *, learning_rate: float = LEARNING_RATE,
+                    learning_rate_final: float | None = LEARNING_RATE_FINAL, n_steps: int = N_STEPS,
+                    batch_size: int | None = None, n_epochs: int = N_EPOCHS, gamma: float = GAMMA,
+                    gae_lambda: float = GAE_LAMBDA, clip_range: float = CLIP_RANGE, ent_coef: float = ENT_COEF,
+                    net_arch=NET_ARCH, log_std_init: float = LOG_STD_INIT) -> dict:
     """Keyword arguments for ``stable_baselines3.PPO("MlpPolicy", venv, **...)`` on ``num_envs`` robots.
 
-    n_steps 256, batch_size min(4096, 256 num_envs), n_epochs 10, learning rate 3e-4 falling
-    linearly to 0 over the run (``learn``'s total_timesteps), gamma 0.99, GAE lambda 0.95, clip
-    0.2, no entropy bonus, two hidden layers of 128 and an initial log std of -2 (std 0.14 in
-    action units: the servo targets barely jitter at first, so early episodes do not end by
-    leaving the model), on the CPU.
+    By default n_steps 256, batch_size min(4096, n_steps num_envs), n_epochs 10, learning rate
+    3e-4 falling linearly to 0 over the run (``learn``'s total_timesteps; ``learning_rate_final``
+    None: constant), gamma 0.99, GAE lambda 0.95, clip 0.2, no entropy bonus, two hidden layers
+    of 128 and an initial log std of -2, on the CPU. Each keyword overrides one of these.
     """
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
     return {
-        "learning_rate": LinearRate(LEARNING_RATE, LEARNING_RATE_FINAL),
-        "n_steps": N_STEPS,
-        "batch_size": min(MAX_BATCH_SIZE, N_STEPS * num_envs),
-        "n_epochs": 10,
-        "gamma": GAMMA,
-        "gae_lambda": 0.95,
-        "clip_range": 0.2,
-        "ent_coef": 0.0,
-        "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -2.0},
+        "learning_rate": learning_rate_schedule(learning_rate, learning_rate_final),
+        "n_steps": n_steps,
+        "batch_size": min(MAX_BATCH_SIZE, n_steps * num_envs) if batch_size is None else batch_size,
+        "n_epochs": n_epochs,
+        "gamma": gamma,
+        "gae_lambda": gae_lambda,
+        "clip_range": clip_range,
+        "ent_coef": ent_coef,
+        "policy_kwargs": {"net_arch": [int(n) for n in net_arch], "log_std_init": log_std_init},
         "device": "cpu",
     }
 
 
-def vecnormalize_kwargs() -> dict:
+def vecnormalize_kwargs(gamma: float = GAMMA) -> dict:
     """Keyword arguments for ``VecNormalize(venv, ...)`` while training: observations and
-    rewards normalised, the reward's return scale with PPO's gamma."""
-    return {"norm_obs": True, "norm_reward": True, "gamma": GAMMA}
+    rewards normalised, the reward's return scale with PPO's ``gamma``."""
+    return {"norm_obs": True, "norm_reward": True, "gamma": gamma}

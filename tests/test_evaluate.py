@@ -1,13 +1,23 @@
-"""evaluate.py's effort figures come from the integrator's step record, not from a rebuilt servo law."""
+"""evaluate.py (rrrobot_gym.evaluation): its effort figures come from the integrator's step record,
+not from a rebuilt servo law; its tables, its refusals."""
+
+import json
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from rrrobot_gym.agents import gait_agent
-from evaluate import run_episodes, score
+from rrrobot_gym.evaluation import run_episodes, score
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import RampTargets
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
+
+AGENTS = Path(__file__).resolve().parents[1] / "agents"
+SHIPPED = {"default_policy": AGENTS / "pretrained" / "best_model.zip",
+           "default_pivot_policy": AGENTS / "pretrained_pivot" / "best_model.zip"}
+"""evaluate.py's defaults: the policies shipped in the repository's agents/."""
 
 
 def test_effort_figures_are_the_torques_the_integrator_applied():
@@ -40,7 +50,7 @@ def test_a_policy_s_motor_limits_hold_every_agent_scored_beside_it_on_its_model_
     """A pivot policy trained under motor limits is compared with the gaits under the same
     limits: Gait 2, whose servo peaks at about 1.6 N m unlimited, is held to 0.5 N m on the
     pivot model and not on the plane, where no policy asked for limits."""
-    from evaluate import evaluate
+    from rrrobot_gym.evaluation import evaluate
 
     limited = gait_agent("gait1")
     limited.env_kwargs = {"torque_limit": 0.5, "leg_rate_limit": 10.0, "healthy_reward": 2.0}
@@ -56,7 +66,7 @@ def test_a_policy_s_motor_limits_hold_every_agent_scored_beside_it_on_its_model_
 
 
 def test_agents_trained_under_different_motors_are_not_scored_together():
-    from evaluate import evaluate
+    from rrrobot_gym.evaluation import evaluate
 
     a, b = gait_agent("gait1"), gait_agent("gait3")
     a.env_kwargs, b.env_kwargs = {"torque_limit": 0.5}, {"torque_limit": 0.8}
@@ -68,10 +78,10 @@ def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself
     """--also-policy NAME=FILE: the shipped pivot policy under a second name scores exactly what
     it scores as "ppo" (the default pivot policy), heading by heading; it gets no open-loop own
     direction (it is closed loop), and runs only on the pivot model it was trained on."""
-    from evaluate import COMPASS_DEG, main
+    from rrrobot_gym.evaluation import COMPASS_DEG, main
 
     records = main(["--models", "plane", "pivot", "--duration", "0.5",
-                    "--also-policy", "again=agents/pretrained_pivot/best_model.zip"])  # fmt: skip
+                    "--also-policy", "again=agents/pretrained_pivot/best_model.zip"], **SHIPPED)  # fmt: skip
     again = {r["heading_deg"]: r["speed_mps"] for r in records if r["agent"] == "again"}
     ppo = {r["heading_deg"]: r["speed_mps"] for r in records if r["agent"] == "ppo" and r["model"] == "pivot"}
     assert {r["model"] for r in records if r["agent"] == "again"} == {"pivot"}
@@ -87,7 +97,7 @@ def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself
     ("again=missing.zip", "no model file"),
 ])
 def test_bad_second_policies_are_named(spec, named, capsys):
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     with pytest.raises(SystemExit):
         main(["--no-policy", "--duration", "0.5", "--also-policy", spec])
@@ -99,7 +109,7 @@ def test_two_searches_of_one_model_are_scored_side_by_side_named_by_file(tmp_pat
     import shutil
     from pathlib import Path
 
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     REPO = Path(__file__).resolve().parents[1]
     first, second = tmp_path / "first.json", tmp_path / "second.json"
@@ -115,7 +125,7 @@ def test_two_searches_of_one_model_are_scored_side_by_side_named_by_file(tmp_pat
 
 def test_physics_holds_gaits_to_motor_limits_without_a_policy():
     # Gait 2's servo peaks above 1 N m unlimited (test above); --physics limits it on every model asked.
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     records = main(["--no-policy", "--models", "plane", "pivot", "--duration", "1", "--physics", "torque_limit=0.3",
                     "--physics", "leg_rate_limit=8"])  # fmt: skip
@@ -127,7 +137,7 @@ def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move
     # The graded schedule at the default's cost (docs/benchmarks.md, "At the default's cost"): 13 substeps, the
     # first two in halves, the same 0.05 s control step. The same physics integrated otherwise:
     # every gait's speed must agree with the default's to well under a mm/s, and not to the bit.
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     graded = {"timestep": 0.05 / 13, "frame_skip": 13, "start_halves": 2}
     plain = main(["--no-policy", "--models", "plane", "--duration", "2"])
@@ -139,7 +149,7 @@ def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move
 
 
 def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
-    from evaluate import evaluate, parse_physics
+    from rrrobot_gym.evaluation import evaluate, parse_physics
 
     limited = gait_agent("gait1")
     limited.env_kwargs = {"torque_limit": 0.5}
@@ -175,7 +185,7 @@ def test_speeds_are_over_the_whole_control_steps_simulated():
     ("--plots", "file.txt", "is a file, not a directory"),
 ])
 def test_evaluate_output_paths_are_checked_before_the_runs(tmp_path, flag, where, named, capsys):
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     (tmp_path / "file.txt").write_text("")
     with pytest.raises(SystemExit):
@@ -185,7 +195,7 @@ def test_evaluate_output_paths_are_checked_before_the_runs(tmp_path, flag, where
 
 
 def test_a_model_named_twice_is_refused_before_the_runs(capsys):
-    from evaluate import main
+    from rrrobot_gym.evaluation import main
 
     with pytest.raises(SystemExit):  # (it was evaluated and reported twice)
         main(["--no-policy", "--models", "plane", "plane", "--duration", "0.5"])
@@ -211,7 +221,7 @@ def test_a_gait_agent_names_a_bad_sampling_point_or_step_count():
 
 
 def test_a_physics_keyword_given_twice_is_refused():
-    from evaluate import parse_physics
+    from rrrobot_gym.evaluation import parse_physics
 
     with pytest.raises(ValueError, match="torque_limit is given twice"):  # (the last one won, silently)
         parse_physics(["torque_limit=0.5", "torque_limit=0.6"])
@@ -219,10 +229,87 @@ def test_a_physics_keyword_given_twice_is_refused():
 
 def test_a_physics_number_json_does_not_read_is_still_a_number():
     # (".5" was a string, and real_number, which no longer takes strings of digits, refused it)
-    from evaluate import parse_physics
+    from rrrobot_gym.evaluation import parse_physics
 
     assert parse_physics(["torque_limit=.3", "timestep=1/600", "frame_skip=30"]) == {
         "torque_limit": 0.3, "timestep": 1 / 600, "frame_skip": 30}
     assert parse_physics(["integrator=rk3"]) == {"integrator": "rk3"}
     with pytest.raises(ValueError, match="must be finite"):
         parse_physics(["torque_limit=inf"])
+
+
+def test_the_tables_and_plots_name_the_duration_scored_and_explain_an_ended_episode(tmp_path, monkeypatch):
+    """--duration 1.5: the tables and the gaits' plot say 1.5 s, not the default 50 s; a gait that
+    leaves the model (from plane_own.json: at 1.05 s from the paper's start) is marked (T), and
+    the table says what (T) means."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from rrrobot_gym.evaluation import TERMINATED_NOTE, main
+
+    titles = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *a, **k: titles.extend(ax.get_title() for ax in fig.axes))
+    gaits = tmp_path / "leaves.json"
+    data = json.loads((AGENTS / "searched" / "plane_own.json").read_text())
+    first = data["gaits"][0]
+    leaves = dict(zip(first["parameters"], [1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792]))
+    data["gaits"] = [dict(first, name="leaves", parameters=leaves)]
+    gaits.write_text(json.dumps(data))
+    table = tmp_path / "table.md"
+    main(["--no-policy", "--models", "plane", "--duration", "1.5", "--gaits", str(gaits), "--markdown", str(table),
+          "--plots", str(tmp_path / "plots")])
+    text = table.read_text()
+    assert "mean speed along the commanded heading (mm/s), 1.5 s from rest" in text and "50 s" not in text
+    assert "Table II gaits, 1.5 s (plane)" in titles and not any("50 s" in t for t in titles)
+    assert "| leaves |" in text and "(T)" in text.split("| leaves |")[1].split("\n")[0]
+    assert TERMINATED_NOTE in text
+
+
+def shipped_run_without(tmp_path, folder, missing):
+    """A copy of a shipped policy's run folder without the file ``missing``."""
+    run = tmp_path / folder
+    shutil.copytree(AGENTS / folder, run)
+    (run / missing).unlink()
+    return run / "best_model.zip"
+
+
+@pytest.mark.parametrize("folder, missing", [
+    ("pretrained_pivot", "vecnormalize.pkl"),
+    ("pretrained_pivot", "env_kwargs.json"),
+    ("pretrained_pivot", "mirror.json"),  # (its args.json says mirror: true)
+    ("pretrained_residual", "residual.json"),  # (its args.json names residual_on)
+])
+def test_a_policy_missing_a_file_its_training_wrote_is_refused_naming_it(tmp_path, capsys, folder, missing):
+    from rrrobot_gym.agents import load_ppo_agent
+    from rrrobot_gym.evaluation import main
+
+    model = shipped_run_without(tmp_path, folder, missing)
+    with pytest.raises(FileNotFoundError, match=f"{missing} is missing"):
+        load_ppo_agent(model)
+    with pytest.raises(SystemExit):
+        main(["--models", "pivot", "--duration", "0.5", "--policy", str(model)])
+    assert f"--policy: {model}: {model.parent / missing} is missing" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--policy", "--pivot-policy"])
+def test_no_policy_with_a_policy_is_refused(flag, capsys):
+    from rrrobot_gym.evaluation import main
+
+    with pytest.raises(SystemExit):
+        main(["--no-policy", flag, str(SHIPPED["default_policy"]), "--duration", "0.5"])
+    assert f"--no-policy scores only the gaits: leave out {flag}" in capsys.readouterr().err
+
+
+def test_without_a_default_policy_the_library_asks_for_one(capsys):
+    from rrrobot_gym.evaluation import main
+
+    with pytest.raises(SystemExit):
+        main(["--duration", "0.5"])
+    assert "--policy: give a PPO model zip" in capsys.readouterr().err
+
+
+def test_every_option_has_help():
+    from rrrobot_gym.evaluation import build_parser
+
+    undocumented = [action.option_strings for action in build_parser()._actions if not action.help]
+    assert not undocumented

@@ -117,19 +117,18 @@ def test_json_round_trips_into_agents_whose_predict_reproduces_the_gaits(tiny_re
 def test_evaluate_py_scores_a_searched_gait_like_the_search(tiny_result, tmp_path):
     """evaluate.py's loop, driving the loaded agent from the paper's start, measures the speed
     the search's paper-start re-score recorded: agent and search command the same targets."""
-    sys.path.insert(0, str(REPO))
-    import evaluate
+    from rrrobot_gym import evaluation
 
     path = tmp_path / "gaits.json"
     tiny_result.write_json(path)
     out = tmp_path / "records.json"
-    records = evaluate.main(["--no-policy", "--gaits", str(path), "--duration", "1", "--models", "plane", "--json", str(out)])
+    records = evaluation.main(["--no-policy", "--gaits", str(path), "--duration", "1", "--models", "plane", "--json", str(out)])
     best = tiny_result.gaits[0]
     mine = [r for r in records if r["agent"] == best["name"]]
     assert len(mine) == 8 + 1 + 6 + 2  # 8 compass, its own, the other gaits' own directions
     for r in mine:
         assert math.isfinite(r["peak_torque_nm"]) and math.isfinite(r["peak_leg_rate_radps"]) and r["peak_torque_nm"] > 0
-    runs = evaluate.run_episodes(evaluate.load_gait_agents(path), "plane", [best["direction_deg"]], duration=1.0)
+    runs = evaluation.run_episodes(evaluation.load_gait_agents(path), "plane", [best["direction_deg"]], duration=1.0)
     run = runs[best["name"]]
     travel = (run["xy"][-1, 0] - run["xy"][0, 0]) @ [math.cos(math.radians(best["direction_deg"])),
                                                        math.sin(math.radians(best["direction_deg"]))]
@@ -140,17 +139,16 @@ def test_evaluate_py_scores_a_searched_gait_like_the_search(tiny_result, tmp_pat
 def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then(tmp_path):
     """A gait whose first episode terminates still gets an own direction (from its last position
     inside the model), instead of a NaN heading that the env rejects."""
-    sys.path.insert(0, str(REPO))
-    import evaluate
+    from rrrobot_gym import evaluation
 
     # From agents/searched/plane_own.json: from the paper's start it leaves the model at 1.05 s.
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
     from rrrobot_gym.agents import GaitAgent
 
     agents = {"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}
-    first = evaluate.run_episodes(agents, "plane", [0.0], duration=1.5)["leaves"]
+    first = evaluation.run_episodes(agents, "plane", [0.0], duration=1.5)["leaves"]
     assert first["terminated"][0], "the gait no longer leaves the model: pick another for this test"
-    records, _ = evaluate.evaluate(agents, ["plane"], duration=1.5)
+    records, _ = evaluation.evaluate(agents, ["plane"], duration=1.5)
     own = [r for r in records if "leaves" in r["own_direction_of"]]
     assert len(own) == 1 and math.isfinite(own[0]["heading_deg"]) and own[0]["terminated"]
 
@@ -158,16 +156,15 @@ def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then
 def test_evaluate_py_scores_a_robot_that_left_the_model_by_its_last_position_inside_it():
     """After an episode ends, the robot's autoreset episode may end too (the open-loop gait runs
     on); that later end must not put the new episode's start back into the scored path."""
-    sys.path.insert(0, str(REPO))
-    import evaluate
+    from rrrobot_gym import evaluation
     from rrrobot_gym.agents import GaitAgent
 
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
-    run = evaluate.run_episodes({"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}, "plane", [0.0], duration=3.0)["leaves"]
+    run = evaluation.run_episodes({"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}, "plane", [0.0], duration=3.0)["leaves"]
     path = run["xy"][:, 0]
     last = np.flatnonzero(np.all(np.isfinite(path), axis=1))
     assert np.all(np.diff(last) == 1), "the path must be finite up to the episode's end, NaN after"
-    [record] = evaluate.score(run, [0.0], 3.0)
+    [record] = evaluation.score(run, [0.0], 3.0)
     scores = evaluate_population(np.array([leaves.as_array()]), duration=3.0, start_seeds=(0,), reset_noise_scale=0.0)
     np.testing.assert_allclose(record["displacement_m"], scores.runs.displacement[0, 0], atol=1e-12)
     assert record["terminated"] and abs(record["displacement_m"][0]) > 0.01
@@ -273,7 +270,7 @@ def test_a_ray_address_where_nothing_answers_is_named(address):
         evaluate_population(np.array([GAIT1.as_array()]), duration=0.1, ray_address=address)
 
 
-def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
+def test_tuned_ppo_hyperparameters_cap_the_minibatch_at_one_rollout_and_learn(tmp_path):
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
@@ -281,19 +278,9 @@ def test_tuned_ppo_hyperparameters_are_train_py_defaults_and_learn(tmp_path):
     from rrrobot_gym.envs import RRRobotSB3VecEnv
     from rrrobot_gym.hyperparams import ppo_hyperparams, vecnormalize_kwargs
 
-    sys.path.insert(0, str(REPO))
-    import train
-
-    defaults = train.Args()
-    params = ppo_hyperparams(num_envs=defaults.num_envs)
-    for key in ("n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda", "clip_range", "ent_coef"):
-        assert params[key] == getattr(defaults, key), key
-    assert params["learning_rate"] == train.learning_rate(defaults)  # 3e-4 falling to 0
-    assert (params["learning_rate"](1.0), params["learning_rate"](0.0)) == (defaults.learning_rate, defaults.learning_rate_final)
-    assert params["policy_kwargs"] == {"net_arch": [int(n) for n in defaults.net_arch.split(",")],
-                                       "log_std_init": defaults.log_std_init}
     with pytest.raises(ValueError, match="num_envs"):
         ppo_hyperparams(0)
+    assert ppo_hyperparams(learning_rate_final=None)["learning_rate"] == 3e-4  # an override: a constant rate
 
     venv = VecNormalize(RRRobotSB3VecEnv(num_envs=2, max_episode_steps=100), **vecnormalize_kwargs())
     model = PPO("MlpPolicy", venv, seed=0, **ppo_hyperparams(num_envs=2))

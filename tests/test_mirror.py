@@ -140,20 +140,20 @@ def test_training_shows_the_policy_what_the_agent_shows_it():
     (["--model", "pivot", "--torque-limit", "0.5"], True),
 ])
 def test_by_default_a_goal_conditioned_policy_is_mirrored_and_a_resumed_run_as_it_was(argv, mirrored):
-    import train
+    from rrrobot_gym import training
 
-    assert train.parse_args(argv).mirror is mirrored
+    assert training.parse_args(argv).mirror is mirrored
 
 
 def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path):
     import shutil
 
-    import train
+    from rrrobot_gym import training
 
     for name in ("best_model.zip", "vecnormalize.pkl"):  # no mirror.json
         shutil.copy(ROOT / "agents" / "pretrained" / name, tmp_path / name)
-    assert not train.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
-    assert train.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--mirror"]).mirror  # turned on
+    assert not training.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
+    assert training.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--mirror"]).mirror  # turned on
 
 
 @pytest.mark.parametrize("argv, named", [
@@ -162,10 +162,10 @@ def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path):
     (["--select-by", "median"], "--select-by"),
 ])
 def test_bad_mirror_arguments_are_named(argv, named, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(argv)
+        training.parse_args(argv)
     assert named in capsys.readouterr().err
 
 
@@ -189,12 +189,12 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
 
     assert isinstance(load_ppo_agent(run_dir / "best_model.zip"), MirroredAgent)
     assert isinstance(load_ppo_agent(run_dir / "checkpoints" / "ppo_2048_steps.zip"), MirroredAgent)
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
+        training.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
     assert "--mirror" in capsys.readouterr().err
-    assert train.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
+    assert training.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
     assert evaluated.returncode == 0, evaluated.stderr
     assert "| ppo |" in evaluated.stdout

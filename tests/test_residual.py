@@ -115,10 +115,10 @@ def test_a_bad_scale_is_named(scale):
     (["--residual-on", str(ROOT / "agents" / "searched" / "turn_then_run_pivot.json")], "pivot model"),
 ])
 def test_bad_residual_arguments_are_named(argv, named, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(argv)
+        training.parse_args(argv)
     assert named in capsys.readouterr().err
 
 
@@ -132,17 +132,17 @@ SHIPPED_PLAIN = ROOT / "agents" / "pretrained" / "best_model.zip"
     (["--resume", str(SHIPPED_PLAIN), "--residual-on", str(BASE)], "not a residual policy"),
 ])
 def test_a_resumed_run_must_match_the_residual_it_was_trained_as(argv, named, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(argv)
+        training.parse_args(argv)
     assert named in capsys.readouterr().err
 
 
 def test_a_residual_run_resumes_as_one():
-    import train
+    from rrrobot_gym import training
 
-    args = train.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05"])
+    args = training.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05"])
     assert args.residual_scale == 0.05 and args.resume == str(SHIPPED_RESIDUAL)
 
 
@@ -183,13 +183,14 @@ def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_
     loads on its base as the run's models do, and resuming it asks for the residual's flags."""
     import shutil
 
-    import train
+    from rrrobot_gym import training
     from rrrobot_gym.agents import load_ppo_agent
 
     shipped = SHIPPED_RESIDUAL.parent
     run_dir = tmp_path / "run"
     shutil.copytree(shipped / "residual_base", run_dir / "residual_base")
     shutil.copy(shipped / "residual.json", run_dir / "residual.json")
+    shutil.copy(shipped / "env_kwargs.json", run_dir / "env_kwargs.json")
     (run_dir / "checkpoints").mkdir()
     checkpoint = run_dir / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(SHIPPED_RESIDUAL, checkpoint)
@@ -197,17 +198,17 @@ def test_a_residual_run_s_checkpoint_loads_and_resumes_as_a_residual_policy(tmp_
     agent = load_ppo_agent(checkpoint)
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.05 and agent.base.model == "plane"
     with pytest.raises(SystemExit):
-        train.parse_args(["--resume", str(checkpoint)])
+        training.parse_args(["--resume", str(checkpoint)])
     assert "is a residual policy" in capsys.readouterr().err
 
 
 def test_a_residual_resume_is_checked_against_this_runs_observation_too(capsys):
     """The residual's own observation (the env's and its base's features) against this run's env:
     with a clock the resume passed parse_args and failed in SB3's assertion."""
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05",
+        training.parse_args(["--resume", str(SHIPPED_RESIDUAL), "--residual-on", str(BASE), "--residual-scale", "0.05",
                           "--clock-frequency", "8"])  # fmt: skip
     assert "the model observes 21 numbers, this run's env 23" in capsys.readouterr().err
 

@@ -41,7 +41,7 @@ def test_the_shipped_policy_acts_on_observations_normalised_with_its_saved_stati
 
 def test_the_shipped_policy_travels_along_the_commanded_heading():
     from rrrobot_gym.agents import load_ppo_agent
-    from evaluate import run_episodes, score
+    from rrrobot_gym.evaluation import run_episodes, score
 
     headings = [90.0, 270.0]
     run = run_episodes({"ppo": load_ppo_agent(SHIPPED)}, "plane", headings, duration=10.0)["ppo"]
@@ -58,7 +58,7 @@ def test_the_shipped_pivot_policy_moves_along_its_headings_inside_its_motor_limi
     already makes more than twice Gait 1's 10.8 mm/s along its own axis (the issue's pivot target)
     on two opposite diagonals (it makes ~98 mm/s there)."""
     from rrrobot_gym.agents import load_ppo_agent
-    from evaluate import run_episodes, score
+    from rrrobot_gym.evaluation import run_episodes, score
 
     agent = load_ppo_agent(SHIPPED_PIVOT)
     assert (agent.env_config["model"], agent.env_kwargs["torque_limit"], agent.env_kwargs["leg_rate_limit"]) == (

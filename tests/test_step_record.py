@@ -308,7 +308,7 @@ def test_a_record_of_no_samples_has_no_summary():
 def _largest_measures(agent, substeps, quadrature, duration, headings=(0.0, 90.0)):
     """The largest slip velocity (m/s) and lift-off spell (s) of any step after the start-up
     grace, per heading, of ``agent`` in the env at ``substeps`` integration steps a control step."""
-    from evaluate import run_episodes
+    from rrrobot_gym.evaluation import run_episodes
     from rrrobot_gym.envs.task import STARTUP_GRACE
 
     run = run_episodes({"agent": agent}, "plane", list(headings), duration, info_keys=("slip_velocity", "liftoff_time"),

@@ -115,32 +115,32 @@ def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interru
 
 
 def test_the_learning_rate_falls_linearly_to_the_final_one_and_a_resume_takes_it(capsys):
-    import train
+    from rrrobot_gym import training
 
-    args = train.parse_args(["--learning-rate", "2e-4", "--learning-rate-final", "5e-5"])
-    rate = train.learning_rate(args)
+    args = training.parse_args(["--learning-rate", "2e-4", "--learning-rate-final", "5e-5"])
+    rate = training.learning_rate(args)
     assert (rate(1.0), rate(0.5), rate(0.0)) == pytest.approx((2e-4, 1.25e-4, 5e-5))
-    default = train.learning_rate(train.parse_args([]))  # by default, 3e-4 falling to 0
+    default = training.learning_rate(training.parse_args([]))  # by default, 3e-4 falling to 0
     assert (default(1.0), default(0.0)) == (3e-4, 0.0)
-    assert train.learning_rate(train.parse_args(["--learning-rate-final", "none"])) == 3e-4  # constant
+    assert training.learning_rate(training.parse_args(["--learning-rate-final", "none"])) == 3e-4  # constant
     shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
     argv = ["--resume", shipped, "--learning-rate-final", "0", "--mirror"]
-    resumed = train.resume_overrides(train.parse_args(argv), argv)["learning_rate"]
+    resumed = training.resume_overrides(training.parse_args(argv), argv)["learning_rate"]
     assert (resumed(1.0), resumed(0.0)) == (3e-4, 0.0)
     with pytest.raises(SystemExit):
-        train.parse_args(["--learning-rate-final", "-1e-4"])
+        training.parse_args(["--learning-rate-final", "-1e-4"])
     assert "--learning-rate-final" in capsys.readouterr().err
 
 
 def test_a_resumed_run_refuses_settings_its_model_fixed(capsys):
-    import train
+    from rrrobot_gym import training
 
     shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
     with pytest.raises(SystemExit):
-        train.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98"])
+        training.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98"])
     assert "--gamma, --net-arch" in capsys.readouterr().err
     argv = ["--resume", shipped, "--learning-rate", "3e-4", "--learning-rate-final", "none"]
-    assert train.resume_overrides(train.parse_args(argv), argv) == {"learning_rate": 3e-4}  # given, though the default
+    assert training.resume_overrides(training.parse_args(argv), argv) == {"learning_rate": 3e-4}  # given, though the default
 
 
 @pytest.mark.parametrize("heading", [[], ["--direction-deg", "30"]], ids=["any-heading", "specialist"])
@@ -148,25 +148,25 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
     """best_model.zip is chosen on the evaluation's reward: it must be the reward that is logged."""
     import dataclasses
 
-    import train
+    from rrrobot_gym import training
 
-    args = train.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
+    args = training.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
                              "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading,
                              "--env", "contact_quadrature=trapezoid", "--env", "max-slip-velocity=0.03"])  # fmt: skip
-    training = train.make_env(args, 2, seed=0).venv.vector_env
-    evaluation = train.make_eval_env(args, seed=1).venv.vector_env
+    train_env = training.make_env(args, 2, seed=0).venv.vector_env
+    evaluation = training.make_eval_env(args, seed=1).venv.vector_env
     # the same keywords but the start noise (evaluations start from the paper's start), the same episode
-    assert evaluation.config == dataclasses.replace(training.config, reset_noise_scale=0.0)
-    assert evaluation.max_episode_steps == training.max_episode_steps == 123
-    assert (training.config.torque_limit, training.config.leg_rate_limit) == (0.5, 10.0)
-    assert (training.config.contact_quadrature, training.config.max_slip_velocity) == ("trapezoid", 0.03)
-    assert train.env_config(args)["contact_quadrature"] == "trapezoid"  # (env_kwargs.json: evaluate.py reads it)
+    assert evaluation.config == dataclasses.replace(train_env.config, reset_noise_scale=0.0)
+    assert evaluation.max_episode_steps == train_env.max_episode_steps == 123
+    assert (train_env.config.torque_limit, train_env.config.leg_rate_limit) == (0.5, 10.0)
+    assert (train_env.config.contact_quadrature, train_env.config.max_slip_velocity) == ("trapezoid", 0.03)
+    assert training.env_config(args)["contact_quadrature"] == "trapezoid"  # (env_kwargs.json: evaluate.py reads it)
     if heading:
-        assert training.config.target_direction == pytest.approx(math.radians(30.0))
-    training.reset(seed=0)
-    start = {"state": training.states[0].copy(), "target_direction": 0.4}
+        assert train_env.config.target_direction == pytest.approx(math.radians(30.0))
+    train_env.reset(seed=0)
+    start = {"state": train_env.states[0].copy(), "target_direction": 0.4}
     rewards = []
-    for env in (training, evaluation):
+    for env in (train_env, evaluation):
         env.reset(seed=0, options=start)
         actions = np.tile([0.3, -0.2], (env.num_envs, 1))
         rewards.append([env.step(actions)[1][0] for _ in range(5)])
@@ -175,10 +175,10 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
 
 
 def test_total_timesteps_are_rounded_up_to_whole_rollouts():
-    import train
+    from rrrobot_gym import training
 
-    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
-    assert train.rounded_timesteps(train.parse_args(["--total-timesteps", "16384"])) == 16_384
+    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
+    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "16384"])) == 16_384
 
 
 @pytest.mark.parametrize("argv, named", [
@@ -188,10 +188,10 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
     (["--clock-frequency", "0"], "--clock-frequency"),
 ])
 def test_bad_motor_and_clock_arguments_are_named(argv, named, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args(argv)
+        training.parse_args(argv)
     assert named in capsys.readouterr().err
 
 
@@ -206,7 +206,7 @@ def test_gait_agents_move_like_the_simulator_core():
     """Through the env (targets ramped over each step) a gait moves as the core's continuous gait
     (Gaits 1 and 3, run side by side in one batched env)."""
     from rrrobot_gym.agents import gait_agent
-    from evaluate import run_episodes
+    from rrrobot_gym.evaluation import run_episodes
     from rrrobot_gym.analysis import travel_summary
     from rrrobot_gym.control import table2_gait
     from rrrobot_gym.simulation import SimConfig, simulate
@@ -277,6 +277,7 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     shutil.copy(shipped / "env_kwargs.json", tmp_path / "env_kwargs.json")
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
+    shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
     assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
@@ -289,10 +290,10 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
      ("frame_skip=2 frame_skip=3", "frame_skip given twice"), ("contact_quadrature", "expected KEY=VALUE")],
 )
 def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(spec, words, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
-        train.parse_args([arg for one in spec.split() for arg in ("--env", one)])
+        training.parse_args([arg for one in spec.split() for arg in ("--env", one)])
     assert words in capsys.readouterr().err
 
 
@@ -313,21 +314,21 @@ def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(s
     ],
 )
 def test_ppo_settings_that_cannot_train_are_refused_before_any_work(flags, named, capsys):
-    import train
+    from rrrobot_gym import training
 
     with pytest.raises(SystemExit) as exit_info:
-        train.parse_args(flags)
+        training.parse_args(flags)
     assert exit_info.value.code == 2
     assert named in capsys.readouterr().err
 
 
 def test_a_runs_dir_that_is_a_file_is_refused(tmp_path, capsys):
-    import train
+    from rrrobot_gym import training
 
     taken = tmp_path / "runs"
     taken.write_text("")
     with pytest.raises(SystemExit):
-        train.parse_args(["--runs-dir", str(taken)])
+        training.parse_args(["--runs-dir", str(taken)])
     assert "is a file, not a directory" in capsys.readouterr().err
 
 
@@ -336,7 +337,7 @@ def test_a_resume_is_checked_against_its_statistics_and_this_runs_observation(tm
     SB3's assertion 'spaces must have the same shape'."""
     import shutil
 
-    import train
+    from rrrobot_gym import training
 
     shipped = ROOT / "agents" / "pretrained" / "best_model.zip"
     for flags, named in (
@@ -344,13 +345,13 @@ def test_a_resume_is_checked_against_its_statistics_and_this_runs_observation(tm
         (["--env", "exclude_current_positions_from_observation=false"], "the model observes 15 numbers, this run's env 17"),
     ):
         with pytest.raises(SystemExit) as exit_info:
-            train.parse_args(["--resume", str(shipped), *flags])
+            training.parse_args(["--resume", str(shipped), *flags])
         assert exit_info.value.code == 2 and named in capsys.readouterr().err
     alone = tmp_path / "best_model.zip"
     shutil.copy(shipped, alone)
     (tmp_path / "mirror.json").write_text((shipped.parent / "mirror.json").read_text())
     with pytest.raises(SystemExit) as exit_info:
-        train.parse_args(["--resume", str(alone)])
+        training.parse_args(["--resume", str(alone)])
     assert exit_info.value.code == 2 and "needs the normalisation statistics" in capsys.readouterr().err
 
 
@@ -361,7 +362,7 @@ def test_ppo_updates_on_the_torch_threads_asked_and_rollouts_on_one(tmp_path, mo
     from stable_baselines3 import PPO
     from stable_baselines3.common.policies import ActorCriticPolicy
 
-    import train
+    from rrrobot_gym import training
 
     seen = {"update": set(), "rollout": set()}
     update, forward = PPO.train, ActorCriticPolicy.forward
@@ -378,8 +379,8 @@ def test_ppo_updates_on_the_torch_threads_asked_and_rollouts_on_one(tmp_path, mo
     monkeypatch.setattr(ActorCriticPolicy, "forward", recorded_forward)
     threads = torch.get_num_threads()
     try:
-        train.main(["--total-timesteps", "1024", "--runs-dir", str(tmp_path), "--torch-threads", "2", *TINY])
+        training.main(["--total-timesteps", "1024", "--runs-dir", str(tmp_path), "--torch-threads", "2", *TINY])
     finally:
         torch.set_num_threads(threads)
     assert seen == {"update": {2}, "rollout": {1}}
-    assert train.parse_args([]).torch_threads == 2
+    assert training.parse_args([]).torch_threads == 2

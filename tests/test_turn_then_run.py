@@ -101,9 +101,9 @@ def test_bad_turn_then_run_input_is_named(tmp_path):
 
 
 def test_evaluate_scores_the_baseline_on_the_plane_only_with_no_own_direction(capsys):
-    import evaluate
+    from rrrobot_gym import evaluation
 
-    records = evaluate.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE)])
+    records = evaluation.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE)])
     table = capsys.readouterr().out
     row = next(line for line in table.splitlines() if line.startswith("| turn-then-run |"))
     assert row.split("|")[-2].strip() == ""  # no "own direction": scored along the compass headings
@@ -112,10 +112,10 @@ def test_evaluate_scores_the_baseline_on_the_plane_only_with_no_own_direction(ca
 
 
 def test_evaluate_scores_each_baseline_file_on_the_model_its_json_names(capsys, tmp_path):
-    import evaluate
+    from rrrobot_gym import evaluation
 
     assert load_turn_then_run_agent(FILE).model == "plane" and load_turn_then_run_agent(PIVOT_FILE).model == "pivot"
-    records = evaluate.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(PIVOT_FILE), "--turn-then-run", str(FILE)])
+    records = evaluation.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(PIVOT_FILE), "--turn-then-run", str(FILE)])
     table = capsys.readouterr().out
     rows = [line for line in table.splitlines() if line.startswith("| turn-then-run |") and line.count("|") == 11]
     assert len(rows) == 2 and all(row.split("|")[-2].strip() == "" for row in rows)  # both speed tables: no own direction
@@ -126,25 +126,25 @@ def test_evaluate_scores_each_baseline_file_on_the_model_its_json_names(capsys, 
     # Each model's scores are its own file's agent's (the same runs again by hand), not the other file's.
     for model, mine, other in (("plane", FILE, PIVOT_FILE), ("pivot", PIVOT_FILE, FILE)):
         scored = [r["displacement_m"] for r in ours if r["model"] == model]
-        again = {f: [r["displacement_m"] for r in evaluate.score(evaluate.run_episodes(
-            {"b": load_turn_then_run_agent(f)}, model, evaluate.COMPASS_DEG, 0.5)["b"], evaluate.COMPASS_DEG, 0.5)]
+        again = {f: [r["displacement_m"] for r in evaluation.score(evaluation.run_episodes(
+            {"b": load_turn_then_run_agent(f)}, model, evaluation.COMPASS_DEG, 0.5)["b"], evaluation.COMPASS_DEG, 0.5)]
             for f in (mine, other)}  # fmt: skip
         assert np.allclose(scored, again[mine], rtol=0, atol=1e-9) and not np.allclose(scored, again[other], rtol=0, atol=1e-4)
     with pytest.raises(SystemExit):  # one file twice: an error naming it
-        evaluate.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE), "--turn-then-run", str(FILE)])
+        evaluation.main(["--no-policy", "--duration", "0.5", "--turn-then-run", str(FILE), "--turn-then-run", str(FILE)])
     assert f"--turn-then-run {FILE}: given twice" in capsys.readouterr().err
     # A second file for one model is scored beside the first, named by its file.
     copy = tmp_path / "ttr_copy.json"
     (tmp_path / "plane_own.json").write_text(FILE.with_name("plane_own.json").read_text())
     spec = json.loads(FILE.read_text())
     copy.write_text(json.dumps({**spec, "turn_gait": [0.5 * spec["turn_gait"][0]] + spec["turn_gait"][1:]}))
-    records = evaluate.main(["--no-policy", "--models", "plane", "--duration", "0.5", "--turn-then-run", str(FILE),
+    records = evaluation.main(["--no-policy", "--models", "plane", "--duration", "0.5", "--turn-then-run", str(FILE),
                              "--turn-then-run", str(copy)])  # fmt: skip
     capsys.readouterr()
     first, second = ([r["displacement_m"] for r in records if r["agent"] == name and r["compass"]]
                      for name in ("turn-then-run", "ttr_copy/turn-then-run"))  # fmt: skip
-    by_hand = {f: [r["displacement_m"] for r in evaluate.score(evaluate.run_episodes(
-        {"b": load_turn_then_run_agent(f)}, "plane", evaluate.COMPASS_DEG, 0.5)["b"], evaluate.COMPASS_DEG, 0.5)]
+    by_hand = {f: [r["displacement_m"] for r in evaluation.score(evaluation.run_episodes(
+        {"b": load_turn_then_run_agent(f)}, "plane", evaluation.COMPASS_DEG, 0.5)["b"], evaluation.COMPASS_DEG, 0.5)]
         for f in (FILE, copy)}  # fmt: skip
     assert not np.allclose(by_hand[FILE], by_hand[copy], rtol=0, atol=1e-5)
     assert np.allclose(first, by_hand[FILE], rtol=0, atol=1e-9) and np.allclose(second, by_hand[copy], rtol=0, atol=1e-9)
@@ -152,7 +152,7 @@ def test_evaluate_scores_each_baseline_file_on_the_model_its_json_names(capsys, 
     (tmp_path / "pivot_own_limited.json").write_text(PIVOT_FILE.with_name("pivot_own_limited.json").read_text())
     bad.write_text(PIVOT_FILE.read_text().replace('"model": "pivot"', '"model": "moon"'))
     with pytest.raises(SystemExit):
-        evaluate.main(["--no-policy", "--turn-then-run", str(bad)])
+        evaluation.main(["--no-policy", "--turn-then-run", str(bad)])
     assert f"turn-then-run file {bad}: \"model\" must be" in capsys.readouterr().err
 
 

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .mirror import MirroredAgent, is_mirrored
-from .residual import ResidualAgent, load_base, run_directory
+from .mirror import MIRROR_FILE, MirroredAgent, is_mirrored
+from .residual import RESIDUAL_FILE, ResidualAgent, load_base, run_directory
 
 
 SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
@@ -85,11 +85,35 @@ def normalization_path(model_path) -> Path:
     return model_path.with_name(name)
 
 
+def check_run_files(model_path, vecnormalize_path=None) -> None:
+    """Raise FileNotFoundError naming the first file that ``train.py`` writes with a model and that
+    is missing beside ``model_path``: its observation statistics (:func:`normalization_path`,
+    unless ``vecnormalize_path`` is given), its run's ``env_kwargs.json``, and ``mirror.json`` or
+    ``residual.json`` when the run's ``args.json`` says it was trained mirrored or as a residual.
+    Without them the policy would run on observations or an env it was not trained on, and its
+    speeds would mean nothing."""
+    model_path = Path(model_path)
+    run_dir = run_directory(model_path)
+    needed = [(Path(vecnormalize_path) if vecnormalize_path is not None else normalization_path(model_path),
+               "its observation statistics"),
+              (run_dir / "env_kwargs.json", "its training env's keywords")]
+    args_path = run_dir / "args.json"
+    trained = json.loads(args_path.read_text()) if args_path.exists() else {}
+    if trained.get("mirror"):
+        needed.append((run_dir / MIRROR_FILE, "its args.json says it was trained mirrored"))
+    if trained.get("residual_on"):
+        needed.append((run_dir / RESIDUAL_FILE, "its args.json says it was trained as a residual policy"))
+    for path, why in needed:
+        if not path.exists():
+            raise FileNotFoundError(f"{model_path}: {path} is missing ({why}; train.py writes it with the model): "
+                                    "without it the policy's speeds mean nothing")
+
+
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
-    """Load ``model_path`` (an SB3 PPO zip) and, if given or found beside it
-    (:func:`normalization_path`), its VecNormalize statistics, and its run's ``env_kwargs.json``
-    (the training env's keywords; older runs saved only the observation's, the rest then
-    default). The run's directory holds the zip, or is one up for a checkpoint
+    """Load ``model_path`` (an SB3 PPO zip), its VecNormalize statistics (``vecnormalize_path``,
+    or beside it: :func:`normalization_path`) and its run's ``env_kwargs.json`` (the training
+    env's keywords; older runs saved only the observation's, the rest then default); a run
+    missing any file it needs is refused (:func:`check_run_files`). The run's directory holds the zip, or is one up for a checkpoint
     (:func:`rrrobot_gym.agents.residual.run_directory`). A run with ``residual.json`` (``train.py
     --residual-on``) gives a :class:`rrrobot_gym.agents.residual.ResidualAgent`: the policy on its base agent;
     one with ``mirror.json`` (``train.py --mirror``) a :class:`rrrobot_gym.agents.mirror.MirroredAgent`.
@@ -102,19 +126,14 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     model_path = Path(model_path)
     if not model_path.exists():
         raise FileNotFoundError(f"no PPO model at {model_path}")
-    model = PPO.load(model_path, device=device)
-    if vecnormalize_path is None:
-        candidate = normalization_path(model_path)
-        vecnormalize_path = candidate if candidate.exists() else None
     run_dir = run_directory(model_path)  # (a checkpoint's run is one directory up)
-    kwargs_path = run_dir / "env_kwargs.json"
-    env_config = kwargs_from_json(json.loads(kwargs_path.read_text())) if kwargs_path.exists() else {}
-    if vecnormalize_path is None:
-        agent = PPOAgent(model, env_config=env_config)
-    else:
-        with open(vecnormalize_path, "rb") as handle:
-            stats = pickle.load(handle)
-        agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
+    check_run_files(model_path, vecnormalize_path)
+    model = PPO.load(model_path, device=device)
+    vecnormalize_path = normalization_path(model_path) if vecnormalize_path is None else vecnormalize_path
+    env_config = kwargs_from_json(json.loads((run_dir / "env_kwargs.json").read_text()))
+    with open(vecnormalize_path, "rb") as handle:
+        stats = pickle.load(handle)
+    agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
     if is_mirrored(run_dir):  # train.py --mirror: -Y headings run as mirror images
         return MirroredAgent(agent)
     base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
