@@ -43,7 +43,7 @@ HERE = Path(__file__).resolve().parent
 DEFAULT_POLICY = HERE / "agents" / "pretrained" / "best_model.zip"
 DEFAULT_PIVOT_POLICY = HERE / "agents" / "pretrained_pivot" / "best_model.zip"
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
-                    "frame_skip", "start_halves", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
+                    "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
 """Env keywords that change what any agent can do (motors, physics, the model checks): an
 evaluation applies a policy's to every agent it is compared with on that model."""

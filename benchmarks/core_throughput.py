@@ -27,7 +27,7 @@ from rrrobot_gym.simulation import SimConfig, advance, check_state, check_target
 from ._common import fmt, machine, markdown_table, median_time, parser, write_json
 
 ENV_STEP = 0.05
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3}
+EVALS_PER_STEP = {"rk4": 4}
 
 
 def setting_list(quick: bool):
@@ -38,7 +38,6 @@ def setting_list(quick: bool):
         ("plane, defaults, numba", SimConfig(model="plane", backend="numba"), 1),
         ("pivot, defaults, numba", SimConfig(model="pivot", backend="numba"), 1),
         ("plane, defaults, numba, workers=2 (threads)", SimConfig(model="plane", backend="numba"), 2),
-        ("plane, servo, rk3 1/340 s (numpy)", SimConfig(model="plane", integrator="rk3", timestep=ENV_STEP / 17), 1),
         ("pivot, servo, timestep=auto, numba", SimConfig(model="pivot", timestep="auto", backend="numba"), 1),
         ("plane, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="plane", legs="kinematic", timestep=ENV_STEP), 1),
         ("pivot, kinematic legs, rk4 1/20 s (numpy)", SimConfig(model="pivot", legs="kinematic", timestep=ENV_STEP), 1),
