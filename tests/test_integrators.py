@@ -1,5 +1,5 @@
-"""The integrator table: RK4's order, the table's checks, and a new integrator as one module
-plus one table entry (a toy: explicit midpoint, order 2)."""
+"""The integrator table: a new integrator is one module plus one table entry (a toy: explicit
+midpoint, order 2), and a name outside the table is refused."""
 
 import math
 import types
@@ -43,10 +43,6 @@ def _observed_order(integrator, steps):
     truth = _end_state("rk4", 1 / 9600)
     errors = [np.abs(_end_state(integrator, h) - truth).max() for h in steps]
     return math.log2(errors[0] / errors[1])
-
-
-def test_rk4_converges_at_fourth_order_on_a_gait():
-    assert 3.7 < _observed_order("rk4", (1 / 600, 1 / 1200)) < 4.3
 
 
 def test_a_new_integrator_is_one_module_and_one_table_entry(monkeypatch):

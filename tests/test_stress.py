@@ -67,16 +67,6 @@ def test_energy_changes_only_by_the_work_of_servo_and_damping(model, policy, rng
     assert result.max_energy_gain_over_work < 1e-3  # J: no energy from nowhere
 
 
-def test_the_energy_books_refuse_a_servo_integrator_by_name(rng):
-    """The books step the work beside the state with an explicit stepper in the body rate; rosw and
-    etdrk4b take other stage functions, etdrk4b and rk4_locked another variable, so they are
-    refused, not misapplied."""
-    for integrator in ("rosw", "etdrk4b", "rk4_locked"):
-        config = SimConfig(integrator=integrator, timestep=1 / 300)
-        with pytest.raises(ValueError, match=f"explicit integrator, not '{integrator}'"):
-            run_scene(config, start_states(rng, 2), random_targets(rng, 2), 1, energy_refinement=2)
-
-
 @pytest.mark.parametrize(
     "change",
     [{"gains": PDGains(kp=200.0, kd=5.0)}, {"robot": RobotParams(mass_tip=1e-4)}],
