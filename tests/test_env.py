@@ -276,7 +276,7 @@ def short_episode(steps=20, **kwargs):
     return np.array([(i["x_position"], i["y_position"]) for i in rows]), rows
 
 
-@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"timestep": 1 / 400}])
+@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"timestep": 1 / 600, "frame_skip": 30}])
 def test_simulator_keywords_run_an_episode_that_differs_from_the_default(kwargs):
     default, _ = short_episode()
     other, _ = short_episode(**kwargs)
