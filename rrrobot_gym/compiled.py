@@ -12,8 +12,10 @@ into which the compiler inlines ``derivative_kernel`` and turns it into SIMD ins
 arithmetic is :func:`rrrobot_gym.integrators.rk4.step`'s, operation for operation, so every robot's
 result is the numpy backend's one-robot result to the bit (``tests/test_compiled.py``). A batch's
 remainder (fewer than LANES robots) takes a block padded with copies of its last robot if it has
-at least PADDED_MIN, else one-lane blocks: the same functions compiled again with LANES = 1.
-Robots are independent, so a batch may be split across threads (``workers``) without changing a bit.
+at least PADDED_MIN, else :func:`_one_robot`, RK4 written once more for one robot's (13,) row: the
+lane functions compiled with LANES = 1 took 20 us where it takes 15 us for one robot's env step
+(15 substeps; docs/notes/layout.md), about 4 % of the single env's step. Robots are independent,
+so a batch may be split across threads (``workers``) without changing a bit.
 
 Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the scene
 is one it covers (:func:`supports`: servo legs, an integrator of :data:`INTEGRATORS`) with targets
@@ -101,6 +103,7 @@ def _copies(functions, wrap, namespace, suffix=""):
 # :func:`_stepper` compiles copies whose globals are the compiled kernels, servo and targets.
 prange = range
 derivative_kernel, contact_kernel = dynamics.derivative_kernel, dynamics.contact_kernel
+robot_derivative_kernel = dynamics.derivative_kernel  # (compiled called, not inlined: the one-robot stepper's)
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
@@ -124,6 +127,43 @@ def _servo(c, targets, gains, torque_limit, rate_limit):
     if torque_limit is None:
         return tau
     return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
+
+
+def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i):
+    """RK4 on robot i's state y (13,), in place, with its record into rows[:, :, i] and its summary
+    into summary[:, i] (when rows has any): the lanes' arithmetic for one robot, kept for speed."""
+    half, sixth = 0.5 * h, h / 6.0
+    stage = np.empty(13)
+    contact = np.empty(7)
+    for step in range(n_steps):
+        tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
+        if rows.shape[0]:
+            k1 = robot_derivative_kernel(y, tau, k, None, None, contact)
+            rows[step, 0, i], rows[step, 1, i] = tau[0], tau[1]
+            for j in range(7):
+                rows[step, 2 + j, i] = contact[j]
+            rows[step, 9, i], rows[step, 10, i] = y[11], y[12]
+        else:
+            k1 = robot_derivative_kernel(y, tau, k)
+        for j in range(13):
+            stage[j] = y[j] + half * k1[j]
+        k2 = robot_derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            stage[j] = y[j] + half * k2[j]
+        k3 = robot_derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            stage[j] = y[j] + h * k3[j]
+        k4 = robot_derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
+        for j in range(13):
+            y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+        inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+        y[2] *= inv
+        y[3] *= inv
+        y[4] *= inv
+        y[5] *= inv
+        t += h
+    if rows.shape[0]:
+        _summarise(rows, summary, i, 1)
 
 
 def _lesser(a, b):
@@ -298,7 +338,8 @@ def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind
 def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
     """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
     Whole blocks of LANES robots take the lane stepper; the rest (fewer than LANES), if at least
-    PADDED_MIN, a block of their own padded with copies of the last (_padded), else one-lane blocks."""
+    PADDED_MIN, a block of their own padded with copies of the last (_padded), else one by one."""
+    shared_targets = params.shape[0] == 1
     blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
@@ -308,8 +349,9 @@ def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, param
             _lanes(yp, 0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, pp, shared, rp, sp)
             _unpadded(y, rows, summary, blocks * LANES, rest, yp, rp, sp)
         else:
-            _one_lane(y, blocks * LANES + (b - blocks), t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params,
-                      shared, rows, summary)  # fmt: skip
+            i = blocks * LANES + (b - blocks)
+            p = params[0] if shared_targets else params[i]
+            _one_robot(y[i], t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
 def _partition(n):
@@ -324,7 +366,7 @@ def _partition(n):
 
 PADDED_MIN = 8
 """Fewer robots than a block, but at least this many, take a lane block padded with copies of the
-last of them (whose results are dropped) instead of one-lane blocks: from 8 on the padded block was
+last of them (whose results are dropped) instead of the one-robot stepper: from 8 on the padded block was
 no slower (physics alone, side by side: equal at 8, 1.3x at 12, 1.7x at 16)."""
 
 
@@ -359,25 +401,11 @@ def _unpadded(y, rows, summary, first, count, yp, rp, sp):
             summary[j, first + i] = sp[j, i]
 
 
-_SHARED = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _partition, _padded, _unpadded)
-"""Compiled once, called by both lane layouts."""
+_STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded, _unpadded,
+            _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
+"""This module's functions the compiled :func:`_batch` calls."""
 _LANE_INLINED = (_lane_state, _lane_torques, _lane_derivatives, _lane_combine)
 """Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
-_LANE_CALLED = (_lane_stage, _lane_update, _lane_substep, _lanes)
-"""The lane stepper's own functions, compiled for LANES robots and again for one (:func:`_one_lane`)."""
-
-
-def _one_lane_copy(namespace, wrap_inline, wrap):
-    """:func:`_lanes` with LANES = 1 (its functions copied into a namespace of their own, suffixed
-    "_1"), to be ``namespace``'s ``_one_lane``."""
-    single = dict(namespace, LANES=1)
-    _copies(_LANE_INLINED, wrap_inline, single, "_1")
-    _copies(_LANE_CALLED, wrap, single, "_1")
-    namespace["_one_lane"] = single["_lanes"]
-    return namespace
-
-
-_one_lane_copy(globals(), lambda fn: fn, lambda fn: fn)  # (uncompiled: the plain-Python stepper's)
 
 
 def cache_dir(sources=None):
@@ -465,12 +493,11 @@ def _stepper(parallel: bool):
         namespace = dict(globals(), prange=numba.prange)
         kernels = _copies(dynamics.KERNELS, inline, dict(vars(dynamics)))
         namespace.update(derivative_kernel=kernels["derivative_kernel"], contact_kernel=kernels["contact_kernel"])
+        namespace["robot_derivative_kernel"] = _copies(dynamics.KERNELS, njit, dict(vars(dynamics)))["derivative_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
-        _copies(_SHARED, njit, namespace)
-        _one_lane_copy(namespace, inline, njit)
         _copies(_LANE_INLINED, inline, namespace)
-        _copies(_LANE_CALLED, njit, namespace)
+        _copies(_STEPPER, njit, namespace)
         batch = types.FunctionType(_batch.__code__, namespace, _batch.__name__)
         batch.__qualname__ = name
         return njit(batch, parallel=parallel)

@@ -76,7 +76,7 @@ def _assert_compiled_is_the_float_stepper(config, states, targets):
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
     # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
-    # stepper and one robot in a one-lane block.
+    # stepper and one robot on the one-robot stepper.
     assert compiled.LANES < 33 < 2 * compiled.LANES
     record = _assert_compiled_is_the_float_stepper(config, _states(33), _targets(kind, 33, np.random.default_rng(7)))
     if config.torque_limit is not None:
@@ -299,7 +299,7 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
 
 def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     # compiled._batch is ordinary Python (prange is range until compiled): run it uncompiled,
-    # on a block of the lane stepper and two robots in one-lane blocks
+    # on a block of the lane stepper and two robots of the one-robot stepper
     config = SimConfig(torque_limit=0.4, leg_rate_limit=9.0)
     n = compiled.LANES + 2
     states = _states(n, seed=8)
