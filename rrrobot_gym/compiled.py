@@ -460,7 +460,8 @@ def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: 
 
 
 COMPILE_SECONDS = 60
-"""About how long compiling the stepper takes on first use (two cores, numba 0.6x); printed in the notice."""
+"""s, about the most compiling the stepper takes on first use, printed in the notice (31-80 s measured
+on a shared two-core AMD EPYC, numba 0.68)."""
 
 
 @functools.lru_cache(maxsize=None)
@@ -481,7 +482,7 @@ def _stepper(parallel: bool):
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
     name = "_batch" + ("_threaded" if parallel else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
-        print(f"rrrobot_gym: compiling the numba stepper{' (threaded)' if parallel else ''}: about {COMPILE_SECONDS} s "
+        print(f"rrrobot_gym: compiling the numba stepper{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
