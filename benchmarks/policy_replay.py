@@ -8,8 +8,7 @@ from the last target to the new one over 0.05 s), and the servo answers each cha
 step that holds the gaits within 1 mm may not hold a policy's path. This rolls a PPO policy
 (default: the shipped plane one, ``agents/pretrained``; needs the ``train`` extra) out in
 ``RRRobot-v0``, configured as it was trained, for 50 s (--quick: 10 s) along each heading, keeps
-its leg-target ramps, and replays them from the same starts with RK4 at several steps (also
-the default step with ``start_halves`` 1 and 2) and with
+its leg-target ramps, and replays them from the same starts with RK4 at several steps and with
 ``simulate_reference`` (DOP853, rtol = atol = 1e-10, solved control step by control step,
 since the ramps' rates jump there). Reported: the contact error against the reference, maximum
 over the path, and the distance travelled. The replay at the env's own step must reproduce the
@@ -54,19 +53,9 @@ PERTURBATION_RAD = 1e-7
 reference's own error (rtol 1e-10 against 1e-12: 1.4 um after 20 s on the pivot policy)."""
 
 
-GRADED = ((1 / 300, 1), (1 / 300, 2), (1 / 260, 2), (1 / 200, 2))
-"""(step, start_halves) replayed with the first substeps of each control step in halves: on the
-default step, and at the default's 60 derivative evaluations an env step (13 substeps and two
-halves) and at 48 (10 and two)."""
-
-
 def settings():
-    """(label, step, start_halves): the uniform steps, then the GRADED ones, with the first
-    substeps of each control step in halves (``SimConfig.start_halves``), where a new ramp kicks
-    the servo's fast mode."""
-    out = [(f"1/{1 / h:.0f} s", h, 0) for h in STEPS_S]
-    out += [(f"1/{1 / h:.0f} s, start_halves={k}", h, k) for h, k in GRADED]
-    return out
+    """(label, step) of each replay."""
+    return [(f"1/{1 / h:.0f} s", h) for h in STEPS_S]
 
 
 def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
@@ -226,16 +215,15 @@ def main(argv=None):
         flush=True,
     )
     rows, refined_rows = [], []
-    for label, step, halves in settings():
-        config = replace(sim, timestep=step, start_halves=halves)  # the env's own (a torque limit included)
+    for label, step in settings():
+        config = replace(sim, timestep=step)  # the env's own (a torque limit included)
         path, _ = replay(config, start, starts, ends, dt)
         err = contact_error(path, ref)  # (n + 1, N)
         row = {
             "integrator": "rk4",
             "setting": label,
             "step_s": step,
-            "start_halves": halves,
-            "evals_per_env_step": 4 * (round(dt / step) + halves),
+            "evals_per_env_step": 4 * round(dt / step),
             **error_fields(err, args.headings),
         }
         if config == sim and not args.no_motor_limit:
@@ -244,7 +232,7 @@ def main(argv=None):
         extra = f", reproduces the env's states to the bit: {row['reproduces_env']}" if "reproduces_env" in row else ""
         print(f"rk4 {label} ({row['evals_per_env_step']} evaluations an env step): {described(row)}{extra}", flush=True)
     if args.refine_switches:
-        for label, step, _ in settings()[: len(STEPS_S)]:
+        for label, step in settings():
             config = replace(sim, timestep=step)
             for refine in (1, REFINE):
                 path, refined = replay_refined(config, start, starts, ends, dt, refine)

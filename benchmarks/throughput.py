@@ -114,7 +114,7 @@ def main(argv=None):
             if backend == "numba":  # ~10x faster: more steps for the same timing resolution
                 steps = min(4 * steps, 1000)
             rows.append(vector_env(n, steps, repeats, rng, backend=backend))
-            if n >= 64:  # both cores, beside one (the physics column stays one process / thread)
+            if n >= 64 and backend == "numba":  # both cores (numba's threads), beside one thread
                 rows.append(vector_env(n, steps, repeats, rng, workers=2, backend=backend))
     table = markdown_table(
         ["env", "backend", "N", "env steps/s", "physics alone (advance), steps/s", "env / physics throughput"],

@@ -11,14 +11,7 @@ rtol = atol = 1e-10) sampled at the same instants:
 - attitude error: the angle of R_ref^T R, maximum over the path;
 - energy drift: a separate run with no damping and no leg torque (servo: the legs
   swing freely; kinematic: the legs are locked), started tilted and spinning, with
-  the same integrator and step; the maximum of |E - E0| / E0 over the run. With no servo,
-  ``etdrk4b``'s A is the legs' phi' = phidot alone (zero gains), on the body's locked rate
-  (``dynamics.locked_share``) in place of its rate; ``rk4_locked`` is RK4's tableau on that
-  locked rate, so its drift against RK4's is that of the change of variable.
-  ``benchmarks.exponential_step`` has a book with the servo working.
-
-``etdrk4b`` rows are equal steps from the paper's start (its graded settings, ``start_halves``,
-are in ``benchmarks.exponential_step``).
+  the same integrator and step; the maximum of |E - E0| / E0 over the run.
 
 Kinematic legs are a different model of the legs (they follow their path exactly,
 see ``SimConfig.legs``): their error is taken against the kinematic reference, and
@@ -28,30 +21,21 @@ evaluations per env step) whose worst contact error over the path stays under 1 
 
 ``--gains KP KD`` runs a servo of those gains instead of the paper's (servo legs only: kinematic
 legs have no servo). Where it is stiff, RK4's fixed steps beyond its stability limit are refused
-(printed), RK4 runs at ``timestep="auto"``, and the implicit ``rosw`` at 1/300, 1/1000 and
-1/3000 s: where the implicit method wins, and what it costs.
+(printed) and RK4 also runs at ``timestep="auto"``.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from types import SimpleNamespace
 
 import numpy as np
 
-from rrrobot_gym import compiled, dynamics
+from rrrobot_gym import dynamics
 from rrrobot_gym.control import HeldTargets, table2_gait
+from rrrobot_gym.integrators import INTEGRATORS
 from rrrobot_gym.params import PDGains, RobotParams
-from rrrobot_gym.simulation import (
-    _STEPPERS,
-    LOCKED_INTEGRATORS,
-    SimConfig,
-    _kinematic_path,
-    _ServoJacobian,
-    advance,
-    initial_state,
-)
+from rrrobot_gym.simulation import SimConfig, _kinematic_path, advance, initial_state
 
 from ._common import (
     attitude_error,
@@ -66,32 +50,20 @@ from ._common import (
 
 ENV_STEP = 0.05
 """s, the control step of the environment; the integration step is ENV_STEP / n."""
-EVALS_PER_STEP = {"rk4": 4, "rk3": 3, "rosw": 4, "etdrk4b": 4, "rk4_locked": 4}
+EVALS_PER_STEP = {"rk4": 4}
 BUDGET_M = 1e-3
-
-
-STIFF_ROSW_N = (15, 50, 150)
-"""With ``--gains``: rosw's steps, ENV_STEP / n (1/300, 1/1000, 1/3000 s)."""
 
 
 def settings(quick: bool, gains=None):
     """(legs, integrator, n or "auto") to sweep (``gains``: a servo of its own, see the module docstring)."""
     if gains is not None:
-        return [("servo", "rk4", n) for n in (15, 30)] + [("servo", "rk4", "auto")] + [
-            ("servo", "rosw", n) for n in STIFF_ROSW_N
-        ]
+        return [("servo", "rk4", n) for n in (15, 30)] + [("servo", "rk4", "auto")]
     if quick:
-        servo = {"rk4": (10, 15, 20), "rk3": (17,), "rosw": (4, 8), "etdrk4b": (4,), "rk4_locked": (8,)}
+        servo = {"rk4": (10, 15, 20)}
         kinematic = {"rk4": (1, 3)}
     else:
-        servo = {
-            "rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30),
-            "rk3": (6, 7, 8, 12, 15, 16, 17, 20, 25, 30),
-            "rosw": (4, 6, 8, 10, 15, 20, 30),
-            "etdrk4b": (3, 4, 5, 6, 8, 15),
-            "rk4_locked": (3, 4, 5, 7, 8, 10, 12, 15),  # (beyond RK4's stability limit on the plane below 7: refused)
-        }
-        kinematic = {"rk4": (1, 2, 3, 5), "rk3": (1, 2, 3, 5)}
+        servo = {"rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30)}
+        kinematic = {"rk4": (1, 2, 3, 5)}
     out = [("servo", integ, n) for integ, ns in servo.items() for n in ns]
     out += [("servo", "rk4", "auto")]
     out += [("kinematic", integ, n) for integ, ns in kinematic.items() for n in ns]
@@ -143,35 +115,12 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
         def f(t, c):
             return dynamics.derivative_kernel(c, None, consts, (0.0, 0.0))
 
-    stepper = _STEPPERS[integrator][0]
+    stepper = INTEGRATORS[integrator].step
     steps_per_env = round(ENV_STEP / step)
-    extra = ()
-    if integrator == "rosw":  # no servo acts here, so its servo Jacobian is that of zero gains
-
-        def first(t, c, mobility_out=None):
-            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out)
-
-        extra = (first, _ServoJacobian(SimpleNamespace(kp=0.0, kd=0.0), ENV_STEP / steps_per_env))
-    elif integrator in LOCKED_INTEGRATORS:
-        # rows 8-10 the locked rate (dynamics.locked_share) in place of the body rate: rk4_locked is
-        # RK4's tableau on it; etdrk4b's A is the legs' phi' = phidot alone here (zero gains)
-
-        def f(t, c):
-            return dynamics.derivative_kernel(c, (0.0, 0.0), consts, locked=True)
-
-        f.locked, f.constants = True, consts  # (what the locked steppers check and convert with)
-        if integrator == "etdrk4b":
-
-            def first(t, c, mobility_out=None):
-                return dynamics.derivative_kernel(c, (0.0, 0.0), consts, mobility_out=mobility_out, locked=True)
-
-            no_servo = SimpleNamespace(kp=0.0, kd=0.0, h=step, leg_targets=lambda t: ((0.0, 0.0),) * 3, radius=0.0, levels=1,
-                                       TERMS=compiled.TAYLOR_TERMS)  # fmt: skip
-            extra = (first, no_servo)
     y = state.tolist()
     energies = [float(dynamics.total_energy(state, robot, model))]
     for i in range(round(duration / ENV_STEP)):
-        y = stepper(f, i * ENV_STEP, y, ENV_STEP / steps_per_env, steps_per_env, *extra)
+        y = stepper(f, f, i * ENV_STEP, y, ENV_STEP / steps_per_env, steps_per_env)
         energies.append(float(dynamics.total_energy(np.array(y), robot, model)))
     energies = np.array(energies)
     return float(np.max(np.abs(energies - energies[0])) / abs(energies[0]))
@@ -297,8 +246,7 @@ def plot(rows, path: str, duration: float):
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), sharey=True)
     for ax, model in zip(axes, ("plane", "pivot")):
-        for legs, integ, style in (("servo", "rk4", "o-"), ("servo", "rk3", "s-"), ("servo", "etdrk4b", "d-"),
-                                   ("servo", "rk4_locked", "x-"), ("kinematic", "rk4", "^--"), ("kinematic", "rk3", "v--")):  # fmt: skip
+        for legs, integ, style in (("servo", "rk4", "o-"), ("kinematic", "rk4", "^--")):
             sel = [r for r in rows if (r["model"], r["legs"], r["integrator"]) == (model, legs, integ) and r["n"] != "auto"]
             sel = [r for r in sel if math.isfinite(r["contact_max_m"]) and r["contact_max_m"] < 10.0]
             if not sel:

@@ -342,9 +342,7 @@ def _add_run_options(parser):
         "--integrator",
         choices=INTEGRATORS,
         default="rk4",
-        help="rk4; rk3; rosw or etdrk4b, which treat the leg servo implicitly or exactly and so take steps "
-        "beyond RK4's stability limit; rk4_locked, RK4 on the body's locked rate, closer where new targets "
-        "kick the servo (docs/benchmarks.md) (default: %(default)s)",
+        help="the fixed-step integrator, a name of rrrobot_gym.integrators.INTEGRATORS (default: %(default)s)",
     )
     parser.add_argument(
         "--backend",

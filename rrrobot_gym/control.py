@@ -241,3 +241,7 @@ def ramp_targets(t, t0, duration, start, end, change, slope, still):
         s = 0.0
     (a1, a2), (d1, d2) = start, change
     return (a1 + d1 * s, a2 + d2 * s), slope, still
+
+
+KERNELS = (pd_torque, motor_torque, ramp_targets, sinusoid_targets)
+"""The functions :mod:`rrrobot_gym.compiled` compiles for the servo and the leg targets."""

@@ -267,67 +267,6 @@ def _rotation_products(qw, qx, qy, qz):
     return qx * tqx, qy * tqy, qz * tqz, qx * tqy, qx * tqz, qy * tqz, qw * tqx, qw * tqy, qw * tqz
 
 
-def _legs_share(m_omega, c1, c2, rate1, rate2):
-    """(M_omega^-1, the legs' share M_omega^-1 (c_1 phidot_1 + c_2 phidot_2) of the locked rate)."""
-    m_inv = _sym_inverse(m_omega)
-    share = _sym_apply(m_inv, c1[0] * rate1 + c2[0] * rate2, c1[1] * rate1 + c2[1] * rate2, c1[2] * rate1 + c2[2] * rate2)
-    return m_inv, share
-
-
-def locked_share(c, k: Constants):
-    """The legs' share s = M_omega^-1 (c_1 phidot_1 + c_2 phidot_2) of the locked rate
-    Lambda = Omega + s of a state c (13 rows: floats or arrays), three rows.
-
-    M_omega Lambda = M_omega Omega + c_1 phidot_1 + c_2 phidot_2 is the body rows of M qdot, the
-    momentum conjugate to Omega, which the leg torques (acting on the legs' rows alone) do not
-    change: Lambda is the rate the shell would turn at if the legs were locked to it now. The
-    exponential step integrates Lambda instead of Omega (``derivative_kernel(locked=True)``), so
-    the body's recoil from the servo's fast mode, a spike in Omega', is not in what it
-    integrates explicitly."""
-    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
-    xx, yy, _, _, xz, yz, wx, wy, _ = _rotation_products(qw, qx, qy, qz)
-    _, _, _, m_omega, (c1, c2) = _configuration(c[6], c[7], (xz - wy, yz + wx, 1.0 - (xx + yy)), k)
-    return _legs_share(m_omega, c1, c2, c[11], c[12])[1]
-
-
-def _configuration_rate(legs, rate1, rate2, n, n_rate, k):
-    """(M_omega', (c_1', c_2')): the time derivatives of :func:`_configuration`'s M_omega and c_k
-    as the legs turn at (rate1, rate2) and n at ``n_rate`` (n' = n x Omega for a body-frame
-    Omega), from its ``legs``; differentiated term by term from it (checked against finite
-    differences of it in tests/test_dynamics.py)."""
-    _, _, ml, h, _, _, _, _, _, _, _, ml_r, mb_r, mt, _, neg_ml, _, ml_h, _, _ = k
-    (lc1, ls1, sy1), (lc2, ls2, sy2) = legs
-    nx, ny, nz = n
-    dnx, dny, dnz = n_rate
-    dlc1, dls1, dlc2, dls2 = -ls1 * rate1, lc1 * rate1, -ls2 * rate2, lc2 * rate2
-    dm2 = 2.0 * ml * (lc1 * dlc1 + lc2 * dlc2)
-    dixy = ml_r * (dlc1 - dlc2)
-    dixz = neg_ml * (dlc1 * ls1 + lc1 * dls1 + dlc2 * ls2 + lc2 * dls2)
-    diyz = ml_r * (dls1 - dls2)
-    if h == 0.0:
-        dc1 = (-ml_r * dlc1, 0.0, -ml_r * dls1)
-        dc2 = (ml_r * dlc2, 0.0, ml_r * dls2)
-        return (-dm2, dixy, dixz, 0.0, diyz, dm2), (dc1, dc2)
-    hsx, hsz = h * (ml * (lc1 + lc2)), h * (ml * (ls1 + ls2) - mb_r)
-    dhsx, dhsz = h * ml * (dlc1 + dlc2), h * ml * (dls1 + dls2)
-    ax, az = mt * nx + hsx, mt * nz + hsz
-    dax, daz = mt * dnx + dhsx, mt * dnz + dhsz
-    ddiag = 2.0 * (dhsx * nx + hsx * dnx + dhsz * nz + hsz * dnz)
-    m_rate = (
-        -dm2 + ddiag - dnx * (ax + hsx) - nx * (dax + dhsx),
-        dixy - (dny * ax + ny * dax),
-        dixz - (dnz * ax + nz * dax) - (dhsz * nx + hsz * dnx),
-        ddiag - 2.0 * mt * ny * dny,
-        diyz - (dny * az + ny * daz),
-        dm2 + ddiag - dnz * (az + hsz) - nz * (daz + dhsz),
-    )
-    dsy = ml * h * dny
-    ml_sy1, ml_sy2 = ml * sy1, ml * sy2
-    dc1 = (dsy * lc1 + ml_sy1 * dlc1, -ml_h * (dnx * lc1 + nx * dlc1 + dnz * ls1 + nz * dls1), dsy * ls1 + ml_sy1 * dls1)
-    dc2 = (dsy * lc2 + ml_sy2 * dlc2, -ml_h * (dnx * lc2 + nx * dlc2 + dnz * ls2 + nz * dls2), dsy * ls2 + ml_sy2 * dls2)
-    return m_rate, (dc1, dc2)
-
-
 def _sym_cofactors(m):
     """Cofactors (c00, c01, c02, c11, c12, c22) of a symmetric 3x3 m (upper triangle, row-wise)
     and 1 / det m."""
@@ -335,12 +274,6 @@ def _sym_cofactors(m):
     c00, c01, c02 = d * f - e * e, c * e - bb * f, bb * e - c * d
     c11, c12, c22 = a * f - c * c, bb * c - a * e, a * d - bb * bb
     return (c00, c01, c02, c11, c12, c22), 1.0 / (a * c00 + bb * c01 + c * c02)
-
-
-def _sym_inverse(m):
-    """Upper triangle (row-wise) of the inverse of a symmetric 3x3 m, by cofactors."""
-    (c00, c01, c02, c11, c12, c22), inv_det = _sym_cofactors(m)
-    return c00 * inv_det, c01 * inv_det, c02 * inv_det, c11 * inv_det, c12 * inv_det, c22 * inv_det
 
 
 def _sym_apply(m, b0, b1, b2):
@@ -357,42 +290,16 @@ def _sym_solve(m, b0, b1, b2):
     return x0 * inv_det, x1 * inv_det, x2 * inv_det
 
 
-def derivative_kernel(
-    c, leg_torque, k: Constants, leg_accel=None, torque_out=None, mobility_out=None, contact_out=None, locked=False
-):
+def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None, contact_out=None):
     """:func:`state_derivative` with the constants precomputed by :func:`constants`.
 
-    This is the implementation (:func:`derivative_and_mobility`, which it calls, holds the
-    equations); the integrators call it directly to skip the per-call parameter arithmetic.
-    With ``leg_accel`` (kinematic legs), a list ``torque_out`` receives the two leg torques
-    that motion takes (from the legs' rows, D phi'' + c_k . Omega' = f_leg + tau). With servo
-    legs, a list ``mobility_out`` receives how the accelerations answer the leg torques, the
-    legs' columns of M^-1: (G_11, G_12, G_22), the legs' block (d phi''_i / d tau_j,
-    1/kg m^2, the body's recoil included), then P_1 and P_2 (3 each), the body rows
-    (d Omega' / d tau_k). The linearly implicit and exponential integrators build their servo
-    matrix from them. A list ``contact_out`` receives :func:`contact_kernel`'s seven values
-    for this state and the derivative returned, from the terms already computed here (the
-    integrators' record). ``locked``: rows 8-10 are the locked rate (:func:`derivative_and_mobility`).
+    This is the implementation; the integrators call it directly to skip the per-call
+    parameter arithmetic. With ``leg_accel`` (kinematic legs), a list ``torque_out`` receives
+    the two leg torques that motion takes (from the legs' rows, D phi'' + c_k . Omega' = f_leg +
+    tau). A list ``contact_out`` receives :func:`contact_kernel`'s seven values for this state
+    and the derivative returned, from the terms already computed here (the integrators' record).
+    Returns the 13 derivative components as a tuple.
     """
-    derivative, mobility, _ = derivative_and_mobility(c, leg_torque, k, mobility_out is not None, leg_accel, torque_out,
-                                                      contact_out, locked)  # fmt: skip
-    if mobility_out is not None:
-        mobility_out[:] = mobility
-    return derivative
-
-
-def derivative_and_mobility(
-    c, leg_torque, k: Constants, with_mobility, leg_accel=None, torque_out=None, contact_out=None, locked=False
-):
-    """(:func:`derivative_kernel`'s derivative, the legs' mobility, (Omega, Omega')), tuples: the
-    mobility as derivative_kernel's ``mobility_out`` receives it if ``with_mobility`` (servo
-    legs), else zeros. The compiled lane stepper takes the mobility so, as values its SIMD loops
-    can keep (an array written inside such a loop would stop their vectorisation).
-
-    With ``locked`` (servo legs), rows 8-10 of c and of the derivative are the locked rate
-    Lambda (:func:`locked_share`) and its rate of change instead of Omega and Omega', and the
-    mobility's body rows are zero: Lambda' does not depend on the leg torques. The third value
-    still gives Omega and Omega' (for :func:`contact_kernel`, as the record needs them)."""
     qw, qx, qy, qz = c[2], c[3], c[4], c[5]
     rate1, rate2 = c[11], c[12]
     r, _, ml, h, g, damping, inertia_leg, inv_d, _, _, _, _, _, _, two_ml, neg_ml, _, _, total_h, weight = k
@@ -403,12 +310,7 @@ def derivative_and_mobility(
     nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
 
     legs, inertia, (sx, sz), m_omega, (c1, c2) = _configuration(c[6], c[7], (nx, ny, nz), k)
-    if locked:
-        # Rows 8-10 hold the locked rate (locked_share): Omega is what is left after the legs' share.
-        m_inv, share = _legs_share(m_omega, c1, c2, rate1, rate2)
-        ox, oy, oz = c[8] - share[0], c[9] - share[1], c[10] - share[2]
-    else:
-        ox, oy, oz = c[8], c[9], c[10]
+    ox, oy, oz = c[8], c[9], c[10]
     w_x = (1.0 - yy - zz) * ox + (xy - wz) * oy + (xz + wy) * oz
     w_y = (xy + wz) * ox + (1.0 - xx - zz) * oy + (yz - wx) * oz
     # qdot = 1/2 q (x) (0, Omega) for a body-frame rate.
@@ -483,20 +385,7 @@ def derivative_and_mobility(
             m_omega[5] - (c1z * h1z + c2z * h2z),
         )
         rhs = (f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2))
-        if with_mobility:
-            m_red_inv = _sym_inverse(m_red)
-            od0, od1, od2 = _sym_apply(m_red_inv, rhs[0], rhs[1], rhs[2])
-            # Legs' block of M^-1 = 1/D + H^T m_red^-1 H, H = C / D (block inverse by the Schur complement).
-            g1x, g1y, g1z = _sym_apply(m_red_inv, h1x, h1y, h1z)
-            g12 = h2x * g1x + h2y * g1y + h2z * g1z
-            g2x, g2y, g2z = _sym_apply(m_red_inv, h2x, h2y, h2z)
-            mobility = (
-                inv_d + h1x * g1x + h1y * g1y + h1z * g1z, g12, inv_d + h2x * g2x + h2y * g2y + h2z * g2z,
-                -g1x, -g1y, -g1z, -g2x, -g2y, -g2z,
-            )  # fmt: skip
-        else:
-            od0, od1, od2 = _sym_solve(m_red, rhs[0], rhs[1], rhs[2])
-            mobility = _NO_MOBILITY
+        od0, od1, od2 = _sym_solve(m_red, rhs[0], rhs[1], rhs[2])
         acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
         acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
     else:
@@ -509,30 +398,12 @@ def derivative_and_mobility(
                 inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
                 inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
             )
-        mobility = _NO_MOBILITY
     if contact_out is not None:
         contact_out[:] = _contact_force(
             (nx, ny, nz), legs, (sx, sz), (ox, oy, oz), (rate1, rate2), (od0, od1, od2), (acc1, acc2),
             r, ml, total_h, weight,
         )  # fmt: skip
-    body = (ox, oy, oz, od0, od1, od2)
-    if locked:
-        # Lambda' = M_omega^-1 (f - M_omega' s + C' phidot), s the legs' share (the body rows of
-        # M q'' = f + B tau, with B acting on the legs alone, hold no torque: nor does Lambda').
-        n_rate = (ny * oz - nz * oy, nz * ox - nx * oz, nx * oy - ny * ox)  # n' = n x Omega
-        m_rate, (e1, e2) = _configuration_rate(legs, rate1, rate2, (nx, ny, nz), n_rate, k)
-        ms0, ms1, ms2 = _sym_apply(m_rate, share[0], share[1], share[2])
-        od0, od1, od2 = _sym_apply(
-            m_inv,
-            f0 - ms0 + (e1[0] * rate1 + e2[0] * rate2),
-            f1 - ms1 + (e1[1] * rate1 + e2[1] * rate2),
-            f2 - ms2 + (e1[2] * rate1 + e2[2] * rate2),
-        )
-        mobility = (mobility[0], mobility[1], mobility[2], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2), mobility, body
-
-
-_NO_MOBILITY = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
 
 
 def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r, ml, total_h, weight):
@@ -634,6 +505,11 @@ def contact_kernel(c, d, k: ContactConstants):
         n, ((lc1, ls1, None), (lc2, ls2, None)), first_moment, (c[8], c[9], c[10]), (c[11], c[12]),
         (d[8], d[9], d[10]), (d[11], d[12]), k.radius, ml, k.total_mass * k.depth, k.total_mass * k.gravity,
     )  # fmt: skip
+
+
+KERNELS = (_sincos, _leg_trig, _rotation_products, _configuration, _sym_cofactors, _sym_apply, _sym_solve,
+           tangential_force, _contact_force, derivative_kernel, contact_kernel)
+"""The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it)."""
 
 
 def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):

@@ -41,7 +41,7 @@ from .envs.vector import RRRobotVectorEnv
 from .simulation import DEFAULT_TIMESTEP
 
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
-                    "frame_skip", "start_halves", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
+                    "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
 """Env keywords that change what any agent can do (motors, physics, the model checks): an
 evaluation applies a policy's to every agent it is compared with on that model."""

@@ -20,7 +20,8 @@ import numpy as np
 
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import HeldTargets, pd_torque
-from rrrobot_gym.simulation import SimConfig, _rk4_arrays, advance, initial_state
+from rrrobot_gym.integrators import INTEGRATORS
+from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 CONTROL_STEP = 0.05
 
@@ -95,15 +96,16 @@ def run_scene(config: SimConfig, state, policy, n_control_steps: int, energy_ref
     balance, gain, crossed = 0.0, -math.inf, np.zeros(len(state), bool)
     max_body, max_leg = 0.0, 0.0
     n_sub = max(1, math.ceil(CONTROL_STEP / config.step - 1e-9)) * max(1, energy_refinement)
+    stepper = INTEGRATORS[config.integrator].step
     for step in range(n_control_steps):
         targets = HeldTargets(policy(step))
         t0 = step * CONTROL_STEP
         if energy:
-            # The state and the work advance together, through the package's own RK4 on arrays.
-            y = np.concatenate([state.T, work[None]], axis=0)
+            # The state and the work advance together through the same stepper as advance() uses.
+            f = _power_stepper(config, targets)
             with np.errstate(all="ignore"):
-                y = _rk4_arrays(_power_stepper(config, targets), t0, y, CONTROL_STEP / n_sub, n_sub)
-            state, work = y[:13].T.copy(), y[13].copy()
+                y = stepper(f, f, t0, [*state.T, work], CONTROL_STEP / n_sub, n_sub)
+            state, work = np.stack(y[:13], axis=1), y[13]
             if not np.all(np.isfinite(state)):
                 return SceneResult(False, math.nan, int(crossed.sum()), math.nan, math.nan, math.nan, math.nan, state)
         else:

@@ -157,10 +157,10 @@ def test_times_and_tolerances_are_numbers_checked_by_name():
 def test_a_servo_or_a_body_beyond_floating_point_is_named_not_an_overflow_inside():
     """kp = 1e308 raised OverflowError ("complex exponentiation"), a radius of 1e300 m numpy's
     LinAlgError ("Eigenvalues did not converge"), with nothing naming the parameter."""
-    for integrator, timestep in (("rk4", 1 / 300), ("rk4", "auto"), ("rosw", 1e-3), ("etdrk4b", 1 / 60)):
+    for timestep in (1 / 300, "auto"):
         for gains in (PDGains(kp=1e308), PDGains(kd=1e200)):
             with pytest.raises(ValueError, match="fastest pole overflows floating point"):
-                SimConfig(gains=gains, integrator=integrator, timestep=timestep)
+                SimConfig(gains=gains, timestep=timestep)
     with pytest.raises(ValueError, match="beyond the stability limit"):  # (large but finite: the step is named)
         SimConfig(gains=PDGains(kp=1e300))
     for robot in (RobotParams(radius=1e300), RobotParams(leg_length=1e200)):

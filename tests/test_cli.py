@@ -152,7 +152,6 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         (("--model", "plane", "--gait", "1", "--timestep", "1/50"), "stability limit"),
         (("--model", "plane", "--gait", "1", "--backend", "fortran"), "--backend"),
         (("--model", "plane", "--gait", "1", "--integrator", "euler"), "--integrator"),
-        (("--model", "plane", "--gait", "1", "--integrator", "etdrk4b", "--timestep", "auto"), "fixed step"),
         # (tracebacks from numpy, cmath, matplotlib, the last after the run and its .npz)
         (("--model", "plane", "--gait", "1", "--duration", "1e300"), "samples, more than"),
         (("--model", "plane", "--gait", "1", "--kp", "1e305"), "fastest pole overflows"),
@@ -184,18 +183,6 @@ def test_simulate_takes_the_scene_derived_step(tmp_path):
     data = np.load(tmp_path / "auto.npz")
     assert np.all(np.isfinite(data["phi"])) and data["t"][-1] == pytest.approx(0.05)
 
-
-def test_simulate_takes_a_servo_integrator_beyond_rk4s_stability_limit(tmp_path):
-    """--integrator etdrk4b (or rosw) integrates the servo exactly (implicitly), so the stiff servo
-    that RK4 refuses at 1/1000 s runs there, and follows the same path as RK4 at its auto step."""
-    stiff = ("--model", "pivot", "--gait", "1", "--duration", "0.5", "--kp", "200", "--kd", "5")
-    refused = rrrobot("simulate", *stiff, "--timestep", "0.001", "--out", tmp_path / "rk4.npz", check=False)
-    assert refused.returncode == 2 and "stability limit" in refused.stderr
-    rrrobot("simulate", *stiff, "--timestep", "auto", "--out", tmp_path / "auto.npz")
-    rrrobot("simulate", *stiff, "--timestep", "0.001", "--integrator", "etdrk4b", "--out", tmp_path / "exp.npz")
-    auto, exp = np.load(tmp_path / "auto.npz"), np.load(tmp_path / "exp.npz")
-    assert np.hypot(auto["x"][-1], auto["y"][-1]) > 1e-3  # it moved
-    assert np.hypot(*(np.array([exp["x"], exp["y"]]) - np.array([auto["x"], auto["y"]]))).max() < 1e-4
 
 
 def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):

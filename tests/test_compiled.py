@@ -15,7 +15,6 @@ from conftest import random_states
 
 import rrrobot_gym  # noqa: F401
 import rrrobot_gym.control
-import rrrobot_gym.simulation
 from rrrobot_gym import compiled, dynamics
 from rrrobot_gym.control import Gait, HeldTargets, RampTargets, table2_gait
 from rrrobot_gym.gait_search import SinusoidGait
@@ -71,24 +70,13 @@ def _assert_compiled_is_the_float_stepper(config, states, targets):
     "config",
     [SimConfig(), SimConfig(model="pivot"), SimConfig(torque_limit=0.3),
      SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto"),
-     SimConfig(start_halves=2), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
-     SimConfig(integrator="etdrk4b", timestep=1 / 80),
-     SimConfig(model="pivot", integrator="etdrk4b", torque_limit=0.5, leg_rate_limit=10.0, timestep=1 / 220, start_halves=4),
-     SimConfig(integrator="etdrk4b", gains=PDGains(kp=200.0, kd=5.0), timestep=1 / 300),
-     SimConfig(integrator="rk4_locked"), SimConfig(model="pivot", integrator="rk4_locked", torque_limit=0.5, leg_rate_limit=10.0,
-                                                   start_halves=2)],
-    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-graded", "pivot-motor-graded",
-         "plane-etdrk4b", "pivot-motor-etdrk4b-graded", "plane-stiff-servo-etdrk4b", "plane-rk4-locked",
-         "pivot-motor-rk4-locked-graded"],
+     SimConfig(gains=PDGains(kp=200.0, kd=5.0), timestep="auto")],
+    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-stiff-servo"],
 )  # fmt: skip
 def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
     # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
-    # stepper and one robot on the one-robot stepper. With start_halves, the compiled stepper
-    # takes the graded schedule in one call and summarises its record itself; the float stepper
-    # runs it as two uniform parts and StepRecord.summary summarises the joined record. The
-    # exponential step's lanes have loops of their own; its stiff servo (h |lambda| ~ 140) takes
-    # the doublings of all five phi-functions, the default one (~5 at 1/80 s) those of phi_4 alone.
+    # stepper and one robot on the one-robot stepper.
     assert compiled.LANES < 33 < 2 * compiled.LANES
     record = _assert_compiled_is_the_float_stepper(config, _states(33), _targets(kind, 33, np.random.default_rng(7)))
     if config.torque_limit is not None:
@@ -102,9 +90,8 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
 @pytest.mark.parametrize("kind", ["ramp", "gait"])
 @pytest.mark.parametrize(
     "config",
-    [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, start_halves=1),
-     SimConfig(integrator="etdrk4b", timestep=1 / 80), SimConfig(integrator="rk4_locked", start_halves=1)],
-    ids=["plane", "pivot-motor-graded", "plane-etdrk4b", "plane-rk4-locked-graded"],
+    [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0)],
+    ids=["plane", "pivot-motor"],
 )  # fmt: skip
 def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
     # fewer robots than a block (alone, or after a whole block), but at least PADDED_MIN: a lane
@@ -113,10 +100,7 @@ def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
     _assert_compiled_is_the_float_stepper(config, _states(n, seed=5), _targets(kind, n, np.random.default_rng(3)))
 
 
-@pytest.mark.parametrize(
-    "config", [SimConfig(), SimConfig(integrator="etdrk4b", timestep=1 / 80), SimConfig(integrator="rk4_locked")],
-    ids=["rk4", "etdrk4b", "rk4-locked"],
-)
+@pytest.mark.parametrize("config", [SimConfig(), SimConfig(model="pivot")], ids=["plane", "pivot"])
 def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit(config):
     # 4 s of Gait 2 from the paper's start, the hardest start transient, in env-sized steps.
     fast = slow = initial_state()
@@ -130,7 +114,7 @@ def test_one_robot_over_a_paper_run_is_the_float_stepper_to_the_bit(config):
 
 
 def test_compiled_agrees_with_the_numpy_batch_to_rounding():
-    # The batched numpy stepper sums RK4's stages in another order: equal to rounding, not to the bit.
+    # The batched numpy stepper evaluates the derivative on arrays: equal to rounding, not to the bit.
     states = _states(40, seed=3)
     targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(2).uniform(0, 3, (40, 2)), 0.0, 0.05)
     fast = advance(SimConfig(backend="numba"), states, 0.0, 0.05, targets)
@@ -139,14 +123,13 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
     np.testing.assert_allclose(fast, numpy, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "etdrk4b", "rk4_locked"])
 @pytest.mark.parametrize("workers", [2, 3])
 @pytest.mark.parametrize("rest", [5, compiled.PADDED_MIN + 3])
-def test_threads_give_the_one_thread_result(workers, integrator, rest):
+def test_threads_give_the_one_thread_result(workers, rest):
     n = 3 * compiled.LANES + rest  # lane blocks and single robots or a padded block, shared among the threads
     states = _states(n, seed=4)
     targets = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(5).uniform(0, 3, (n, 2)), 0.0, 0.05)
-    config = SimConfig(backend="numba", integrator=integrator, timestep=1 / 80 if integrator == "etdrk4b" else 1 / 300)
+    config = SimConfig(backend="numba")
     one, one_record = advance(config, states, 0.0, 0.05, targets, record=True)
     many, many_record = advance(config, states, 0.0, 0.05, targets, record=True, workers=workers)
     assert np.array_equal(one, many)
@@ -182,8 +165,9 @@ def test_auto_takes_numba_where_it_applies_and_numpy_elsewhere(monkeypatch):
     numba = advance(SimConfig(backend="numba"), states, 0.0, 0.05, gait)
     assert np.array_equal(advance(SimConfig(), states, 0.0, 0.05, gait), numba)
     # scenes and targets it does not cover go to numpy under "auto"
-    rk3 = SimConfig(integrator="rk3")
-    assert np.array_equal(advance(rk3, states, 0.0, 0.05, gait), advance(replace(rk3, backend="numpy"), states, 0.0, 0.05, gait))
+    kinematic = SimConfig(legs="kinematic")
+    assert np.array_equal(advance(kinematic, states, 0.0, 0.05, gait),
+                          advance(replace(kinematic, backend="numpy"), states, 0.0, 0.05, gait))  # fmt: skip
 
     class Custom:
         def leg_targets(self, t):
@@ -202,8 +186,6 @@ def test_bad_backend_requests_name_the_problem():
         SimConfig(backend="numbaa")
     with pytest.raises(ValueError, match="servo legs with integrator 'rk4'.*kinematic"):
         SimConfig(backend="numba", legs="kinematic")
-    with pytest.raises(ValueError, match="rosw"):
-        SimConfig(backend="numba", integrator="rosw", timestep=1 / 300)
 
     class Custom:
         def leg_targets(self, t):
@@ -222,14 +204,14 @@ def test_a_compiled_blow_up_is_a_numerical_failure():
         advance(SimConfig(backend="numba"), state, 0.0, 0.05, table2_gait(1))
 
 
-@pytest.mark.parametrize("integrator, n_steps", [("rk4", 15), ("etdrk4b", 4)])
-def test_a_blow_up_in_a_lane_block_stays_in_its_lane(integrator, n_steps):
+def test_a_blow_up_in_a_lane_block_stays_in_its_lane():
     # one robot of a SIMD block blows up: the batch fails by name, and its block-mates, run
     # without it, are what they were beside it (no lane reads another's numbers)
     n = compiled.LANES
     states = _states(n, seed=11)
     states[5, dynamics.BODY_RATE] = (0.0, 0.0, 5000.0)
-    config = SimConfig(backend="numba", integrator=integrator, timestep=0.05 / n_steps)
+    n_steps = 15
+    config = SimConfig(backend="numba")
     with pytest.raises(NumericalFailure, match="turns too fast"):
         advance(config, states, 0.0, 0.05, table2_gait(1))
     gait = compiled.target_arrays(table2_gait(1))
@@ -260,7 +242,7 @@ def test_envs_step_alike_on_both_backends():
 
 def test_the_cache_directory_follows_every_compiled_source(tmp_path):
     # numba re-checks only a function's own file; the directory must change with any of them
-    sources = [compiled.__file__, dynamics.__file__, rrrobot_gym.control.__file__, rrrobot_gym.simulation.__file__]
+    sources = [compiled.__file__, dynamics.__file__, rrrobot_gym.control.__file__]
     copies = []
     for i, path in enumerate(sources):
         copy = tmp_path / f"{i}.py"
@@ -305,6 +287,8 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
             for _ in range(2)]  # fmt: skip
     assert not stale.exists() and recent.exists()
     (hits1, misses1, where1), (hits2, misses2, where2) = (r.stdout.split() for r in runs)
+    # a line on stderr says so while it compiles (one a stepper), and none when it loads from the cache
+    assert runs[0].stderr.count("rrrobot_gym: compiling the numba stepper") == 2 and "compiling" not in runs[1].stderr
     assert (hits1, misses1) == ("0", "2") and (hits2, misses2) == ("2", "0")
     assert where1 == where2 and where1.startswith(str(tmp_path))
     # numba names cache files by the function's name, not by parallel=: the threaded stepper
@@ -322,16 +306,12 @@ def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     targets = compiled.target_arrays(_targets("ramp", n, np.random.default_rng(9)))
     k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
     h = 0.05 / 15
-    # uniform; then a graded start (two halves, the first recorded) before two whole substeps
-    for lead, t, n_steps in ((None, 0.1, 3), ((0.1, 0.5 * h, 2), 0.1 + h, 2)):
-        y = states.copy()
-        rows = np.empty((3, compiled.RECORD_ROWS, n))
-        summary = np.empty((compiled.SUMMARY_ROWS, n))
-        t_lead, h_lead, n_lead = lead or (t, 0.0, 0)
-        compiled._batch(y, t_lead, h_lead, n_lead, t, h, n_steps, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
-        fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, t, h, n_steps, True,
-                                                           lead=lead)  # fmt: skip
-        assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
+    y = states.copy()
+    rows = np.empty((3, compiled.RECORD_ROWS, n))
+    summary = np.empty((compiled.SUMMARY_ROWS, n))
+    compiled._batch(y, 0.1, h, 3, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
+    fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, h, 3, True)
+    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
 
 
 def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp_path):
@@ -345,26 +325,3 @@ def test_pruning_caches_marks_the_one_in_use_and_removes_only_stale_siblings(tmp
     assert removed == [str(folders["numba-old"])]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["numba-current", "numba-young", "other-old"]
     assert os.stat(folders["numba-current"]).st_mtime == now  # in use: its own age starts again
-
-
-def test_the_exponential_stepper_run_as_plain_python_gives_what_numba_compiled():
-    # compiled._batch_etd uncompiled (simulation's servo algebra, plain Python) against its compiled
-    # copy, on a block of lanes and two robots of the one-robot stepper: a graded start (two halves,
-    # the first recorded), then two whole steps
-    from rrrobot_gym.simulation import _doublings, _ServoExponential
-
-    config = SimConfig(integrator="etdrk4b", timestep=1 / 80, torque_limit=0.4)
-    n = compiled.LANES + 2
-    states = _states(n, seed=8)
-    targets = compiled.target_arrays(_targets("ramp", n, np.random.default_rng(9)))
-    k, kc, gains = compiled._scene(config.robot, config.depth, config.gains)
-    h = 1 / 80
-    lead = (0.1, 0.5 * h, 2)
-    y = states.copy()
-    rows = np.empty((3, compiled.RECORD_ROWS, n))
-    summary = np.empty((compiled.SUMMARY_ROWS, n))
-    doublings = [(_ServoExponential.TERMS, *_doublings(config, step)) for step in (0.5 * h, h)]
-    compiled._batch_etd(y, *lead, doublings[0], 0.1 + h, h, 2, doublings[1], k, kc, gains, 0.4, None, *targets, rows, summary)
-    fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1 + h, h, 2, True,
-                                                       lead=lead)  # fmt: skip
-    assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)

@@ -134,12 +134,11 @@ def test_physics_holds_gaits_to_motor_limits_without_a_policy():
 
 
 def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move():
-    # The graded schedule at the default's cost (docs/benchmarks.md, "At the default's cost"): 13 substeps, the
-    # first two in halves, the same 0.05 s control step. The same physics integrated otherwise:
+    # 13 substeps of the same 0.05 s control step. The same physics integrated otherwise:
     # every gait's speed must agree with the default's to well under a mm/s, and not to the bit.
     from rrrobot_gym.evaluation import main
 
-    graded = {"timestep": 0.05 / 13, "frame_skip": 13, "start_halves": 2}
+    graded = {"timestep": 0.05 / 13, "frame_skip": 13}
     plain = main(["--no-policy", "--models", "plane", "--duration", "2"])
     records = main(["--no-policy", "--models", "plane", "--duration", "2"] + [a for k, v in graded.items() for a in ("--physics", f"{k}={v!r}")])
     assert records and all(r["physics"] == graded for r in records)

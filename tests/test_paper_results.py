@@ -132,17 +132,14 @@ def test_the_stored_reference_paths_are_what_the_reference_solver_gives_today(mo
 
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 @pytest.mark.parametrize("gait_number", [1, 2, 3])
-def test_default_step_and_rk3_keep_the_contact_point_within_1mm_of_the_reference(model, gait_number, reference_paths):
-    """RK4 at the default 1/300 s, and RK3 at 1/340 s (the cheapest RK3 step under 1 mm in
-    ``benchmarks.work_precision``), over the paper's 50 s, against the stored DOP853 reference."""
+def test_the_default_step_keeps_the_contact_point_within_1mm_of_the_reference(model, gait_number, reference_paths):
+    """RK4 at the default 1/300 s over the paper's 50 s, against the stored DOP853 reference."""
     reference = reference_paths[0][(model, gait_number)]
     every = round(reference_paths_module.SAMPLE_DT / 0.01)
-    rk3 = simulate(SimConfig(model=model, integrator="rk3", timestep=1.0 / 340.0), table2_gait(gait_number), DURATION)
-    for fixed in (run(model, gait_number), rk3):
-        path = np.column_stack([fixed.x, fixed.y])[::every]
-        assert path.shape == reference.shape
-        error = np.hypot(*(path - reference).T)
-        assert error.max() < 1e-3, fixed.config.integrator
+    fixed = run(model, gait_number)
+    path = np.column_stack([fixed.x, fixed.y])[::every]
+    assert path.shape == reference.shape
+    assert np.hypot(*(path - reference).T).max() < 1e-3
 
 
 # Substeps a 0.05 s env step whose errors give RK4's observed order: on the plane from about
@@ -155,7 +152,7 @@ ORDER_SUBSTEPS = {"plane": (10, 14), "pivot": (8, 12)}
 @pytest.mark.parametrize("gait_number", [1, 2, 3])
 def test_rk4_converges_at_fourth_order_on_the_gaits_once_the_start_is_resolved(model, gait_number, reference_paths):
     """Nearly all of a fixed step's error on a gait is made in its first env step, where the
-    legs start from rest onto moving targets (``benchmarks.start_halves --accuracy``). With that
+    legs start from rest onto moving targets (docs/notes/integrators.md). With that
     step alone taken at 1/2400 s, the rest of the 50 s path, in env steps of 0.05 s as the envs
     take them, must converge on the stored DOP853 reference at RK4's order: the maximum contact
     error over the path falls as the step's fourth power (observed 3.9-4.6). A slip of a stage's

@@ -283,7 +283,7 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
     summary = np.full((compiled.SUMMARY_ROWS, robots), -7.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         summarise(rows, summary, 0, robots)
-    expected = _Recorder._record_of(rows, 0.0, 0.01).summary()
+    expected = _Recorder.record_of(rows, 0.0, 0.01).summary()
     for j, key in enumerate(SUMMARY_KEYS):
         assert np.array_equal(summary[j], expected[key], equal_nan=True), key
     assert np.isnan(summary[0, 0]) and np.isnan(summary[1, 0]) and np.isnan(summary[3, 1]) and np.isnan(summary[4, 1])

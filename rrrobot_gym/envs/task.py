@@ -189,12 +189,6 @@ class TaskConfig:
     leg_rate_limit: float | None = _keyword(
         None, "rad/s, the leg motors' no-load speed (needs `torque_limit`); None: unlimited"
     )
-    start_halves: int = _keyword(
-        0, "servo legs: the first so many integration steps of each control step taken in halves, where the new "
-        "targets kick the servo (4 derivative evaluations more each; `rrrobot_gym.simulation.SimConfig`). With "
-        "`timestep=0.05/13, frame_skip=13, start_halves=2` a step costs the default's 60 and errs less, though the "
-        "model checks' verdicts move with the step (README)"
-    )
     forward_reward_weight: float = _keyword(1.0, "reward per cm/s along the commanded heading")
     ctrl_cost_weight: float = _keyword(0.01, "cost per unit \\|action\\|^2 (>= 0)")
     reset_noise_scale: float = _keyword(
@@ -272,7 +266,6 @@ class TaskConfig:
             legs=self.legs,
             torque_limit=self.torque_limit,
             leg_rate_limit=self.leg_rate_limit,
-            start_halves=self.start_halves,
         )
         put("_sim", sim)
         put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight, weight=True))

@@ -34,10 +34,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
     :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
     episode end) plus ``num_envs``, ``max_episode_steps`` (control steps before truncation;
-    None never truncates) and ``workers`` (integrate the batch in that many blocks, on numba's
-    threads or, on numpy, in worker processes that close() stops; bit-identical to one:
-    :func:`rrrobot_gym.simulation.advance`; it pays for large batches, ``python -m
-    benchmarks.throughput``).
+    None never truncates) and ``workers`` (share the batch's robots among that many of numba's
+    threads, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; the compiled stepper
+    only; it pays for large batches, ``python -m benchmarks.throughput``).
     ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
@@ -85,6 +84,12 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.max_episode_steps = max_episode_steps
         self.workers = whole_number("workers", workers)
         self.config = task.make_task_config(**kwargs)
+        if self.workers > 1 and not simulation.takes_compiled(self.config.sim):
+            raise ValueError(
+                f"workers={self.workers} shares the robots among numba's threads, and this env runs on numpy "
+                f"(backend {self.config.backend!r}, legs {self.config.legs!r}"
+                f"{'' if simulation.compiled.available() else ', numba not installed'}): use workers=1"
+            )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"unknown render_mode {render_mode!r} for the vector env: expected None or 'rgb_array' "
@@ -326,10 +331,6 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         return observations
 
     # ------------------------------------------------------------------
-
-    def close_extras(self, **kwargs):
-        if self.workers > 1:  # (the numpy path's worker processes outlived the env)
-            simulation.close_workers()
 
     def render(self):
         if self.render_mode is None:
