@@ -257,14 +257,15 @@ def test_the_cache_directory_follows_every_compiled_source(tmp_path):
         open(copy, "wb").write(original)
 
 
-def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
-    import os
+def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
+    import shutil
     import subprocess
     import sys
     import time
 
-    # (a threaded stepper whose loop numba could not parallelise would compile with a warning and
-    # run on one thread: an error here, as in every test, conftest.pytest_configure)
+    # this process's cache holds both steppers (compiled here or by an earlier process); a copy
+    # of it is what a second process finds after the first compiled: it loads, and says nothing
+    _use_both_steppers()
     script = (
         "import warnings, numba\n"
         "warnings.simplefilter('error', numba.NumbaPerformanceWarning)\n"
@@ -276,25 +277,45 @@ def test_a_second_process_loads_the_compiled_stepper_from_the_cache(tmp_path):
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
         "      compiled.cache_dir())\n"
     )
-    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    warm = compiled.cache_dir()
+    shutil.copytree(warm, tmp_path / "rrrobot_gym" / os.path.basename(warm))
     # the caches of other sources: one unused for 40 days (removed), one used yesterday (kept)
     stale, recent = (tmp_path / "rrrobot_gym" / name for name in ("numba-0000000000000000", "numba-1111111111111111"))
     for folder, days in ((stale, 40), (recent, 1)):
         (folder / "sub").mkdir(parents=True)
         (folder / "sub" / "f.nbi").write_text("")
         os.utime(folder, (time.time() - days * 86400, time.time() - days * 86400))
-    runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
-            for _ in range(2)]  # fmt: skip
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
+    run = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
     assert not stale.exists() and recent.exists()
-    (hits1, misses1, where1), (hits2, misses2, where2) = (r.stdout.split() for r in runs)
-    # a line on stderr says so while it compiles (one a stepper), and none when it loads from the cache
-    assert runs[0].stderr.count("rrrobot_gym: compiling the numba stepper") == 2 and "compiling" not in runs[1].stderr
-    assert (hits1, misses1) == ("0", "2") and (hits2, misses2) == ("2", "0")
-    assert where1 == where2 and where1.startswith(str(tmp_path))
+    hits, misses, where = run.stdout.split()
+    assert (hits, misses) == ("2", "0") and "compiling" not in run.stderr
+    assert where == str(tmp_path / "rrrobot_gym" / os.path.basename(warm))
     # numba names cache files by the function's name, not by parallel=: the threaded stepper
     # must have files of its own, or one process would load the serial code for it
-    names = [name for folder in os.listdir(where1) for name in os.listdir(os.path.join(where1, folder))]
+    names = [name for folder in os.listdir(where) for name in os.listdir(os.path.join(where, folder))]
     assert any(n.startswith("compiled._batch-") for n in names) and any(n.startswith("compiled._batch_threaded-") for n in names)
+
+
+def _use_both_steppers():
+    """Compile (or load) the serial and the threaded stepper in this process, as a batch run does."""
+    for workers in (1, 2):
+        advance(SimConfig(backend="numba"), initial_state(2), 0.0, 0.05, table2_gait(1), workers=workers)
+
+
+def test_making_a_stepper_says_it_compiles_only_when_the_cache_lacks_it(tmp_path, monkeypatch, capsys):
+    # (making the dispatcher prints the notice; numba compiles on its first call, not made here)
+    _use_both_steppers()
+    capsys.readouterr()
+    for parallel in (False, True):
+        compiled._stepper.__wrapped__(parallel)
+    assert capsys.readouterr().err == ""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    for parallel in (False, True):
+        compiled._stepper.__wrapped__(parallel)
+    notices = capsys.readouterr().err.splitlines()
+    assert [line.split(":")[1] for line in notices] == [" compiling the numba stepper", " compiling the numba stepper (threaded)"]
+    assert all("cached after" in line for line in notices)
 
 
 def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
