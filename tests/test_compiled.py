@@ -65,19 +65,26 @@ def _assert_compiled_is_the_float_stepper(config, states, targets):
     return record
 
 
-@pytest.mark.parametrize("kind", ["ramp", "held", "gait", "sinusoid"])
-@pytest.mark.parametrize(
-    "config",
-    [SimConfig(), SimConfig(model="pivot"), SimConfig(torque_limit=0.3),
-     SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0), SimConfig(model="pivot", timestep="auto"),
-     SimConfig(gains=PDGains(kp=200.0, kd=5.0), timestep="auto")],
-    ids=["plane", "pivot", "plane-torque-limit", "pivot-motor", "pivot-auto-step", "plane-stiff-servo"],
-)  # fmt: skip
-def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
+KINDS = ("ramp", "held", "gait", "sinusoid")
+SCENES = {
+    "plane": SimConfig(), "pivot": SimConfig(model="pivot"), "plane-torque-limit": SimConfig(torque_limit=0.3),
+    "pivot-motor": SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0),
+    "pivot-auto-step": SimConfig(model="pivot", timestep="auto"),
+    "plane-stiff-servo": SimConfig(gains=PDGains(kp=200.0, kd=5.0), timestep="auto"),
+}  # fmt: skip
+"""Scenes that compile differently (the limits or their absence) meet every kind of target; the
+others (another model, step or gains: other numbers through the same code) one kind each."""
+SCENE_KINDS = [(scene, kind) for scene in ("plane", "plane-torque-limit", "pivot-motor") for kind in KINDS] + [
+    ("pivot", "gait"), ("pivot-auto-step", "sinusoid"), ("plane-stiff-servo", "ramp")]
+
+
+@pytest.mark.parametrize("scene, kind", SCENE_KINDS, ids=[f"{s}-{k}" for s, k in SCENE_KINDS])
+def test_compiled_batch_is_the_float_stepper_to_the_bit(scene, kind):
     # 33 robots: more than ROW_BY_ROW_MAX, so the numpy backend would batch them with numpy;
     # each is compared with its own run on Python floats. They are a block of the lane (SIMD)
     # stepper and one robot on the one-robot stepper.
     assert compiled.LANES < 33 < 2 * compiled.LANES
+    config = SCENES[scene]
     record = _assert_compiled_is_the_float_stepper(config, _states(33), _targets(kind, 33, np.random.default_rng(7)))
     if config.torque_limit is not None:
         peak = np.max(np.abs(record.torque))
@@ -87,17 +94,12 @@ def test_compiled_batch_is_the_float_stepper_to_the_bit(config, kind):
 
 
 @pytest.mark.parametrize("n", [compiled.PADDED_MIN + 4, compiled.LANES + compiled.PADDED_MIN])
-@pytest.mark.parametrize("kind", ["ramp", "gait"])
-@pytest.mark.parametrize(
-    "config",
-    [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0)],
-    ids=["plane", "pivot-motor"],
-)  # fmt: skip
-def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(config, kind, n):
+@pytest.mark.parametrize("scene, kind", [("plane", "ramp"), ("pivot-motor", "gait")])
+def test_a_padded_lane_block_is_the_float_stepper_to_the_bit(scene, kind, n):
     # fewer robots than a block (alone, or after a whole block), but at least PADDED_MIN: a lane
     # block padded with copies of the last; each robot, its record and summary are its own run's
     assert compiled.PADDED_MIN <= n % compiled.LANES
-    _assert_compiled_is_the_float_stepper(config, _states(n, seed=5), _targets(kind, n, np.random.default_rng(3)))
+    _assert_compiled_is_the_float_stepper(SCENES[scene], _states(n, seed=5), _targets(kind, n, np.random.default_rng(3)))
 
 
 @pytest.mark.parametrize("config", [SimConfig(), SimConfig(model="pivot")], ids=["plane", "pivot"])
@@ -123,8 +125,7 @@ def test_compiled_agrees_with_the_numpy_batch_to_rounding():
     np.testing.assert_allclose(fast, numpy, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("workers", [2, 3])
-@pytest.mark.parametrize("rest", [5, compiled.PADDED_MIN + 3])
+@pytest.mark.parametrize("workers, rest", [(2, 5), (3, compiled.PADDED_MIN + 3)])
 def test_threads_give_the_one_thread_result(workers, rest):
     n = 3 * compiled.LANES + rest  # lane blocks and single robots or a padded block, shared among the threads
     states = _states(n, seed=4)
