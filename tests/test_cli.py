@@ -43,6 +43,19 @@ def rrrobot(*args, check=True):
     return result
 
 
+def rrrobot_here(capsys, *args):
+    """``rrrobot *args`` in this process (as the command line's main, which turns each error it
+    knows into one line and exit status 2, and lets any other exception out): (status, stderr)."""
+    from rrrobot_gym.cli import main
+
+    capsys.readouterr()
+    try:
+        status = main([str(arg) for arg in args])
+    except SystemExit as exit_info:  # argparse
+        status = exit_info.code
+    return status, capsys.readouterr().err
+
+
 # ---------------------------------------------------------------- table1
 
 
@@ -162,26 +175,32 @@ def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
         (("--model", "plane", "--gait", "1", "--plot", "/no-such-rrrobot-directory/figure.png"), "no directory"),
     ],
 )
-def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem):
+def test_bad_simulate_argument_is_one_clear_error(tmp_path, args, problem, capsys):
     # A later option wins in argparse, so a bad --duration in ``args`` overrides the short default.
-    result = rrrobot("simulate", "--duration", "1", *args, "--out", tmp_path / "run.npz", check=False)
-    assert result.returncode != 0
-    assert "Traceback" not in result.stderr
-    error_lines = [line for line in result.stderr.splitlines() if "error:" in line]
-    assert len(error_lines) == 1 and problem in error_lines[0], result.stderr
+    status, stderr = rrrobot_here(capsys, "simulate", "--duration", "1", *args, "--out", tmp_path / "run.npz")
+    assert status == 2
+    error_lines = [line for line in stderr.splitlines() if "error:" in line]
+    assert len(error_lines) == 1 and problem in error_lines[0], stderr
     assert not (tmp_path / "run.npz").exists()
 
 
-def test_simulate_takes_the_scene_derived_step(tmp_path):
+def test_simulate_takes_the_scene_derived_step(tmp_path, capsys):
     """--timestep auto with 100x stiffer gains: the auto step follows them, where the default
     1/300 s step would be refused as unstable."""
-    refused = rrrobot("simulate", "--model", "pivot", "--gait", "1", "--duration", "0.05", "--kp", "200", "--kd", "5",
-                      "--out", tmp_path / "fixed.npz", check=False)  # fmt: skip
-    assert refused.returncode == 2 and "timestep='auto'" in refused.stderr
-    rrrobot("simulate", "--model", "pivot", "--gait", "1", "--duration", "0.05", "--kp", "200", "--kd", "5",
-            "--timestep", "auto", "--out", tmp_path / "auto.npz")  # fmt: skip
+    stiff = ("simulate", "--model", "pivot", "--gait", "1", "--duration", "0.2", "--kp", "200", "--kd", "5")
+    status, stderr = rrrobot_here(capsys, *stiff, "--out", tmp_path / "fixed.npz")
+    assert status == 2 and "timestep='auto'" in stderr
+    assert rrrobot_here(capsys, *stiff, "--timestep", "auto", "--out", tmp_path / "auto.npz")[0] == 0
     data = np.load(tmp_path / "auto.npz")
-    assert np.all(np.isfinite(data["phi"])) and data["t"][-1] == pytest.approx(0.05)
+    assert data["t"][-1] == pytest.approx(0.2)
+    # the stiff servo holds the legs closer to the gait's targets (measured: 0.45 of the default's lag)
+    from rrrobot_gym.control import table2_gait
+
+    later = data["t"] >= 0.1
+    lag = np.abs(data["phi"][later] - table2_gait(1).angles(data["t"][later])).max()
+    assert rrrobot_here(capsys, *stiff[:-4], "--out", tmp_path / "default.npz")[0] == 0
+    default = np.load(tmp_path / "default.npz")
+    assert lag < 0.6 * np.abs(default["phi"][later] - table2_gait(1).angles(default["t"][later])).max()
 
 
 
