@@ -68,48 +68,74 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
 
 @pytest.fixture(scope="module")
 def interrupted_run(tmp_path_factory):
-    """A long run stopped by Ctrl-C once it has written a checkpoint (shared by the next two tests)."""
+    """A long run stopped by Ctrl-C once it has written a checkpoint (shared by the next three
+    tests): in this process, the signal sent to its main thread as a terminal sends it."""
+    import threading
+
+    import torch
+
+    from rrrobot_gym import training
+
     runs_dir = tmp_path_factory.mktemp("interrupted")
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "train.py", "--total-timesteps", "10000000", "--runs-dir", str(runs_dir), *TINY],
-                            cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.time() + 120
-    while time.time() < deadline and not list(runs_dir.glob("*/checkpoints/*.zip")):
-        time.sleep(0.5)
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=120)
-    return proc.returncode, out, err, only_run(runs_dir)
+    threads = torch.get_num_threads()
+
+    def press_ctrl_c():
+        deadline = time.time() + 300
+        while time.time() < deadline and not list(runs_dir.glob("*/checkpoints/*.zip")):
+            time.sleep(0.2)
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
+
+    presser = threading.Thread(target=press_ctrl_c)
+    presser.start()
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            training.main(["--total-timesteps", "10000000", "--runs-dir", str(runs_dir), *TINY])
+    finally:
+        presser.join()
+        torch.set_num_threads(threads)
+    return exit_info.value.code, only_run(runs_dir)
 
 
-def test_ctrl_c_saves_the_model_before_exiting(interrupted_run):
-    returncode, out, err, run_dir = interrupted_run
-    assert returncode == 130, err
-    assert "saving the model" in out
+def test_ctrl_c_saves_the_model_before_exiting(interrupted_run, capsys):
+    returncode, run_dir = interrupted_run
+    assert returncode == 130
     assert (run_dir / "final_model.zip").is_file()
+    from stable_baselines3 import PPO
+
+    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
+    # the model saved is the one training had reached: at or past its last checkpoint
+    assert PPO.load(run_dir / "final_model.zip", device="cpu").num_timesteps >= int(checkpoint.stem.split("_")[1])
+
+
+def _resume(interrupted_run, tmp_path, *flags):
+    """train.py --resume from the interrupted run's last checkpoint for 512 more steps, here:
+    (the checkpoint's steps, the resumed run's final model)."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from rrrobot_gym import training
+
+    *_, run_dir = interrupted_run
+    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
+    threads = torch.get_num_threads()
+    try:
+        resumed = training.main(["--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint),
+                                 *TINY, *flags])  # fmt: skip
+    finally:
+        torch.set_num_threads(threads)
+    return int(checkpoint.stem.split("_")[1]), PPO.load(resumed / "final_model.zip", device="cpu")
 
 
 def test_resume_continues_from_a_checkpoint(interrupted_run, tmp_path):
-    *_, run_dir = interrupted_run
-    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
-    steps = int(checkpoint.stem.split("_")[1])
-    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint), *TINY])
-    assert resumed.returncode == 0, resumed.stderr
-    from stable_baselines3 import PPO
-
-    model = PPO.load(only_run(tmp_path) / "final_model.zip", device="cpu")
+    steps, model = _resume(interrupted_run, tmp_path)
     assert model.num_timesteps == steps + 512  # continued counting from the checkpoint's steps
 
 
-def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interrupted_run, tmp_path):
-    *_, run_dir = interrupted_run
-    checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
-    resumed = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint),
-                   *TINY, "--learning-rate", "0.0001", "--learning-rate-final", "none", "--n-epochs", "3"])
-    assert resumed.returncode == 0, resumed.stderr
-    assert "learning_rate 0.0001" in resumed.stdout and "n_epochs 3" in resumed.stdout
-    from stable_baselines3 import PPO
-
-    model = PPO.load(only_run(tmp_path) / "final_model.zip", device="cpu")
+def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interrupted_run, tmp_path, capsys):
+    _, model = _resume(interrupted_run, tmp_path, "--learning-rate", "0.0001", "--learning-rate-final", "none",
+                       "--n-epochs", "3")  # fmt: skip
+    out = capsys.readouterr().out
+    assert "learning_rate 0.0001" in out and "n_epochs 3" in out
     assert (model.learning_rate, model.lr_schedule(1.0), model.lr_schedule(0.0), model.n_epochs) == (1e-4, 1e-4, 1e-4, 3)
     assert model.clip_range(1.0) == 0.2 and model.gae_lambda == 0.95  # not given: as trained
 
@@ -195,11 +221,14 @@ def test_bad_motor_and_clock_arguments_are_named(argv, named, capsys):
     assert named in capsys.readouterr().err
 
 
-def test_bad_arguments_are_named(tmp_path):
-    result = run(["train.py", "--model", "moon", "--runs-dir", str(tmp_path)])
-    assert result.returncode != 0 and "--model" in result.stderr and "Traceback" not in result.stderr
-    result = run(["evaluate.py", "--policy", str(tmp_path / "missing.zip")])
-    assert result.returncode != 0 and "no model file" in result.stderr and "Traceback" not in result.stderr
+def test_bad_arguments_are_named(tmp_path, capsys):
+    from rrrobot_gym import evaluation, training
+
+    for main, argv, named in ((training.main, ["--model", "moon", "--runs-dir", str(tmp_path)], "--model"),
+                              (evaluation.main, ["--policy", str(tmp_path / "missing.zip")], "no model file")):  # fmt: skip
+        with pytest.raises(SystemExit) as exit_info:
+            main(argv)
+        assert exit_info.value.code == 2 and named in capsys.readouterr().err
 
 
 def test_gait_agents_move_like_the_simulator_core():
