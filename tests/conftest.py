@@ -30,3 +30,19 @@ def random_states(rng, n, max_tilt=0.6, max_rate=1.5):
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261122)
+
+
+@pytest.hookimpl(tryfirst=True)  # (before pytest-xdist reads the marks)
+def pytest_collection_modifyitems(items):
+    # Under pytest-xdist (pyproject's addopts), tests that share a module-scoped fixture of
+    # these tests go to one worker, so the fixture (a training run, a search) is made once.
+    for item in items:
+        defs = getattr(item, "_fixtureinfo", None)
+        shared = sorted(
+            f"{fixture.baseid}::{name}"
+            for name, fixtures in (defs.name2fixturedefs.items() if defs else ())
+            for fixture in fixtures[-1:]
+            if fixture.scope == "module" and fixture.baseid.startswith("tests")
+        )
+        if shared:
+            item.add_marker(pytest.mark.xdist_group(shared[0]))

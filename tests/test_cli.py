@@ -217,7 +217,7 @@ def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):
     # of this process's (warm) cache, which a process that runs the stepper marks used, and only that
     advance(SimConfig(backend="numba"), initial_state(), 0.0, 0.05, table2_gait(2))
     cache = tmp_path / "cache" / "rrrobot_gym" / os.path.basename(compiled.cache_dir())
-    shutil.copytree(compiled.cache_dir(), cache)
+    shutil.copytree(compiled.cache_dir(), cache, ignore=shutil.ignore_patterns("*.tmp.*"))  # (files numba is writing)
     os.utime(cache, (1e9, 1e9))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     runs = {}

@@ -279,7 +279,8 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
         "      compiled.cache_dir())\n"
     )
     warm = compiled.cache_dir()
-    shutil.copytree(warm, tmp_path / "rrrobot_gym" / os.path.basename(warm))
+    # (another test process may be writing into it: numba writes each file as *.tmp.* and renames it)
+    shutil.copytree(warm, tmp_path / "rrrobot_gym" / os.path.basename(warm), ignore=shutil.ignore_patterns("*.tmp.*"))
     # the caches of other sources: one unused for 40 days (removed), one used yesterday (kept)
     stale, recent = (tmp_path / "rrrobot_gym" / name for name in ("numba-0000000000000000", "numba-1111111111111111"))
     for folder, days in ((stale, 40), (recent, 1)):
