@@ -59,6 +59,7 @@ def rrrobot_here(capsys, *args):
 # ---------------------------------------------------------------- table1
 
 
+@pytest.mark.slow
 def test_table1_json_reproduces_the_papers_periods():
     records = json.loads(rrrobot("table1", "--json").stdout)  # strict JSON: NaN would not parse as null
     by_entry = {(r["model"], r["axis"]): r for r in records}
@@ -71,6 +72,7 @@ def test_table1_json_reproduces_the_papers_periods():
     assert by_entry[("plane", "x")]["paper_formula_s"] is None
 
 
+@pytest.mark.slow
 def test_table1_text_flags_that_the_literal_formulas_miss_the_paper():
     text = rrrobot("table1").stdout
     for model, axis, paper in (("plane", "X", "1.29"), ("plane", "Y", "1.07"), ("pivot", "X", "1.19"), ("pivot", "Y", "0.96")):
@@ -100,6 +102,7 @@ def gait3_runs(tmp_path_factory):
     }
 
 
+@pytest.mark.slow
 def test_simulate_writes_exactly_the_documented_arrays(gait3_runs):
     arrays = gait3_runs["normal"]
     assert set(arrays) == set(DOCUMENTED_ARRAYS)
@@ -112,6 +115,7 @@ def test_simulate_writes_exactly_the_documented_arrays(gait3_runs):
     np.testing.assert_allclose(np.diff(arrays["t"]), SAMPLE_DT, rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_simulate_attitude_arrays_agree(gait3_runs):
     arrays = gait3_runs["normal"]
     np.testing.assert_allclose(np.linalg.norm(arrays["quat"], axis=1), 1.0, atol=1e-12)
@@ -122,6 +126,7 @@ def test_simulate_attitude_arrays_agree(gait3_runs):
     assert np.ptp(arrays["theta"], axis=0).min() > 0.01  # all three angles move in Gait 3
 
 
+@pytest.mark.slow
 def test_simulate_body_rate_is_world_frame_and_moves_the_contact_point(gait3_runs):
     # Contact kinematics (paper eq. 2/4): xdot = r w_y, ydot = -r w_x with w in the WORLD frame.
     # The first 0.5 s are skipped: the legs leap to the gait's start there, faster than the sampling.
@@ -139,6 +144,7 @@ def test_simulate_body_rate_is_world_frame_and_moves_the_contact_point(gait3_run
     assert np.abs(body_frame_y - arrays["y"][later]).max() > 10 * 2e-4
 
 
+@pytest.mark.slow
 def test_swap_phase_mirrors_the_path_in_y(gait3_runs):
     normal, swapped = gait3_runs["normal"], gait3_runs["swapped"]
     assert np.ptp(normal["y"]) > 0.01
@@ -146,6 +152,7 @@ def test_swap_phase_mirrors_the_path_in_y(gait3_runs):
     np.testing.assert_allclose(swapped["y"], -normal["y"], atol=1e-10)
 
 
+@pytest.mark.slow
 def test_simulate_prints_travel_and_draws_the_plot(gait3_runs):
     assert "moved" in gait3_runs["stdout"] and "turned" in gait3_runs["stdout"]
     assert gait3_runs["plot"].read_bytes()[:8] == PNG_SIGNATURE
@@ -204,6 +211,7 @@ def test_simulate_takes_the_scene_derived_step(tmp_path, capsys):
 
 
 
+@pytest.mark.slow
 def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):
     import shutil
 
@@ -235,6 +243,7 @@ def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):
 # ---------------------------------------------------------------- figures
 
 
+@pytest.mark.slow
 def test_figures_writes_the_panels_and_the_travel_summary(tmp_path):
     out = tmp_path / "figures"
     rrrobot("figures", "--out", out, "--duration", 3)
@@ -254,6 +263,7 @@ def test_figures_writes_the_panels_and_the_travel_summary(tmp_path):
     assert "Table I" in text and "turning" in text
 
 
+@pytest.mark.slow
 def test_plot_without_matplotlib_says_what_to_install(tmp_path):
     # sys.modules[name] = None makes "import matplotlib" fail as if it were not installed.
     script = (

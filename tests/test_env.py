@@ -55,6 +55,7 @@ def rollout(env, actions, seed):
     return out
 
 
+@pytest.mark.slow
 def test_gymnasium_check_env_with_default_arguments_passes_headless():
     """CI conditions: no display. check_env builds the env in every declared render mode
     ("human" too) and renders; the only notices are the infinite bounds and, once, why no
@@ -483,6 +484,7 @@ def test_human_rendering_without_a_display_warns_once_why_and_runs_on():
         matplotlib.use(previous)
 
 
+@pytest.mark.slow
 def test_plain_stepping_imports_no_rendering_or_training_libraries():
     code = (
         "import sys, numpy as np, gymnasium, rrrobot_gym\n"
@@ -521,6 +523,7 @@ def test_a_leg_reaching_the_ground_ends_the_episode_outside_the_model():
         assert terminated is terminate
 
 
+@pytest.mark.slow
 def test_table2_gaits_stay_inside_the_model_for_a_whole_episode():
     from rrrobot_gym.agents import gait_agent
 

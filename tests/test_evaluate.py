@@ -74,6 +74,7 @@ def test_agents_trained_under_different_motors_are_not_scored_together():
         evaluate({"a": a, "b": b}, ["pivot"], duration=0.5)
 
 
+@pytest.mark.slow
 def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself(capsys):
     """--also-policy NAME=FILE: the shipped pivot policy under a second name scores exactly what
     it scores as "ppo" (the default pivot policy), heading by heading; it gets no open-loop own

@@ -170,6 +170,7 @@ def test_evaluate_py_scores_a_robot_that_left_the_model_by_its_last_position_ins
     assert record["terminated"] and abs(record["displacement_m"][0]) > 0.01
 
 
+@pytest.mark.slow
 def test_evaluate_py_rejects_a_file_that_is_not_a_gait_search_result(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"gaits": []}))
@@ -189,6 +190,7 @@ def _cli(*args):
                           capture_output=True, text=True, cwd=REPO)
 
 
+@pytest.mark.slow
 def test_cli_search_writes_its_json_with_the_command(tmp_path):
     out = tmp_path / "g.json"
     result = _cli("--model", "plane", "--objective", "heading", "--heading-deg", "90", "--evaluations", "4",
@@ -214,6 +216,7 @@ def test_cli_search_writes_its_json_with_the_command(tmp_path):
         (["--out", "gaits.txt"], ".json"),
     ],
 )
+@pytest.mark.slow
 def test_cli_bad_argument_is_one_clear_error(tmp_path, args, problem):
     if "--out" not in args:
         args = args + ["--out", tmp_path / "g.json"]
@@ -245,6 +248,7 @@ def test_motor_limits_pass_through_to_the_env():
     assert scores.runs.torque_peak.max() <= 0.05 + 1e-12
 
 
+@pytest.mark.slow
 def test_ray_evaluation_equals_local_evaluation():
     ray = pytest.importorskip("ray")
     population = repair(np.random.default_rng(1).uniform(
@@ -270,6 +274,7 @@ def test_a_ray_address_where_nothing_answers_is_named(address):
         evaluate_population(np.array([GAIT1.as_array()]), duration=0.1, ray_address=address)
 
 
+@pytest.mark.slow
 def test_tuned_ppo_hyperparameters_cap_the_minibatch_at_one_rollout_and_learn(tmp_path):
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO

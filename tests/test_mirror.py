@@ -83,6 +83,7 @@ def _network():
 HEADINGS_DEG = np.array([45.0, -45.0, 135.0, -135.0, 0.0, 180.0])
 
 
+@pytest.mark.slow
 def test_a_mirrored_agent_runs_minus_y_headings_as_mirror_images_of_plus_y_ones():
     policy = _network()
     agent = MirroredAgent(policy)
@@ -169,6 +170,7 @@ def test_bad_mirror_arguments_are_named(argv, named, capsys):
     assert named in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst_heading_s_best(tmp_path, capsys):
     """train.py --mirror writes mirror.json and evaluates the headings 0..180 deg only; the run
     loads as a MirroredAgent and evaluate.py scores it; --select-by worst keeps the evaluation

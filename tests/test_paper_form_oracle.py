@@ -15,6 +15,8 @@ from rrrobot_gym.control import pd_torque, table2_gait
 from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import SimConfig, initial_state, simulate_reference
 
+pytestmark = pytest.mark.slow  # (the paper's Euler-angle form, solved with sympy)
+
 THETA0 = np.array([0.3, -0.5, 0.2])
 THETA_DOT0 = np.array([0.5, 1.0, -0.7])
 PHI0 = np.array([1.2, 0.4])

@@ -14,6 +14,8 @@ from rrrobot_gym.simulation import SimConfig, advance, initial_state, simulate
 
 import reference_paths as reference_paths_module
 
+pytestmark = pytest.mark.slow  # (50 s runs against the reference)
+
 DURATION = 50.0
 
 

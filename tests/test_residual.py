@@ -146,6 +146,7 @@ def test_a_residual_run_resumes_as_one():
     assert args.residual_scale == 0.05 and args.resume == str(SHIPPED_RESIDUAL)
 
 
+@pytest.mark.slow
 def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
     """train.py --residual-on writes residual.json and copies of the base's files; load_ppo_agent
     rebuilds the residual agent from the run directory alone; evaluate.py scores it."""

@@ -62,6 +62,7 @@ def test_kinematic_legs_at_one_step_per_control_step_stay_close_to_their_referen
     assert np.max(np.hypot(fast.x - ref.x, fast.y - ref.y)) < 1e-4  # m
 
 
+@pytest.mark.slow
 def test_kinematic_legs_are_a_different_model_from_the_servo():
     """The PD servo lags its target; infinitely stiff legs do not: the paths part by millimetres."""
     gait = table2_gait(1)

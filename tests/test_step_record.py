@@ -336,6 +336,7 @@ def test_the_trapezoid_measures_of_a_searched_gait_converge_with_the_step():
     assert (slip > 1.6 * fine_slip).all() and (spell > fine_spell + 2e-3).all()
 
 
+@pytest.mark.slow
 def test_the_trapezoid_slip_measure_of_a_policys_kicks_converges_with_the_step():
     """Each new action kicks the servo: the grip needed jumps past the floor's and falls back
     within about a millisecond, which the rectangle rule counts as a whole step (the shipped

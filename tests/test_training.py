@@ -28,6 +28,7 @@ def only_run(runs_dir: Path) -> Path:
     return run_dir
 
 
+@pytest.mark.slow
 def test_train_then_evaluate_a_tiny_run(tmp_path):
     trained = run(["train.py", "--total-timesteps", "2000", "--runs-dir", str(tmp_path), "--seed", "3",
                    "--healthy-reward", "0.5", *TINY])
@@ -96,6 +97,7 @@ def interrupted_run(tmp_path_factory):
     return exit_info.value.code, only_run(runs_dir)
 
 
+@pytest.mark.slow
 def test_ctrl_c_saves_the_model_before_exiting(interrupted_run, capsys):
     returncode, run_dir = interrupted_run
     assert returncode == 130
@@ -126,11 +128,13 @@ def _resume(interrupted_run, tmp_path, *flags):
     return int(checkpoint.stem.split("_")[1]), PPO.load(resumed / "final_model.zip", device="cpu")
 
 
+@pytest.mark.slow
 def test_resume_continues_from_a_checkpoint(interrupted_run, tmp_path):
     steps, model = _resume(interrupted_run, tmp_path)
     assert model.num_timesteps == steps + 512  # continued counting from the checkpoint's steps
 
 
+@pytest.mark.slow
 def test_a_resumed_run_takes_the_ppo_settings_given_and_keeps_the_others(interrupted_run, tmp_path, capsys):
     _, model = _resume(interrupted_run, tmp_path, "--learning-rate", "0.0001", "--learning-rate-final", "none",
                        "--n-epochs", "3")  # fmt: skip
@@ -384,6 +388,7 @@ def test_a_resume_is_checked_against_its_statistics_and_this_runs_observation(tm
     assert exit_info.value.code == 2 and "needs the normalisation statistics" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_ppo_updates_on_the_torch_threads_asked_and_rollouts_on_one(tmp_path, monkeypatch):
     # (the env steps between updates, so its core is free for torch's matrix products then; the
     # rollouts' 64-row forward passes and the model's construction stay on one thread)

@@ -191,6 +191,7 @@ def _heading_of_travel(agents, headings_deg, seconds, last, **env_kwargs):
     return (off + 180.0) % 360.0 - 180.0, ended
 
 
+@pytest.mark.slow
 def test_the_heading_correction_holds_the_pivot_on_its_heading():
     """Pivot, 90 deg (the running gait's mirror, no turn needed) and 270 deg (the gait itself),
     30 s under evaluate.py's pivot motors: the open-loop running gait's yaw drifts about 0.84

@@ -264,6 +264,7 @@ def test_vector_env_pickles_with_its_arguments():
     assert clone.num_envs == 2 and clone.max_episode_steps == 7 and clone.config == env.config
 
 
+@pytest.mark.slow
 def test_async_vector_env_rebuilds_the_env_in_fresh_subprocesses():
     """Spawned workers start a new interpreter, where the env must be rebuilt from scratch.
 
