@@ -24,12 +24,9 @@ needs_numba = pytest.mark.skipif(not compiled.available(), reason="numba is not 
 
 
 @needs_numba
-@pytest.mark.parametrize(
-    "config", [SimConfig(), SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, timestep="auto")],
-    ids=["plane", "pivot-motor-auto"],
-)
-@pytest.mark.parametrize("workers", [2, 3])
-def test_workers_give_bit_identical_states_and_records(config, workers):
+def test_workers_give_bit_identical_states_and_records_under_motor_limits():
+    # (the default scene over lane blocks, padded blocks and single robots: test_compiled's threads test)
+    config, workers = SimConfig(model="pivot", torque_limit=0.5, leg_rate_limit=10.0, timestep="auto"), 3
     states = _states(37)
     ramp = RampTargets(states[:, dynamics.LEG_ANGLES], np.random.default_rng(1).uniform(0, 3, (37, 2)), 0.0, 0.05)
     one, one_record = advance(config, states, 0.0, 0.05, ramp, record=True)
