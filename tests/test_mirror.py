@@ -12,7 +12,7 @@ from rrrobot_gym import dynamics
 from rrrobot_gym.envs import task
 from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
-from tests.test_training import ROOT, TINY, only_run, run
+from tests.test_training import ROOT, TINY, evaluate_here, train_here
 
 
 def _moving_states(rng, n):
@@ -175,10 +175,8 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     """train.py --mirror writes mirror.json and evaluates the headings 0..180 deg only; the run
     loads as a MirroredAgent and evaluate.py scores it; --select-by worst keeps the evaluation
     whose worst heading did best."""
-    trained = run(["train.py", "--total-timesteps", "4096", "--runs-dir", str(tmp_path / "runs"), "--mirror",
-                   "--select-by", "worst", "--seed", "3", "--learning-rate-final", "none", *TINY])
-    assert trained.returncode == 0, trained.stderr
-    run_dir = only_run(tmp_path / "runs")
+    run_dir = train_here(["--total-timesteps", "4096", "--runs-dir", tmp_path / "runs", "--mirror", "--select-by", "worst",
+                          "--seed", "3", "--learning-rate-final", "none", *TINY])  # fmt: skip
     assert json.loads((run_dir / MIRROR_FILE).read_text())["mirror"]
     evaluations = np.load(run_dir / "evaluations.npz")
     assert evaluations["results"].shape == (4, 5)  # 0, 45, 90, 135, 180 deg
@@ -197,9 +195,7 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
         training.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
     assert "--mirror" in capsys.readouterr().err
     assert training.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
-    evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
-    assert evaluated.returncode == 0, evaluated.stderr
-    assert "| ppo |" in evaluated.stdout
+    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
 
 
 @pytest.mark.parametrize("shipped", ["pretrained", "pretrained_pivot"])

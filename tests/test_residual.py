@@ -11,7 +11,7 @@ from rrrobot_gym.agents.turn_then_run import load_turn_then_run_agent
 from rrrobot_gym.envs.sb3 import RRRobotSB3VecEnv
 from rrrobot_gym.envs.task import action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
-from tests.test_training import ROOT, TINY, only_run, run
+from tests.test_training import ROOT, TINY, evaluate_here, train_here
 
 BASE = ROOT / "agents" / "searched" / "turn_then_run.json"
 HEADINGS = np.radians([0.0, 90.0, 135.0, 200.0])
@@ -147,13 +147,11 @@ def test_a_residual_run_resumes_as_one():
 
 
 @pytest.mark.slow
-def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
+def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path, capsys):
     """train.py --residual-on writes residual.json and copies of the base's files; load_ppo_agent
     rebuilds the residual agent from the run directory alone; evaluate.py scores it."""
-    trained = run(["train.py", "--total-timesteps", "512", "--runs-dir", str(tmp_path / "runs"),
-                   "--residual-on", str(BASE), "--residual-scale", "0.1", *TINY])
-    assert trained.returncode == 0, trained.stderr
-    run_dir = only_run(tmp_path / "runs")
+    run_dir = train_here(["--total-timesteps", "512", "--runs-dir", tmp_path / "runs", "--residual-on", BASE,
+                          "--residual-scale", "0.1", *TINY])  # fmt: skip
     spec = json.loads((run_dir / "residual.json").read_text())
     assert spec["scale"] == 0.1 and (run_dir / spec["base"]).is_file()
     assert (run_dir / "residual_base" / "plane_own.json").is_file()
@@ -167,9 +165,7 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path):
     actions, _ = agent.predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     base_actions, _ = load_turn_then_run_agent(BASE).predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     assert np.abs(actions - base_actions).max() <= 0.1 + 1e-6
-    evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "1"])
-    assert evaluated.returncode == 0, evaluated.stderr
-    assert "| ppo |" in evaluated.stdout
+    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
 
 
 def test_the_shipped_residual_policy_loads_from_its_directory_alone():

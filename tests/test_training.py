@@ -23,6 +23,28 @@ def run(args, timeout=300, **kwargs):
                           timeout=timeout, **kwargs)
 
 
+def train_here(argv) -> Path:
+    """rrrobot_gym.training.main (train.py's) in this process, its torch thread count put back: the run directory."""
+    import torch
+
+    from rrrobot_gym import training
+
+    threads = torch.get_num_threads()
+    try:
+        return training.main([str(arg) for arg in argv])
+    finally:
+        torch.set_num_threads(threads)
+
+
+def evaluate_here(argv, capsys) -> str:
+    """rrrobot_gym.evaluation.main (evaluate.py's) in this process: what it printed."""
+    from rrrobot_gym import evaluation
+
+    capsys.readouterr()
+    evaluation.main([str(arg) for arg in argv])
+    return capsys.readouterr().out
+
+
 def only_run(runs_dir: Path) -> Path:
     (run_dir,) = [p for p in runs_dir.iterdir() if p.is_dir()]
     return run_dir
@@ -112,19 +134,11 @@ def test_ctrl_c_saves_the_model_before_exiting(interrupted_run, capsys):
 def _resume(interrupted_run, tmp_path, *flags):
     """train.py --resume from the interrupted run's last checkpoint for 512 more steps, here:
     (the checkpoint's steps, the resumed run's final model)."""
-    import torch
     from stable_baselines3 import PPO
-
-    from rrrobot_gym import training
 
     *_, run_dir = interrupted_run
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
-    threads = torch.get_num_threads()
-    try:
-        resumed = training.main(["--total-timesteps", "512", "--runs-dir", str(tmp_path), "--resume", str(checkpoint),
-                                 *TINY, *flags])  # fmt: skip
-    finally:
-        torch.set_num_threads(threads)
+    resumed = train_here(["--total-timesteps", "512", "--runs-dir", tmp_path, "--resume", checkpoint, *TINY, *flags])
     return int(checkpoint.stem.split("_")[1]), PPO.load(resumed / "final_model.zip", device="cpu")
 
 
