@@ -34,9 +34,8 @@ def _our_start():
 
 
 @pytest.mark.parametrize("model", ["plane", "pivot"])
-@pytest.mark.parametrize("gait_number", [1, 3])
-def test_equations_agree_with_the_papers_euler_angle_form(model, gait_number):
-    gait = table2_gait(gait_number)
+def test_equations_agree_with_the_papers_euler_angle_form(model):
+    gait = table2_gait(3)  # (the equations are under test, the gait only their input: Gait 3 moves every angle)
     gains = PDGains()
     config = SimConfig(model=model, robot=RobotParams(), gains=gains)
 
