@@ -19,12 +19,9 @@ from .vector import RRRobotVectorEnv
 class RRRobotSB3VecEnv(VecEnv):
     """SB3 view of a batched Gymnasium vector env with SAME_STEP autoreset.
 
-    Args:
-        vector_env: an :class:`RRRobotVectorEnv` (e.g. from
-            ``gymnasium.make_vec("RRRobot-v0", num_envs=N)``), or any Gymnasium
-            ``VectorEnv`` with ``metadata["autoreset_mode"] == AutoresetMode.SAME_STEP``.
-            When None, one is built from ``num_envs`` and ``env_kwargs``.
-        num_envs, **env_kwargs: passed to :class:`RRRobotVectorEnv` when ``vector_env`` is None.
+    ``vector_env``: an :class:`RRRobotVectorEnv` (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``) or
+    any Gymnasium ``VectorEnv`` with SAME_STEP autoreset; None builds an :class:`RRRobotVectorEnv`
+    from ``num_envs`` and ``env_kwargs``.
 
     ``infos[i]`` is env i's step info; for a finished episode, the last step's info plus
     ``terminal_observation`` and ``TimeLimit.truncated``, while the returned observation starts
@@ -61,13 +58,9 @@ class RRRobotSB3VecEnv(VecEnv):
     def reset(self):
         seeds = None if all(seed is None for seed in self._seeds) else list(self._seeds)
         options = self._options
-        if any(options):
-            if any(option != options[0] for option in options):
-                raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
-            options = options[0]
-        else:
-            options = None
-        observations, info = self.vector_env.reset(seed=seeds, options=options)
+        if any(options) and any(option != options[0] for option in options):
+            raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
+        observations, info = self.vector_env.reset(seed=seeds, options=options[0] if any(options) else None)
         self.reset_infos = _info_list(info, self.num_envs)
         self._reset_seeds()
         self._reset_options()

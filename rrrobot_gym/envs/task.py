@@ -410,10 +410,7 @@ def draw_start(rng: np.random.Generator, config: TaskConfig):
     sub-env draw alike. :func:`start_states` turns the noise into states."""
     s = config.reset_noise_scale
     noise = rng.uniform(-s, s, size=10)
-    if config.target_direction is None:
-        target = float(rng.uniform(-math.pi, math.pi))
-    else:
-        target = config.target_direction
+    target = float(rng.uniform(-math.pi, math.pi)) if config.target_direction is None else config.target_direction
     return noise, target
 
 

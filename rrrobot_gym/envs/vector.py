@@ -239,10 +239,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
-            if not np.all(np.isfinite(targets)):  # (a row written by a caller)
-                raise ValueError(f"episode_target_directions must be finite, got {targets!r}")
-            task.check_radians("episode_target_directions", targets)
-            kept = self._headings = (targets.copy(), task.heading_vectors(targets))
+            targets = task.headings("episode_target_directions", targets, self.num_envs)  # (a caller may write rows)
+            kept = self._headings = (targets, task.heading_vectors(targets))
         return kept[1]
 
     def _advance(self, states, actions, previous_targets, contact_lost):
