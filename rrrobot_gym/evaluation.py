@@ -129,20 +129,18 @@ def score(run, headings_deg, duration=None):
         end = path[valid][-1] - path[0]
         along = float(end @ direction)
         lateral = float(direction[0] * end[1] - direction[1] * end[0])
-        records.append(
-            {
-                "heading_deg": float(heading),
-                "speed_mps": along / duration,
-                "lateral_drift_m": lateral,
-                "displacement_m": [float(end[0]), float(end[1])],
-                # (every step has as many samples: the root of the mean of the steps' mean squares)
-                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
-                "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
-                "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
-                "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
-                "terminated": bool(run["terminated"][i]),
-            }
-        )
+        records.append({
+            "heading_deg": float(heading),
+            "speed_mps": along / duration,
+            "lateral_drift_m": lateral,
+            "displacement_m": [float(end[0]), float(end[1])],
+            # (every step has as many samples: the root of the mean of the steps' mean squares)
+            "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
+            "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
+            "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
+            "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
+            "terminated": bool(run["terminated"][i]),
+        })
     return records
 
 
