@@ -272,8 +272,17 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
     agent's ``model`` is the file's ``"model"`` (``"plane"`` if absent): the model to score it on."""
     path = Path(path)
     try:
-        spec = json.loads(path.read_text())
-        run = {gait.name: gait for gait in load_gaits(path.parent / spec["run_gait_file"])}[spec["run_gait"]]
+        return agent_from_spec(json.loads(path.read_text()), path.parent, dt)
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"turn-then-run file {path}: {exc}") from None
+
+
+def agent_from_spec(spec: dict, folder, dt: float | None = None) -> TurnThenRunAgent:
+    """The agent of a turn-then-run file's dict whose ``run_gait_file`` is relative to ``folder``."""
+    try:
+        run = {gait.name: gait for gait in load_gaits(Path(folder) / spec["run_gait_file"])}[spec["run_gait"]]
         model = spec.get("model", "plane")
         if model not in MODELS:
             raise ValueError(f'"model" must be one of {", ".join(MODELS)}, got {model!r}')
@@ -285,9 +294,7 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
             **{arg: spec[key] for arg, key in (("steer_after", "steer_after_s"), ("run_at_once_below", "run_at_once_below_deg"))
                if key in spec},
         )  # fmt: skip
-        agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
-        return agent
-    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None
-    except ValueError as exc:
-        raise ValueError(f"turn-then-run file {path}: {exc}") from None
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{type(exc).__name__}: {exc}") from None
+    agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
+    return agent
