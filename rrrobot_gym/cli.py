@@ -34,6 +34,7 @@ PROG = "rrrobot"
 PAPER_DURATION = 50.0
 """s, the length of the paper's simulated runs."""
 FIGURE_FILE = "contact_paths.png"
+MODEL_HELP = "plane: rolling on a plane; pivot: Pivoting Dynamics"
 NPZ_CONTENTS = """arrays in the .npz file (N samples, every --sample-dt seconds from t = 0):
   t          (N,)    s       sample times
   x, y       (N,)    m       contact point on the ground
@@ -190,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=NPZ_CONTENTS,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sim.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    sim.add_argument("--model", choices=MODELS, required=True, help=MODEL_HELP)
     sim.add_argument("--gait", type=int, choices=sorted(GAIT_OFFSETS), required=True, help="Table II gait")
     sim.add_argument("--swap-phase", action="store_true", help="exchange the legs' phases (the mirrored gait)")
     sim.add_argument("--out", type=Path, required=True, metavar="FILE.npz", help="where to write the arrays")
@@ -212,7 +213,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_search_options(search, seed="the screen and CMA-ES", budget=("--budget-seconds", None, "wall-clock budget, s"),
                         env_help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)",
-                        ray_help=RAY_ADDRESS_HELP, progress_help="no progress bar", out_help="where to write the best gaits")
+                        ray_help=RAY_ADDRESS_HELP, progress_help="no progress bar",
+                        out_help="where to write the best gaits")
     search.add_argument("--objective", choices=("own", "heading"), default="own",
                         help="own: speed along the gait's own direction; heading: along --heading-deg (default: own)")
     search.add_argument("--heading-deg", type=_number, help="commanded heading, deg from +X towards +Y (objective heading)")
@@ -248,9 +250,10 @@ def _add_search_options(parser, *, env_help, progress_help, out_help, seed=None,
     seeds) --model, --seed and --reset-noise-scale; a ``budget`` ((flag, default, help)) in seconds;
     --ray-address with ``ray_help``."""
     if seed is not None:
-        parser.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+        parser.add_argument("--model", choices=MODELS, required=True, help=MODEL_HELP)
         parser.add_argument("--seed", type=_count, default=0, help=f"seed of {seed} (default: %(default)s)")
-        parser.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
+        parser.add_argument("--reset-noise-scale", type=_number, default=0.01,
+                            help="start noise (default: %(default)g, the env's)")
     if budget is not None:
         flag, default, text = budget
         parser.add_argument(flag, type=_positive_seconds, default=default, help=text)
@@ -395,16 +398,19 @@ def format_table1(records) -> str:
                 f"{rec['radius_of_gyration_m']:.4f}",
             )
         )
-    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
-    left = {0, 1}
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i in left else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-
-    out = ["Table I: small-oscillation periods about rest, legs held vertical", line(header), line(["-" * w for w in widths])]
-    out += [line(r) for r in rows]
+    out = ["Table I: small-oscillation periods about rest, legs held vertical", *_aligned(header, rows)]
     out += ["", *_table1_footnotes(records)]
     return "\n".join(out)
+
+
+def _aligned(header, rows) -> list:
+    """The lines of a text table: the header, a rule and the rows, the first two columns to the left."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+
+    return [line(header), line(["-" * w for w in widths]), *(line(r) for r in rows)]
 
 
 def _table1_footnotes(records):
@@ -602,11 +608,6 @@ def format_summary(settings, summaries, table) -> str:
                 f"{1000 * s['mean_speed_mps']:.2f}",
             )
         )
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-
     gains = settings["gains"]
     lines = [
         f"made by: {settings['command']}",
@@ -618,9 +619,7 @@ def format_summary(settings, summaries, table) -> str:
         "direction of the net displacement from +X, counter-clockwise; turning: signed change of heading, CCW +;",
         "area: signed area enclosed by the averaged path, > 0 counter-clockwise; speed: path length / time.",
         "",
-        line(header),
-        line(["-" * w for w in widths]),
-        *(line(r) for r in rows),
+        *_aligned(header, rows),
         "",
         format_table1(table),
     ]
@@ -720,8 +719,8 @@ def run_turn_then_run_search(args) -> None:
         args.run_gaits, model=args.model, budget_seconds=args.budget, seed=args.seed, run_gait=args.run_gait,
         headings_deg=args.headings or turn_then_run_search.DEFAULT_HEADINGS_DEG, starts=args.starts,
         duration=args.duration, turning_share=args.turning_share, warm_start=args.warm_start,
-        run_at_once_below_deg=args.run_at_once_below_deg, popsize=args.popsize, reset_noise_scale=args.reset_noise_scale,
-        ray_address=args.ray_address, progress=_progress(args), command=args.command_line, out_path=args.out,
+        run_at_once_below_deg=args.run_at_once_below_deg, popsize=args.popsize,
+        reset_noise_scale=args.reset_noise_scale, ray_address=args.ray_address, progress=_progress(args), command=args.command_line, out_path=args.out,
         **dict(args.env),
     ))  # fmt: skip
     _write(args.out, lambda p: write_json(p, spec))

@@ -185,13 +185,6 @@ class SinusoidGait:
         object.__setattr__(self, "ramp_s", _check_ramp(self.ramp_s))
 
     @classmethod
-    def from_array(cls, values, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
-        values = np.asarray(values, dtype=float).ravel()
-        if values.shape != (6,):
-            raise ValueError(f"a sinusoid gait has 6 parameters ({', '.join(PARAMETER_NAMES)}), got {values.size}")
-        return cls(*values.tolist(), ramp_s=ramp_s, name=name)
-
-    @classmethod
     def from_dict(cls, values: dict, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
         missing = [k for k in PARAMETER_NAMES if k not in values]
         extra = [k for k in values if k not in PARAMETER_NAMES]
@@ -322,7 +315,8 @@ class PopulationRuns:
     @classmethod
     def concatenate(cls, parts) -> "PopulationRuns":
         """The runs of chunks of one population, in order."""
-        return cls(duration=parts[0].duration, **{k: np.concatenate([getattr(p, k) for p in parts]) for k in RUN_FIELDS})
+        fields = {k: np.concatenate([getattr(p, k) for p in parts]) for k in RUN_FIELDS}
+        return cls(duration=parts[0].duration, **fields)
 
 
 def _check_population(parameters) -> np.ndarray:
@@ -334,8 +328,8 @@ def _check_population(parameters) -> np.ndarray:
     return params
 
 
-def rollout_population(parameters, *, model: str = "plane", duration: float = 20.0, start_seeds=(0, 1),
-                       reset_noise_scale: float = 0.01, ramp_s: float = 0.0, **env_kwargs) -> PopulationRuns:  # fmt: skip
+def rollout_population(parameters, *, model="plane", duration=20.0, start_seeds=(0, 1), reset_noise_scale=0.01,
+                       ramp_s=0.0, **env_kwargs) -> PopulationRuns:  # fmt: skip
     """Run every gait (rows of ``parameters``, used as given) from every start, in ONE env.
 
     Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait sees depends
@@ -353,7 +347,8 @@ def rollout_population(parameters, *, model: str = "plane", duration: float = 20
                    positive_seconds("duration", duration), {"seed": seeds * len(params)}, model=model,
                    env_kwargs={"reset_noise_scale": reset_noise_scale, **env_kwargs})  # fmt: skip
     shape = (len(params), len(seeds))
-    return PopulationRuns(duration=runs["duration"], **{k: runs[k].reshape(shape + runs[k].shape[1:]) for k in RUN_FIELDS})
+    fields = {k: runs[k].reshape(shape + runs[k].shape[1:]) for k in RUN_FIELDS}
+    return PopulationRuns(duration=runs["duration"], **fields)
 
 
 @dataclass
@@ -384,17 +379,13 @@ def objective_directions(runs: PopulationRuns, objective: str, heading_deg=None)
 def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=None) -> PopulationScores:
     """Score runs, penalising a gait that leaves the model on any start.
 
-    v_s is start s's travel along the objective's direction up to its episode's end,
-    divided by the FULL episode duration T (so stopping early already costs travel).
+    v_s is start s's travel along the objective's direction up to its episode's end, divided by
+    the FULL episode duration T (so stopping early already costs travel); L = :data:`TERMINATION_PENALTY`.
 
     - No start terminated: fitness = max(mean_s v_s, -L/2).
-    - Some start terminated: fitness = -L + clip(mean_s v_s, -L/4, L/4) + (L/4) mean_s(t_end,s / T).
-
-    with L = :data:`TERMINATION_PENALTY` = 1 m/s. The second case is always below -L/2 (an
-    episode that terminated ended before T), the first never is, so a gait that leaves
-    the model loses to every gait that does not; among gaits that leave it, the longer
-    they stay in and the further they get, the better, which keeps a slope for CMA-ES
-    in a region where everything fails.
+    - Some start terminated: fitness = -L + clip(mean_s v_s, -L/4, L/4) + (L/4) mean_s(t_end,s / T),
+      always below -L/2: such a gait loses to every gait that stays in, and among them the longer
+      and further they get the better, which keeps a slope for CMA-ES where everything fails.
     """
     _check_objective(objective, heading_deg)
     units = objective_directions(runs, objective, heading_deg)
@@ -445,10 +436,9 @@ RAY_TOKEN_HELP = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
 
 
 def check_ray_address(address: str) -> None:
-    """Raise ConnectionError, in one sentence naming ``address`` (host:port or ray://host:port)
-    and what to do, if nothing answers there within :data:`RAY_CONNECT_SECONDS`, or (host:port,
-    RAY_AUTH_MODE not "token") if the cluster wants an authentication token: ``ray.init`` retries
-    either for a long time before a traceback. "auto", "local" and an address without a port are left to Ray."""
+    """Raise ConnectionError, in one sentence naming ``address`` and what to do, if nothing answers
+    at host:port within :data:`RAY_CONNECT_SECONDS` or (RAY_AUTH_MODE not "token") the cluster wants a
+    token: ``ray.init`` retries either for a long time. "auto", "local" and no port are left to Ray."""
     import socket
 
     if not isinstance(address, str):
@@ -537,14 +527,9 @@ def evaluate_population(
     ray_chunks: int | None = None,
     **env_kwargs,
 ) -> PopulationScores:
-    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`).
-
-    Locally, the whole population is one batched env. With ``ray_address`` (a Ray
-    address, or "local" to start one; an already initialised Ray session in this process
-    is used as is), the rows are split into ``ray_chunks`` chunks (default: the cluster's
-    CPUs), each a Ray task that builds its own batched env. Other keywords go to
-    :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`.
-    """
+    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`): one batched env, or
+    with ``ray_address`` (or "local" to start a Ray here) chunks of rows as Ray tasks (:func:`ray_map`).
+    Other keywords go to :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`."""
     _check_objective(objective, heading_deg)
     settings = dict(model=model, duration=duration, start_seeds=tuple(start_seeds), reset_noise_scale=reset_noise_scale,
                     ramp_s=ramp_s, **env_kwargs)  # fmt: skip
@@ -573,10 +558,6 @@ class SearchResult:
     settings: dict
     used: dict
     history: list = field(default_factory=list)
-
-    def best_gait(self) -> SinusoidGait:
-        best = self.gaits[0]
-        return SinusoidGait.from_dict(best["parameters"], name=best["name"], ramp_s=self.settings["ramp_s"])
 
     def to_json(self) -> dict:
         return json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
@@ -879,9 +860,9 @@ def robustness(parameters, *, model="plane", objective="own", heading_deg=None, 
     """Re-score gaits (P, 6) on ``seeds`` start-noise seeds the search never used
     (``ROBUSTNESS_SEED_OFFSET + i``), and once from the paper's start (no noise).
 
-    Speeds are along the objective's direction: the heading, or for "own" the gait's own
-    direction as the search measured it (``directions_deg``), so a gait that is knocked
-    onto another course by a different start scores low. One dict per gait (module docstring).
+    Speeds (m/s) are along the heading, or for "own" the gait's direction as the search measured it
+    (``directions_deg``), so a gait knocked onto another course by a new start scores low. One report
+    a gait: per-start speeds and terminations, their mean and worst, the paper's start's, and the peaks.
     """
     params = np.asarray(parameters, dtype=float)
     _check_objective(objective, heading_deg)

@@ -2,35 +2,27 @@
 
 The agent (:class:`rrrobot_gym.agents.turn_then_run.TurnThenRunAgent`) turns the body with a
 turning sinusoid until a searched running gait points along the commanded heading, blends into
-that gait and runs it. This module finds, for a running gait from a gait-search file:
+that gait and runs it. For a running gait of a gait-search file this module finds:
 
-1. **direction**: the running gait's direction of travel minus the body's yaw (the agent's
-   ``direction_offset_deg``), measured from the paper's start and two noisy starts, the gait and
-   its mirror image, after the first 2 s, to the whole degree;
-2. **turning gait**: the sinusoid that turns the body fastest inside the model (largest
-   sustained yaw rate over 10 s, from the paper's start and two noisy starts);
-3. **maneuver**: the turning gait, the switch's lead time and the blend time together, scored
-   through the agent itself on ``headings_deg`` x starts: the mean speed along the heading (the
-   contact point's displacement / ``duration``), penalised for leaving the model as the gait
-   search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`). Its screen holds
-   the turning gait of step 2, gentler copies of it and a warm start's maneuver.
+1. **direction**: the gait's direction of travel minus the body's yaw (``direction_offset_deg``),
+   from the paper's start and two noisy starts, the gait and its mirror, to the whole degree;
+2. **turning gait**: the sinusoid that turns the body fastest inside the model (sustained yaw rate);
+3. **maneuver**: the turning gait, the switch's lead and the blend together, scored through the
+   agent on ``headings_deg`` x starts: the mean speed along the heading, penalised for leaving the
+   model as gait search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`).
 
 Steps 2 and 3 are a random screen then CMA-ES within a wall-clock budget
-(:func:`rrrobot_gym.gait_search.maximise`), each population one batched env, or chunks of it as
-Ray tasks (``ray_address``). The heading correction's gains are tuned afterwards on a grid through
-the agent (:func:`tune_steering`): 50 s on the 8 compass headings from the paper's start and noisy
-starts; the combination whose runs end least, then with the best worst heading, then the best
-mean, is written.
+(:func:`rrrobot_gym.gait_search.maximise`), each population one batched env or chunks of it as Ray
+tasks. :func:`tune_steering` then tunes the heading correction's gains on a grid through the agent.
 
     rrrobot turn-then-run-search --model plane --run-gaits agents/searched/plane_own.json \\
         --budget 900 --out agents/searched/turn_then_run.json
     rrrobot turn-then-run-steer --agent agents/searched/turn_then_run.json --gain 0.5 1 \\
         --limit 0.05 0.1 --out agents/searched/turn_then_run.json
 
-Every env of a search gets the running gait file's env keywords (its ``env_kwargs``: motor
-limits, say) updated by ``env_kwargs``; the agent's file records them as ``env_kwargs``.
+Every env gets the running gait file's ``env_kwargs`` updated by ``env_kwargs``; the agent's
+file records them as ``env_kwargs``.
 """
-
 from __future__ import annotations
 
 import itertools
@@ -48,6 +40,7 @@ from .agents.turn_then_run import (
     load_turn_then_run_agent,
     per_leg_angles,
     per_leg_gait,
+    wrap_angle,
 )
 from .envs import task
 from .gait_search import (
@@ -66,10 +59,8 @@ from .params import check_model, whole_number
 
 COMPASS_DEG = tuple(range(0, 360, 45))
 DEFAULT_HEADINGS_DEG = (0.0, 45.0, 135.0, 180.0)
-"""Headings the maneuver is scored on: from the paper's start a running gait travelling at yaw +-90
-deg needs a quarter turn for 0 and 180 deg and a 45 deg turn either way for 45 and 135 deg, so every
-turn the agent makes on the compass is scored (a 45 deg turn in one sense left unscored has
-overshot by tens of degrees)."""
+"""Headings the maneuver is scored on: from the paper's start, for a gait travelling at yaw +-90 deg,
+every turn the agent makes on the compass (a quarter turn, and 45 deg either way)."""
 WINDOW_STEPS = 15
 """Control steps of the agent's yaw moving average (about one period of the gaits searched)."""
 TURN_SECONDS, SETTLE_SECONDS = 10.0, 1.0
@@ -151,7 +142,7 @@ def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, se
     k0 = int(round(DIRECTION_SETTLE / runs["dt"]))
     travel = runs["upright"][-1] - runs["upright"][k0]
     yaw = runs["yaw"][k0:].mean(axis=0)
-    offsets = np.degrees(_wrap(np.arctan2(travel[:, 1], travel[:, 0]) - yaw))
+    offsets = np.degrees(wrap_angle(np.arctan2(travel[:, 1], travel[:, 0]) - yaw))
     kept = ~runs["terminated"]
     if not kept.any():
         raise SearchError(f"the running gait {run_gait.name} left the model on every start: it has no direction")
@@ -162,12 +153,9 @@ def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, se
 
 def _rollout(act, starts, headings_rad, duration, *, model, env_kwargs, record=False):
     """:func:`rrrobot_gym.gait_search.rollout` of robots from ``starts`` (N, 13) along ``headings_rad`` (N,)."""
-    return rollout(act, len(starts), duration, {"seed": 0, "options": {"state": starts, "target_direction": headings_rad}},
-                   model=model, env_kwargs={**env_kwargs, "reset_noise_scale": 0.0}, record=record)  # fmt: skip
-
-
-def _wrap(angle):
-    return (np.asarray(angle) + math.pi) % (2.0 * math.pi) - math.pi
+    reset = {"seed": 0, "options": {"state": starts, "target_direction": headings_rad}}
+    return rollout(act, len(starts), duration, reset, model=model, env_kwargs={**env_kwargs, "reset_noise_scale": 0.0},
+                   record=record)
 
 
 # ---------------------------------------------------------------- step 2: the turning gait
@@ -359,8 +347,8 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     if warm is not None:
         first.append(to_params(to_unit(warm)))
         first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
-    maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first, screen=popsize,
-                         popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds),
+    maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first,
+                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds),
                          report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"))  # fmt: skip
     maneuver, scores = np.asarray(maneuvers.params[maneuvers.best]), maneuvers.rows[maneuvers.best]
     seconds = time.perf_counter() - began
