@@ -151,7 +151,7 @@ def _env_keyword(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def _integer(text: str, minimum: int) -> int:
+def _positive_int(text: str, minimum: int = 1) -> int:
     try:
         value = int(text)
     except ValueError:
@@ -162,12 +162,8 @@ def _integer(text: str, minimum: int) -> int:
     return value
 
 
-def _positive_int(text: str) -> int:
-    return _integer(text, 1)
-
-
 def _count(text: str) -> int:
-    return _integer(text, 0)
+    return _positive_int(text, 0)
 
 
 # ---------------------------------------------------------------- the parser

@@ -252,21 +252,18 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
            starts=2, duration=None, turning_share=0.5, warm_start=None, run_at_once_below_deg=10.0,
            popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, progress=None,
            command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
-    """Search the turn-then-run agent's maneuver for the running gait of ``run_gaits`` (a gait-search
-    file; its best gait, or ``run_gait`` by name): the module docstring's steps 1-3 within
-    ``budget_seconds`` of wall clock (a ``turning_share`` of it for step 2; each step scores at
-    least its screen's first candidates, so a tiny budget still ends with an agent).
+    """The module docstring's steps 1-3 for the running gait of ``run_gaits`` (a gait-search file;
+    its best gait, or ``run_gait`` by name) within ``budget_seconds`` of wall clock, a ``turning_share``
+    of it for step 2 (each step scores at least its screen's first candidates).
 
-    The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy
-    starts (env reset seeds 1, 2, ...; ``reset_noise_scale``) over ``duration`` s (default 20 s, 30 s
-    for a running gait with a swing ramp, whose blends are longer). ``warm_start``: an agent file
-    whose maneuver joins the screen (with longer blends too where allowed). ``seed`` seeds the
-    screens and CMA-ES. ``popsize``: the turning gait's CMA-ES population (its screen 8 x that), the
-    maneuver's is half of it (its screen 2 x that). Env keywords: the gait file's ``env_kwargs`` updated by ``env_kwargs``.
-    ``progress``: a callable given a line per stage and, at most every 10 s, the search's progress; or None.
+    The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy starts
+    (reset seeds 1, 2, ...) over ``duration`` s (default 20 s, 30 s for a running gait with a swing
+    ramp). ``warm_start``: an agent file whose maneuver joins the screen. ``popsize``: the turning
+    gait's CMA-ES population (screen 8 x that), the maneuver's half of it (screen 2 x that).
+    ``progress``: None, or a callable given a line per stage and at most every 10 s.
 
-    Returns the agent file's dict (written by :func:`rrrobot_gym.gait_search.write_json`), ``run_gait_file`` relative to
-    ``out_path``'s folder (the loader looks there), with the search's record under ``"search"``.
+    Returns the agent file's dict, ``run_gait_file`` relative to ``out_path``'s folder (the loader
+    looks there), with the search's record under ``"search"``.
     """
     check_model(model)
     budget_seconds = positive_seconds("budget_seconds", budget_seconds)
@@ -401,13 +398,11 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
                   reset_noise_scale=0.01, command=None, progress=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
     """The heading correction's gains for an agent file, on a grid through the agent itself.
 
-    ``grid`` maps some of ``steer_param``, ``steer_gain``, ``steer_integral``, ``steer_limit`` and
-    ``steer_after_s`` to lists of values; every combination is run (with the file's own keys for
-    the rest, and the file without any correction first) for ``duration`` s along
+    ``grid`` maps some of :data:`STEER_KEYS` to lists of values; every combination (the file's own
+    keys for the rest), and the file without any correction first, runs ``duration`` s along
     ``headings_deg`` from each start of ``seeds`` (None: the paper's). The combination whose runs
-    end least, then with the best worst speed, then the best mean, is kept. Env keywords: the
-    file's ``env_kwargs`` updated by ``env_kwargs``. Returns the file's dict with the kept keys and
-    the grid's record under ``"steer_tune"``, its ``run_gait_file`` relative to ``out_path``'s folder.
+    end least, then with the best worst speed, then the best mean, is kept: the file's dict with
+    it and the grid's record under ``"steer_tune"``, ``run_gait_file`` relative to ``out_path``'s folder.
     """
     agent_file = Path(agent_file)
     load_turn_then_run_agent(agent_file)  # (a ValueError naming the problem)
@@ -422,10 +417,8 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
     keys = list(grid)
     combos = [{}] + [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
     folder = agent_file.resolve().parent
-    agents = []
-    for combo in combos:
-        trial = {**base, **({} if not combo else {k: spec[k] for k in STEER_KEYS if k in spec}), **combo}
-        agents.append(agent_from_spec(trial, folder))  # (a bad value: a ValueError naming it)
+    trials = [{**base, **({k: spec[k] for k in STEER_KEYS if k in spec} if combo else {}), **combo} for combo in combos]
+    agents = [agent_from_spec(trial, folder) for trial in trials]  # (a bad value: a ValueError naming it)
     model = spec.get("model", "plane")
     env_kwargs = {**(spec.get("env_kwargs") or {}), **env_kwargs}
     seeds = list(seeds)
@@ -440,8 +433,7 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
                          "mean_mps": float(speed[j].mean()), "speeds_mps": speed[j].tolist()})  # fmt: skip
         say(f"steering: {len(rows)} of {len(combos)} combinations, {time.perf_counter() - began:.0f} s")
     ranked = sorted(range(len(rows)), key=lambda r: (rows[r]["ended"], -rows[r]["worst_mps"], -rows[r]["mean_mps"]))
-    best = rows[ranked[0]]
-    out = {**base, **({} if not best["combo"] else {k: spec[k] for k in STEER_KEYS if k in spec}), **best["combo"]}
+    out = dict(trials[ranked[0]])
     if out_path is not None:
         out["run_gait_file"] = os.path.relpath((folder / spec["run_gait_file"]).resolve(), Path(out_path).resolve().parent)
     out["made_by"] = list(spec.get("made_by") or []) + ([command] if command else [])
