@@ -42,7 +42,7 @@ REFINE = 64
 """--refine-switches: a substep across a saturation switch is taken again in this many."""
 PERTURBATION_RAD = 1e-7
 """The start change of the sensitivity run: small enough that the deviation stays linear in it,
-large enough to stand above the reference's own error."""
+large enough to stand above the reference's own error (1.4 um after 20 s on the pivot policy)."""
 
 
 def settings():

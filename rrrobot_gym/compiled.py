@@ -353,7 +353,8 @@ def _partition(n):
 
 PADDED_MIN = 8
 """Fewer robots than a block, but at least this many, take a lane block padded with copies of the
-last of them (whose results are dropped): from 8 on that is no slower than the one-robot stepper."""
+last of them (whose results are dropped): no slower than the one-robot stepper from 8 on (physics
+alone: equal at 8, 1.3x faster at 12, 1.7x at 16)."""
 
 
 def _padded(y, first, count, params, rows, summary):
