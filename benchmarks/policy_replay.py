@@ -3,28 +3,21 @@
     python -m benchmarks.policy_replay [--quick] [--json FILE] [--headings DEG ...]
         [--model ZIP] [--no-motor-limit | --refine-switches]
 
-The Table II gaits are smooth; an RL policy's leg targets change every control step (a ramp
-from the last target to the new one over 0.05 s), and the servo answers each change. So the
-step that holds the gaits within 1 mm may not hold a policy's path. This rolls a PPO policy
-(default: the shipped plane one, ``agents/pretrained``; needs the ``train`` extra) out in
-``RRRobot-v0``, configured as it was trained, for 50 s (--quick: 10 s) along each heading, keeps
-its leg-target ramps, and replays them from the same starts with RK4 at several steps and with
-``simulate_reference`` (DOP853, rtol = atol = 1e-10, solved control step by control step,
-since the ramps' rates jump there). Reported: the contact error against the reference, maximum
-over the path, and the distance travelled. The replay at the env's own step must reproduce the
-env's states to the bit (checked, printed). ``--no-motor-limit`` replays the same ramps on a
-servo without the env's torque and rate limits.
+An RL policy's leg targets change every control step (a ramp over 0.05 s), unlike the smooth
+Table II gaits. This rolls a PPO policy (default: the shipped plane one; needs the ``train``
+extra) out in ``RRRobot-v0`` as it was trained, for 50 s (--quick: 10 s) along each heading, and
+replays its ramps from the same starts with RK4 at several steps and with ``simulate_reference``
+(DOP853, rtol = atol = 1e-10, control step by control step, since the ramps' rates jump there).
+Reported: the contact error against the reference (maximum over the path), the distance
+travelled, and whether the replay at the env's own step reproduces the env's states to the bit.
+``--no-motor-limit`` replays the same ramps on a servo without the env's torque and rate limits.
 
-Also measured: how much the path itself amplifies a small error. The reference is solved again
-from starts whose first leg angle is PERTURBATION_RAD larger; the contact's deviation from the
-unperturbed reference, divided by the perturbation, is the amplification (m/rad) that an
-integrator's own errors meet too. Where it is large, no step makes a replay exact.
+Also measured: the amplification (m/rad) of a small error by the path itself, from the reference
+solved again with each start's first leg angle PERTURBATION_RAD larger.
 
-``--refine-switches`` (motor limits only) asks what locating the motors' saturation switches
-would buy: the replay is taken substep by substep with ``advance``, and a substep across which
-a leg's motor changes branch (unsaturated, or at its stall torque, or on its torque-speed line,
-either way) is taken again in REFINE substeps. That is a stand-in for splitting the substep at
-the switch: it leaves RK4's kink error 1/REFINE^2 as large, where the exact split leaves none.
+``--refine-switches`` (motor limits only): the replay substep by substep, a substep across which
+a leg's motor changes branch (unsaturated, stall torque, torque-speed line) taken again in REFINE
+substeps, a stand-in for splitting it at the switch (what locating the switches would buy).
 """
 
 from __future__ import annotations
@@ -48,9 +41,8 @@ STEPS_S = (1 / 300, 1 / 400, 1 / 600, 1 / 1200)
 REFINE = 64
 """--refine-switches: a substep across a saturation switch is taken again in this many."""
 PERTURBATION_RAD = 1e-7
-"""The start change of the sensitivity run: small enough that the deviation stays linear in it
-(a 1e-9 rad change gave 100x less in a scratch run), large enough to stand above the
-reference's own error (rtol 1e-10 against 1e-12: 1.4 um after 20 s on the pivot policy)."""
+"""The start change of the sensitivity run: small enough that the deviation stays linear in it,
+large enough to stand above the reference's own error (1.4 um after 20 s on the pivot policy)."""
 
 
 def settings():

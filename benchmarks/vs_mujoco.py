@@ -2,24 +2,16 @@
 
     python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--policy]
 
-Needs the optional ``mujoco`` package (the project's ``bench`` extra). The MuJoCo
-model is ``benchmarks.mujoco_peer`` (ball joint at the centre for the pivoting
-model; a free sphere on a plane with a soft, high-friction contact for the plane
-model; PD leg actuators; RK4).
-
-1. Accuracy against cost, N = 1: the three Table II gaits from the paper's start
-   (50 s; --quick 10 s) in both simulators at several steps; contact-position
-   error against our rtol 1e-10 reference, sampled every 0.05 s, and wall time.
-2. Batched throughput, one thread each: N robots driven by the same gait, robot
-   time T; rrrobot_gym's ``advance`` on the batch against ``mujoco.rollout``
-   (``nthread=1``). Env steps/s = N x (T / 0.05 s) / wall time.
-3. Equal accuracy: MuJoCo's cheapest swept step whose worst error is no larger than
-   our default's, and the throughput ratio at that step.
-``--policy`` measures this instead (also needs the ``train`` extra): the shipped plane policy's leg targets, taken
-   from its rollout in ``RRRobot-v0`` along 0, 90 and 180 deg (50 s; --quick 10 s), replayed open
-   loop in MuJoCo from the same start, on a floor whose friction is the env's (1.0): RK4 at
-   0.5 ms, each step holding the ramp's target and rate at the step's midpoint. Reported: the
-   speed along the heading in both, and the largest distance between the two contact paths.
+Needs ``mujoco`` (the ``bench`` extra); the MuJoCo model is ``benchmarks.mujoco_peer``.
+1. Accuracy against cost, N = 1: the three Table II gaits (50 s; --quick 10 s) at several steps in
+   both; the contact error against our rtol 1e-10 reference (every 0.05 s) and the wall time.
+2. Batched throughput, one thread each: N robots under gait 1, our ``advance`` against
+   ``mujoco.rollout``; env steps/s = N x (T / 0.05 s) / wall time.
+3. Equal accuracy: MuJoCo's cheapest swept step no worse than our default, and the throughput ratio.
+``--policy`` instead (needs the ``train`` extra too) replays the shipped plane policy's leg targets
+from its ``RRRobot-v0`` rollouts along 0, 90 and 180 deg open loop in MuJoCo (friction 1.0 as the
+env's, RK4 at 0.5 ms, each step holding the ramp at its midpoint): the speed along the heading in
+both, and the largest distance between the two contact paths.
 """
 
 from __future__ import annotations
@@ -72,16 +64,13 @@ def ours_batched(config: SimConfig, num_robots: int, duration: float, repeats: i
     return median_time(run, repeats)
 
 
-def mujoco_batched(model: str, num_robots: int, duration: float, dt: float, repeats: int) -> float:
+def mujoco_batched(model: str, num_robots: int, duration: float, dt: float, repeats: int):
+    """(median wall seconds, method) of num_robots MuJoCo robots for ``duration`` s under gait 1, one thread."""
     from .mujoco_peer import compile_model, rollout_batch
 
     m = compile_model(model, timestep=dt)
-    n_steps = round(duration / dt)
-    walls = []
-    for _ in range(repeats):
-        out = rollout_batch(m, num_robots, n_steps, gait=1, nthread=1, return_states=False)
-        walls.append(out["wall"])
-    return float(np.median(walls)), out["method"]
+    runs = [rollout_batch(m, num_robots, round(duration / dt), gait=1, nthread=1) for _ in range(repeats)]
+    return float(np.median([wall for wall, _ in runs])), runs[-1][1]
 
 
 def policy_rows(duration: float) -> list:

@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.control import HeldTargets, table2_gait
+from rrrobot_gym.control import table2_gait
 from rrrobot_gym.integrators import INTEGRATORS
 from rrrobot_gym.params import PDGains, RobotParams
 from rrrobot_gym.simulation import SimConfig, _kinematic_path, advance, initial_state
@@ -57,37 +57,25 @@ BUDGET_M = 1e-3
 def settings(quick: bool, gains=None):
     """(legs, integrator, n or "auto") to sweep (``gains``: a servo of its own, see the module docstring)."""
     if gains is not None:
-        return [("servo", "rk4", n) for n in (15, 30)] + [("servo", "rk4", "auto")]
-    if quick:
-        servo = {"rk4": (10, 15, 20)}
-        kinematic = {"rk4": (1, 3)}
-    else:
-        servo = {"rk4": (5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30)}
-        kinematic = {"rk4": (1, 2, 3, 5)}
-    out = [("servo", integ, n) for integ, ns in servo.items() for n in ns]
-    out += [("servo", "rk4", "auto")]
-    out += [("kinematic", integ, n) for integ, ns in kinematic.items() for n in ns]
-    out += [("kinematic", "rk4", "auto")]
-    return out
+        return [("servo", "rk4", n) for n in (15, 30, "auto")]
+    servo, kinematic = ((10, 15, 20), (1, 3)) if quick else ((5, 6, 7, 8, 10, 12, 14, 15, 17, 20, 30), (1, 2, 3, 5))
+    return [("servo", "rk4", n) for n in (*servo, "auto")] + [("kinematic", "rk4", n) for n in (*kinematic, "auto")]
 
 
-def config_for(model: str, legs: str, integrator: str, n, robot=None, gains=None) -> SimConfig:
-    kwargs = {"robot": robot or RobotParams(), "gains": gains or PDGains()}
+def config_for(model: str, legs: str, integrator: str, n, gains=None) -> SimConfig:
     timestep = "auto" if n == "auto" else ENV_STEP / n
-    # numpy for every row, so CPU times compare integrators, not backends (numba's runs are the
-    # numpy float stepper's to the bit: same errors, ~10x less CPU; benchmarks.core_throughput)
-    return SimConfig(model=model, legs=legs, integrator=integrator, timestep=timestep, backend="numpy", **kwargs)
+    # numpy for every row, so CPU times compare integrators, not backends (numba's errors are the same)
+    return SimConfig(model=model, legs=legs, integrator=integrator, timestep=timestep, backend="numpy",
+                     gains=gains or PDGains())  # fmt: skip
 
 
-def run_steps(config: SimConfig, targets, state, n_env_steps: int, first: SimConfig | None = None):
-    """States after each env step, shape (n_env_steps + 1, 13), and the CPU time it took
-    (``first``, if given, integrates the first env step instead of ``config``)."""
+def run_steps(config: SimConfig, targets, state, n_env_steps: int):
+    """States after each env step, shape (n_env_steps + 1, 13), and the CPU time it took."""
     out = np.empty((n_env_steps + 1, dynamics.STATE_SIZE))
     out[0] = state
     start = time.process_time()
     for i in range(n_env_steps):
-        out[i + 1] = advance(first if i == 0 and first is not None else config, out[i], i * ENV_STEP, ENV_STEP, targets,
-                             check=False)  # fmt: skip
+        out[i + 1] = advance(config, out[i], i * ENV_STEP, ENV_STEP, targets, check=False)
     return out, time.process_time() - start
 
 

@@ -34,6 +34,7 @@ PROG = "rrrobot"
 PAPER_DURATION = 50.0
 """s, the length of the paper's simulated runs."""
 FIGURE_FILE = "contact_paths.png"
+MODEL_HELP = "plane: rolling on a plane; pivot: Pivoting Dynamics"
 NPZ_CONTENTS = """arrays in the .npz file (N samples, every --sample-dt seconds from t = 0):
   t          (N,)    s       sample times
   x, y       (N,)    m       contact point on the ground
@@ -150,7 +151,7 @@ def _env_keyword(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def _integer(text: str, minimum: int) -> int:
+def _positive_int(text: str, minimum: int = 1) -> int:
     try:
         value = int(text)
     except ValueError:
@@ -161,12 +162,8 @@ def _integer(text: str, minimum: int) -> int:
     return value
 
 
-def _positive_int(text: str) -> int:
-    return _integer(text, 1)
-
-
 def _count(text: str) -> int:
-    return _integer(text, 0)
+    return _positive_int(text, 0)
 
 
 # ---------------------------------------------------------------- the parser
@@ -190,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=NPZ_CONTENTS,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sim.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    sim.add_argument("--model", choices=MODELS, required=True, help=MODEL_HELP)
     sim.add_argument("--gait", type=int, choices=sorted(GAIT_OFFSETS), required=True, help="Table II gait")
     sim.add_argument("--swap-phase", action="store_true", help="exchange the legs' phases (the mirrored gait)")
     sim.add_argument("--out", type=Path, required=True, metavar="FILE.npz", help="where to write the arrays")
@@ -210,19 +207,19 @@ def build_parser() -> argparse.ArgumentParser:
         "scoring whole populations in one batched RRRobot-v0 env (its envelope included), and write "
         "the best gaits as JSON (schema: rrrobot_gym.gait_search). Without a budget: --budget-seconds 600.",
     )
-    search.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    _add_search_options(search, seed="the screen and CMA-ES", budget=("--budget-seconds", None, "wall-clock budget, s"),
+                        env_help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)",
+                        ray_help=RAY_ADDRESS_HELP, progress_help="no progress bar",
+                        out_help="where to write the best gaits")
     search.add_argument("--objective", choices=("own", "heading"), default="own",
                         help="own: speed along the gait's own direction; heading: along --heading-deg (default: own)")
     search.add_argument("--heading-deg", type=_number, help="commanded heading, deg from +X towards +Y (objective heading)")
-    search.add_argument("--budget-seconds", type=_positive_seconds, help="wall-clock budget, s")
     search.add_argument("--evaluations", type=_positive_int, help="budget in gaits scored")
-    search.add_argument("--seed", type=_count, default=0, help="seed of the screen and CMA-ES (default: %(default)s)")
     search.add_argument("--popsize", type=_positive_int, default=64, help="CMA-ES population (default: %(default)s)")
     search.add_argument("--screen", type=_count, help="random gaits tried first (default: 2 x popsize)")
     search.add_argument("--duration", type=_positive_seconds, default=20.0, help="episode length scored, s (default: %(default)g)")
     search.add_argument("--starts", type=_positive_int, default=2,
                         help="start-noise seeds each gait is scored from (seeds 0..N-1; default: %(default)s)")
-    search.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
     search.add_argument("--ramp-s", type=_nonnegative_seconds,
                         help="every gait grows its swing in over this many seconds from the start at rest, 0: none "
                              "(default: gait_search.DEFAULT_RAMP_S, 2 s)")
@@ -234,14 +231,33 @@ def build_parser() -> argparse.ArgumentParser:
     search.add_argument("--robust-pool", type=_positive_int, default=32,
                         help="the fittest gaits re-scored on the new starts; those that stay in the model on every "
                              "start are written first (default: %(default)s)")
-    search.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
-                        help="an RRRobot-v0 env keyword, e.g. max_slip_velocity=0.05 (repeatable)")
-    search.add_argument("--ray-address", metavar="ADDR", help=RAY_ADDRESS_HELP)
-    search.add_argument("--no-progress", action="store_true", help="no progress bar")
-    search.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the best gaits")
     search.set_defaults(run=run_gait_search)
     _add_turn_then_run_parsers(sub)
     return parser
+
+
+RAY_ADDRESS_HELP = ("evaluate populations as Ray tasks on the cluster at ADDR (host:port, ray://host:port); 'local' "
+                    "starts a Ray on this machine, which costs about 60 s of start-up on two cores, so it pays only "
+                    "with many cores")
+
+
+def _add_search_options(parser, *, env_help, progress_help, out_help, seed=None, budget=None, ray_help=None):
+    """The options the search commands share: --env, --no-progress and --out; with ``seed`` (what it
+    seeds) --model, --seed and --reset-noise-scale; a ``budget`` ((flag, default, help)) in seconds;
+    --ray-address with ``ray_help``."""
+    if seed is not None:
+        parser.add_argument("--model", choices=MODELS, required=True, help=MODEL_HELP)
+        parser.add_argument("--seed", type=_count, default=0, help=f"seed of {seed} (default: %(default)s)")
+        parser.add_argument("--reset-noise-scale", type=_number, default=0.01,
+                            help="start noise (default: %(default)g, the env's)")
+    if budget is not None:
+        flag, default, text = budget
+        parser.add_argument(flag, type=_positive_seconds, default=default, help=text)
+    parser.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE", help=env_help)
+    if ray_help is not None:
+        parser.add_argument("--ray-address", metavar="ADDR", help=ray_help)
+    parser.add_argument("--no-progress", action="store_true", help=progress_help)
+    parser.add_argument("--out", type=Path, required=True, metavar="FILE.json", help=out_help)
 
 
 def _add_turn_then_run_parsers(sub):
@@ -254,15 +270,17 @@ def _add_turn_then_run_parsers(sub):
         "on the headings from the paper's start and noisy starts (random screen + CMA-ES, one batched env a "
         "population). The heading correction is tuned after, by turn-then-run-steer.",
     )
-    ttr.add_argument("--model", choices=MODELS, required=True, help="plane: rolling on a plane; pivot: Pivoting Dynamics")
+    _add_search_options(ttr, seed="the screens and CMA-ES",
+                        budget=("--budget", 900.0, "wall-clock budget of the two searches, s (default: %(default)g)"),
+                        env_help="an RRRobot-v0 env keyword, e.g. torque_limit=0.5 (repeatable); the running gait "
+                                 "file's env_kwargs apply unless overridden",
+                        ray_help=RAY_ADDRESS_HELP.replace("populations", "populations of maneuvers"),
+                        progress_help="print nothing while searching", out_help="where to write the agent file")
     ttr.add_argument("--run-gaits", type=Path, required=True, metavar="GAITS.json",
                      help="gait-search file of the running gait (its best gait unless --run-gait)")
     ttr.add_argument("--run-gait", metavar="NAME", help="the running gait by name, e.g. searched-plane-own-2")
-    ttr.add_argument("--budget", type=_positive_seconds, default=900.0,
-                     help="wall-clock budget of the two searches, s (default: %(default)g)")
     ttr.add_argument("--turning-share", type=_number, default=0.5,
                      help="share of the budget for the turning gait's search (default: %(default)g)")
-    ttr.add_argument("--seed", type=_count, default=0, help="seed of the screens and CMA-ES (default: %(default)s)")
     ttr.add_argument("--popsize", type=_positive_int, default=64,
                      help="the turning gait's CMA-ES population, its screen 8x that; the maneuver's half of it, "
                           "its screen 1x (default: %(default)s)")
@@ -275,13 +293,6 @@ def _add_turn_then_run_parsers(sub):
     ttr.add_argument("--warm-start", type=Path, metavar="AGENT.json", help="a turn-then-run file whose maneuver joins the screen")
     ttr.add_argument("--run-at-once-below-deg", type=_number, default=10.0,
                      help="a start needing a smaller turn runs the gait at once (default: %(default)g)")
-    ttr.add_argument("--reset-noise-scale", type=_number, default=0.01, help="start noise (default: %(default)g, the env's)")
-    ttr.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
-                     help="an RRRobot-v0 env keyword, e.g. torque_limit=0.5 (repeatable); the running gait file's "
-                          "env_kwargs apply unless overridden")
-    ttr.add_argument("--ray-address", metavar="ADDR", help=RAY_ADDRESS_HELP.replace("populations", "populations of maneuvers"))
-    ttr.add_argument("--no-progress", action="store_true", help="print nothing while searching")
-    ttr.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the agent file")
     ttr.set_defaults(run=run_turn_then_run_search)
 
     steer = sub.add_parser(
@@ -292,6 +303,9 @@ def _add_turn_then_run_parsers(sub):
         "and write the file with the combination whose runs end least, then with the best worst heading, then "
         "the best mean (the grid's rows recorded under steer_tune). Values not given keep the file's.",
     )
+    _add_search_options(steer, env_help="an RRRobot-v0 env keyword (repeatable); the agent file's env_kwargs apply "
+                                        "unless overridden",
+                        progress_help="print nothing while running", out_help="where to write the tuned agent file")
     steer.add_argument("--agent", type=Path, required=True, metavar="AGENT.json", help="the turn-then-run file to tune")
     steer.add_argument("--param", choices=("offset", "amplitude"), nargs="+", help="what the correction changes")
     steer.add_argument("--gain", type=_number, nargs="+", help="proportional gains, rad per rad of heading error")
@@ -302,10 +316,6 @@ def _add_turn_then_run_parsers(sub):
     steer.add_argument("--starts", type=_positive_int, default=3,
                        help="starts: the paper's and N - 1 noisy ones (default: %(default)s)")
     steer.add_argument("--duration", type=_positive_seconds, default=PAPER_DURATION, help="s (default: %(default)g)")
-    steer.add_argument("--env", type=_env_keyword, action="append", default=[], metavar="KEY=VALUE",
-                       help="an RRRobot-v0 env keyword (repeatable); the agent file's env_kwargs apply unless overridden")
-    steer.add_argument("--no-progress", action="store_true", help="print nothing while running")
-    steer.add_argument("--out", type=Path, required=True, metavar="FILE.json", help="where to write the tuned agent file")
     steer.set_defaults(run=run_turn_then_run_steer)
 
 
@@ -384,16 +394,19 @@ def format_table1(records) -> str:
                 f"{rec['radius_of_gyration_m']:.4f}",
             )
         )
-    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
-    left = {0, 1}
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i in left else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-
-    out = ["Table I: small-oscillation periods about rest, legs held vertical", line(header), line(["-" * w for w in widths])]
-    out += [line(r) for r in rows]
+    out = ["Table I: small-oscillation periods about rest, legs held vertical", *_aligned(header, rows)]
     out += ["", *_table1_footnotes(records)]
     return "\n".join(out)
+
+
+def _aligned(header, rows) -> list:
+    """The lines of a text table: the header, a rule and the rows, the first two columns to the left."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+
+    def line(cells):
+        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+
+    return [line(header), line(["-" * w for w in widths]), *(line(r) for r in rows)]
 
 
 def _table1_footnotes(records):
@@ -591,11 +604,6 @@ def format_summary(settings, summaries, table) -> str:
                 f"{1000 * s['mean_speed_mps']:.2f}",
             )
         )
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-
-    def line(cells):
-        return "  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
-
     gains = settings["gains"]
     lines = [
         f"made by: {settings['command']}",
@@ -607,9 +615,7 @@ def format_summary(settings, summaries, table) -> str:
         "direction of the net displacement from +X, counter-clockwise; turning: signed change of heading, CCW +;",
         "area: signed area enclosed by the averaged path, > 0 counter-clockwise; speed: path length / time.",
         "",
-        line(header),
-        line(["-" * w for w in widths]),
-        *(line(r) for r in rows),
+        *_aligned(header, rows),
         "",
         format_table1(table),
     ]
@@ -620,63 +626,49 @@ def format_summary(settings, summaries, table) -> str:
 
 
 def run_gait_search(args) -> None:
-    try:
-        from . import gait_search
-    except ImportError as exc:  # pragma: no cover - the module itself has no optional imports
-        raise UsageError(str(exc)) from None
-    if args.out.suffix != ".json":
-        raise UsageError(f"--out must name a .json file, got {str(args.out)!r}")
+    from . import gait_search
+
     if args.objective == "heading" and args.heading_deg is None:
         raise UsageError("--objective heading needs --heading-deg")
     if args.objective == "own" and args.heading_deg is not None:
         raise UsageError("--heading-deg needs --objective heading (objective own follows the gait's own direction)")
-    if args.popsize < 2:
-        raise UsageError(f"--popsize must be at least 2 for CMA-ES, got {args.popsize}")
-    check_output_path("--out", args.out)
-    env_kwargs = dict(args.env)
-    for module, extra in (("cma", "search"), ("tqdm", "search")) + ((("ray", "distributed"),) if args.ray_address else ()):
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"gait-search needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
-    budget_seconds = args.budget_seconds
-    if budget_seconds is None and args.evaluations is None:
-        budget_seconds = 600.0
-    check_ray(args.ray_address)
-    try:
-        result = gait_search.search(
-            model=args.model, objective=args.objective, heading_deg=args.heading_deg,
-            budget_evaluations=args.evaluations, budget_seconds=budget_seconds, seed=args.seed,
-            popsize=args.popsize, screen=args.screen, duration=args.duration,
-            start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale,
-            ramp_s=gait_search.DEFAULT_RAMP_S if args.ramp_s is None else args.ramp_s,
-            keep=args.keep,
-            robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
-            robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address, command=args.command_line, **env_kwargs,
-        )
-    except (TypeError, ValueError, ConnectionError) as exc:
-        raise UsageError(str(exc)) from None
+    budget_seconds = 600.0 if args.budget_seconds is None and args.evaluations is None else args.budget_seconds
+    result = _run_search(args, (("cma", "search"), ("tqdm", "search")), lambda: gait_search.search(
+        model=args.model, objective=args.objective, heading_deg=args.heading_deg,
+        budget_evaluations=args.evaluations, budget_seconds=budget_seconds, seed=args.seed,
+        popsize=args.popsize, screen=args.screen, duration=args.duration,
+        start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale,
+        ramp_s=gait_search.DEFAULT_RAMP_S if args.ramp_s is None else args.ramp_s, keep=args.keep,
+        robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
+        robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address,
+        command=args.command_line, **dict(args.env),
+    ))  # fmt: skip
     _write(args.out, result.write_json)
     print(format_search(result))
     print(f"wrote {args.out}")
 
 
-def check_ray(address) -> None:
-    """A usage error, before any work, if a ``--ray-address`` host:port does not answer or
-    refuses this driver (:func:`rrrobot_gym.gait_search.check_ray_address`)."""
-    if address is None:
-        return
+def _run_search(args, modules, search):
+    """``search()``, after the checks the search commands share before any work: a .json ``--out``,
+    the ``modules`` ((module, extra) pairs; Ray's with ``--ray-address``) and a Ray head that
+    answers (:func:`rrrobot_gym.gait_search.check_ray_address`); its errors as usage errors."""
     from .gait_search import check_ray_address
 
+    if args.out.suffix != ".json":
+        raise UsageError(f"--out must name a .json file, got {str(args.out)!r}")
+    check_output_path("--out", args.out)
+    ray_address = getattr(args, "ray_address", None)
+    for module, extra in modules + ((("ray", "distributed"),) if ray_address else ()):
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"{args.command} needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
     try:
-        check_ray_address(address)
-    except ConnectionError as exc:
+        if ray_address is not None:
+            check_ray_address(ray_address)
+        return search()
+    except (TypeError, ValueError, ConnectionError) as exc:
         raise UsageError(str(exc)) from None
-
-
-RAY_ADDRESS_HELP = ("evaluate populations as Ray tasks on the cluster at ADDR (host:port, ray://host:port); 'local' "
-                    "starts a Ray on this machine, which costs about 60 s of start-up on two cores (300 gaits: 64 s "
-                    "with it, 4 s without), so it pays only with many cores")
 
 
 def format_search(result) -> str:
@@ -711,41 +703,23 @@ def format_search(result) -> str:
 # ---------------------------------------------------------------- turn-then-run
 
 
-def _needs(command, modules):
-    for module, extra in modules:
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"{command} needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
-
-
-def _check_json_out(path: Path) -> None:
-    if path.suffix != ".json":
-        raise UsageError(f"--out must name a .json file, got {str(path)!r}")
-    check_output_path("--out", path)
-
-
 def _progress(args):
     return None if args.no_progress else (lambda line: print(line, file=sys.stderr, flush=True))
 
 
 def run_turn_then_run_search(args) -> None:
     from . import turn_then_run_search
+    from .gait_search import write_json
 
-    _check_json_out(args.out)
-    _needs("turn-then-run-search", (("cma", "search"),) + ((("ray", "distributed"),) if args.ray_address else ()))
-    check_ray(args.ray_address)
-    try:
-        spec = turn_then_run_search.search(
-            args.run_gaits, model=args.model, budget_seconds=args.budget, seed=args.seed, run_gait=args.run_gait,
-            headings_deg=args.headings or turn_then_run_search.DEFAULT_HEADINGS_DEG, starts=args.starts, duration=args.duration, turning_share=args.turning_share,
-            warm_start=args.warm_start, run_at_once_below_deg=args.run_at_once_below_deg,
-            popsize=args.popsize, reset_noise_scale=args.reset_noise_scale, ray_address=args.ray_address, progress=_progress(args),
-            command=args.command_line, out_path=args.out, **dict(args.env),
-        )  # fmt: skip
-    except (TypeError, ValueError, ConnectionError) as exc:
-        raise UsageError(str(exc)) from None
-    _write(args.out, lambda p: turn_then_run_search.write_agent(spec, p))
+    spec = _run_search(args, (("cma", "search"),), lambda: turn_then_run_search.search(
+        args.run_gaits, model=args.model, budget_seconds=args.budget, seed=args.seed, run_gait=args.run_gait,
+        headings_deg=args.headings or turn_then_run_search.DEFAULT_HEADINGS_DEG, starts=args.starts,
+        duration=args.duration, turning_share=args.turning_share, warm_start=args.warm_start,
+        run_at_once_below_deg=args.run_at_once_below_deg, popsize=args.popsize,
+        reset_noise_scale=args.reset_noise_scale, ray_address=args.ray_address, progress=_progress(args), command=args.command_line, out_path=args.out,
+        **dict(args.env),
+    ))  # fmt: skip
+    _write(args.out, lambda p: write_json(p, spec))
     found = spec["search"]["maneuver"]
     print(f"turning gait {np.round(spec['turn_gait'], 3).tolist()}, lead {spec['lead_s']:.2f} s, blend {spec['ramp_s']:.2f} s; "
           f"fitness {1e3 * found['fitness']:.1f} mm/s over {found['duration_s']:g} s on headings "
@@ -755,21 +729,18 @@ def run_turn_then_run_search(args) -> None:
 
 def run_turn_then_run_steer(args) -> None:
     from . import turn_then_run_search
+    from .gait_search import write_json
 
-    _check_json_out(args.out)
     grid = {key: values for key, values in (("steer_param", args.param), ("steer_gain", args.gain),
                                             ("steer_integral", args.integral), ("steer_limit", args.limit),
                                             ("steer_after_s", args.after)) if values}  # fmt: skip
     if not grid:
         raise UsageError("give the values to try: one or more of --gain, --integral, --limit, --after, --param")
-    try:
-        spec = turn_then_run_search.tune_steering(
-            args.agent, grid, seeds=[None] + list(range(1, args.starts)), duration=args.duration,
-            command=args.command_line, progress=_progress(args), out_path=args.out, **dict(args.env),
-        )  # fmt: skip
-    except (TypeError, ValueError) as exc:
-        raise UsageError(str(exc)) from None
-    _write(args.out, lambda p: turn_then_run_search.write_agent(spec, p))
+    spec = _run_search(args, (), lambda: turn_then_run_search.tune_steering(
+        args.agent, grid, seeds=[None] + list(range(1, args.starts)), duration=args.duration,
+        command=args.command_line, progress=_progress(args), out_path=args.out, **dict(args.env),
+    ))  # fmt: skip
+    _write(args.out, lambda p: write_json(p, spec))
     best = spec["steer_tune"]["rows"][0]
     print(f"kept {best['combo'] or 'no correction'}: {best['ended']} runs ended, worst {1e3 * best['worst_mps']:.1f}, "
           f"mean {1e3 * best['mean_mps']:.1f} mm/s")

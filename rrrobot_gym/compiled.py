@@ -1,31 +1,21 @@
 """The compiled backend: RK4 with the leg servo, JIT-compiled by numba (an optional extra).
 
-Nothing here is a second implementation of the physics. The equations of motion are
-:data:`rrrobot_gym.dynamics.KERNELS`, and the servo, the motor limit and the leg targets are
-:data:`rrrobot_gym.control.KERNELS`: this module compiles those very functions (copies of the
-function objects, sharing their code, whose globals point at the compiled helpers instead of
-the Python ones).
+No second implementation of the physics: this module compiles :data:`rrrobot_gym.dynamics.KERNELS`
+and :data:`rrrobot_gym.control.KERNELS` themselves (copies of the function objects whose globals
+point at the compiled helpers).
 
-RK4 is written here once, for one data layout: lanes (:func:`_lanes`). A block of LANES robots is
-laid out one row per quantity, and each derivative evaluation is a loop over the block's robots
-into which the compiler inlines ``derivative_kernel`` and turns it into SIMD instructions. The
-arithmetic is :func:`rrrobot_gym.integrators.rk4.step`'s, operation for operation, so every robot's
-result is the numpy backend's one-robot result to the bit (``tests/test_compiled.py``). A batch's
-remainder (fewer than LANES robots) takes a block padded with copies of its last robot if it has
-at least PADDED_MIN, else :func:`_one_robot`, RK4 written once more for one robot's (13,) row: the
-lane functions compiled with LANES = 1 took 20 us where it takes 15 us for one robot's env step
-(15 substeps; docs/notes/layout.md), about 4 % of the single env's step. Robots are independent,
+RK4 is written here for lanes (:func:`_lanes`): a block of LANES robots laid out one row per
+quantity, each derivative evaluation a loop over the block that the compiler turns into SIMD
+instructions. The arithmetic is :func:`rrrobot_gym.integrators.rk4.step`'s, operation for
+operation, so every robot's result is the numpy backend's one-robot result to the bit. A batch's
+remainder takes a padded block (at least PADDED_MIN robots) or :func:`_one_robot`, RK4 for one
+robot's (13,) row, kept for the single env's speed (docs/notes/layout.md). Robots are independent,
 so a batch may be split across threads (``workers``) without changing a bit.
 
-Used by :func:`rrrobot_gym.simulation.advance` when ``SimConfig.backend`` allows it and the scene
-is one it covers (:func:`supports`: servo legs, an integrator of :data:`INTEGRATORS`) with targets
-from :class:`rrrobot_gym.control.RampTargets`, :class:`~rrrobot_gym.control.HeldTargets`,
-:class:`~rrrobot_gym.control.Gait` or ``gait_search.SinusoidGait`` (any source with a
-``compiled_targets()`` method). Everything else takes the numpy path.
-
-Compiling takes tens of seconds the first time (a line on stderr says so); the result is cached on
-disk in a directory named by the content of the compiled sources (:func:`cache_dir`), so later
-processes load it and an edit to the equations can never meet a stale build.
+Used by :func:`rrrobot_gym.simulation.advance` for the scenes of :func:`supports` and targets with
+a ``compiled_targets()`` method (:mod:`rrrobot_gym.control`'s, ``gait_search.SinusoidGait``).
+The compiled code is cached on disk in a directory named by the content of the compiled sources
+(:func:`cache_dir`), so an edit to the equations never meets a stale build.
 """
 
 from __future__ import annotations
@@ -197,12 +187,9 @@ def _summarise(rows, summary, first, count):
         summary[3, i], summary[4, i], summary[5, i] = squares, peak_torque, peak_rate
 
 
-# The lane stepper: LANES robots at once, each derivative evaluation a loop over the robots whose
-# body the compiler turns into SIMD instructions. Its work array w holds one row of LANES values
-# per quantity (structure of arrays), at fixed offsets, so the compiler can see that the rows it
-# writes never overlap the rows it reads. Everything is the float stepper's arithmetic, lane by
-# lane, in the same order (no fast-math, no fused multiply-adds; the leg angles' cos and sin are
-# dynamics._sincos, arithmetic, not libm), so each robot's result is the float stepper's to the bit.
+# The lane stepper's work array w holds one row of LANES values per quantity at fixed offsets, so the
+# compiler can see that the rows it writes never overlap those it reads. Bit-identity with the float
+# stepper needs the same order of operations: no fast-math, no fused multiply-adds, no libm trig.
 LANES = 32
 _Y, _S, _K1, _K2, _K3, _D = 0, 13, 26, 39, 52, 65  # state, stage state, k1..k3, the last derivative
 _P = 78  # per-robot target parameters (8)
@@ -366,8 +353,8 @@ def _partition(n):
 
 PADDED_MIN = 8
 """Fewer robots than a block, but at least this many, take a lane block padded with copies of the
-last of them (whose results are dropped) instead of the one-robot stepper: from 8 on the padded block was
-no slower (physics alone, side by side: equal at 8, 1.3x at 12, 1.7x at 16)."""
+last of them (whose results are dropped): no slower than the one-robot stepper from 8 on (physics
+alone: equal at 8, 1.3x faster at 12, 1.7x at 16)."""
 
 
 def _padded(y, first, count, params, rows, summary):
@@ -409,10 +396,9 @@ _LANE_INLINED = (_lane_state, _lane_torques, _lane_derivatives, _lane_combine)
 
 
 def cache_dir(sources=None):
-    """Where compiled code is cached: one directory per content of the compiled sources (this
-    module, dynamics, control), numba and Python. numba itself re-checks only a function's own
-    file, so an edit to the equations would otherwise meet a stale stepper; here any edit, or a
-    new numba, makes a new directory. ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
+    """Where compiled code is cached: one directory per content of the compiled sources (this module,
+    dynamics, control), numba and Python (numba itself re-checks only a function's own file).
+    ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
     import hashlib
     import platform
 
@@ -432,11 +418,9 @@ used for this many days is removed when a stepper is made."""
 
 
 def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: float | None = None) -> list:
-    """Mark ``directory`` (a :func:`cache_dir`) used now, and remove its sibling ``numba-*``
-    directories not used for ``unused_days`` (each process marks its own when it makes a
-    stepper: a directory's modification time is its last use). Every source edit or upgrade
-    makes a new directory of a few MB, which nothing else would ever remove. Best effort:
-    a directory that cannot be touched or removed is left. Returns the paths removed."""
+    """Mark ``directory`` (a :func:`cache_dir`) used now (its modification time is its last use), and
+    remove its sibling ``numba-*`` directories, left by other sources, not used for ``unused_days``.
+    Best effort: what cannot be touched or removed is left. Returns the paths removed."""
     import shutil
     import time
 
@@ -460,8 +444,7 @@ def _prune_stale_caches(directory, unused_days: float = CACHE_UNUSED_DAYS, now: 
 
 
 COMPILE_SECONDS = 60
-"""s, about the most compiling the stepper takes on first use, printed in the notice (31-80 s measured
-on a shared two-core AMD EPYC, numba 0.68)."""
+"""s, about the most compiling the stepper takes on first use, printed in the notice (docs/notes/layout.md)."""
 
 
 @functools.lru_cache(maxsize=None)

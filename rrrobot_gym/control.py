@@ -170,11 +170,9 @@ def motor_torque(tau, rate, torque_limit, rate_limit=None):
 class RampTargets:
     """Leg targets ramped linearly from ``start`` to ``end`` over [t0, t0 + duration], then held.
 
-    A first-order hold of step-wise targets (an RL action per control step): the target
-    angle is continuous and its rate is the ramp's slope, so a new action does not step
-    the servo's angle term as a jump of target would. Its rate term still steps, by kd
-    times the change of slope, and that smaller kick is what a fixed step follows worst on
-    a policy's path (``benchmarks.policy_replay``). ``start``/``end`` have shape (2,) or (N, 2), rad.
+    A first-order hold of step-wise targets (an RL action per control step): the target angle is
+    continuous, so a new action steps only the servo's rate term (by kd times the change of slope).
+    ``start``/``end`` have shape (2,) or (N, 2), rad.
     """
 
     def __init__(self, start, end, t0: float, duration: float):
@@ -199,10 +197,8 @@ class RampTargets:
         if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
             raise ValueError("ramp ends contain NaN or inf")
         change = end - start
-        # The compiled stepper's (N, 8) parameters are made in one piece (an env step makes one
-        # ramp), the numpy steppers' (leg 1, leg 2) pairs are views of its columns. Each (N, 2)
-        # part goes in as (N, 1) complex numbers, a leg pair being one 16-byte item: numpy copies
-        # 2-wide rows otherwise, ~2x the time at N = 4096. (Views and copies: the same bytes.)
+        # The compiled stepper's (N, 8) parameters in one piece, the numpy steppers' pairs views of its
+        # columns. Each (N, 2) part goes in as (N, 1) complex numbers: numpy copies 2-wide rows ~2x slower.
         parts = [np.ascontiguousarray(part).view(np.complex128) for part in (start, end, change, change / duration)]
         self._params = np.concatenate(parts, axis=1).view(np.float64)
         columns = tuple(self._params.T)
@@ -216,9 +212,8 @@ class RampTargets:
         return TARGETS_RAMP, self._params, (self.t0, self.duration)
 
     def robot(self, i: int) -> "RampTargets":
-        """The ramp of robot ``i`` of a batch, on Python floats: what the simulator integrates a
-        small batch robot by robot with (the float steppers), instead of indexing the batch's
-        arrays at every derivative evaluation. The same arithmetic, so the same results."""
+        """The ramp of robot ``i`` of a batch, on Python floats (same arithmetic, same results): how
+        the simulator integrates a small batch robot by robot without indexing arrays at every stage."""
         if isinstance(self._start[0], float):
             return self
         (a1, a2), (b1, b2) = self._start, self._end

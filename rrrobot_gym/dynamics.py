@@ -119,38 +119,35 @@ class Constants(NamedTuple):
     weight: float  # N, M g
 
 
-
-
 def constants(params: RobotParams, depth: float) -> Constants:
     """The per-configuration constants of the equations of motion (see :class:`Constants`)."""
     r, l, ml, mb, ms = params.radius, params.leg_length, params.mass_tip, params.mass_bottom, params.mass_pin
     h = float(depth)
     tip_sq = l * l + r * r
-    values = {
-        "radius": r,
-        "leg_length": l,
-        "mass_tip": ml,
-        "depth": h,
-        "gravity": params.gravity,
-        "damping": params.damping,
-        "leg_inertia": ml * l * l,
-        "inv_leg_inertia": 1.0 / (ml * l * l),
+    return Constants(
+        radius=r,
+        leg_length=l,
+        mass_tip=ml,
+        depth=h,
+        gravity=params.gravity,
+        damping=params.damping,
+        leg_inertia=ml * l * l,
+        inv_leg_inertia=1.0 / (ml * l * l),
         # Inertia about the centre: Ixx = ixx0 - Ml (l^2 cos^2 phi1 + l^2 cos^2 phi2),
         # Izz = izz0 + the same (since sin^2 = 1 - cos^2); Iyy does not depend on the legs.
-        "ixx0": (mb + 2.0 * ms) * r * r + 2.0 * ml * tip_sq,
-        "iyy": mb * r * r + 2.0 * ml * l * l,
-        "izz0": 2.0 * ms * r * r + 2.0 * ml * r * r,
-        "ml_r": ml * r,
-        "mb_r": mb * r,
-        "total_h2": params.total_mass * h * h,
-        "two_ml": 2.0 * ml,
-        "neg_ml": -ml,
-        "neg_ml_l2": -ml * l * l,
-        "ml_h": ml * h,
-        "total_h": params.total_mass * h,
-        "weight": params.total_mass * params.gravity,
-    }
-    return Constants(**values)
+        ixx0=(mb + 2.0 * ms) * r * r + 2.0 * ml * tip_sq,
+        iyy=mb * r * r + 2.0 * ml * l * l,
+        izz0=2.0 * ms * r * r + 2.0 * ml * r * r,
+        ml_r=ml * r,
+        mb_r=mb * r,
+        total_h2=params.total_mass * h * h,
+        two_ml=2.0 * ml,
+        neg_ml=-ml,
+        neg_ml_l2=-ml * l * l,
+        ml_h=ml * h,
+        total_h=params.total_mass * h,
+        weight=params.total_mass * params.gravity,
+    )
 
 
 # _sincos's constants. pi/2 in three parts, the first two of 33 significant bits, so that k times

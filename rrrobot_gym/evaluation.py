@@ -1,9 +1,8 @@
 """Score a learned PPO policy and the paper's gaits on the same RRRobot-v0 evaluation.
 
-Every agent runs episodes of ``--duration`` (default 50 s) from the paper's start (no start noise) on each model,
-commanded along the 8 compass headings (0, 45, ..., 315 degrees) and along each gait's
-own direction of travel. All agents go through one loop over the batched env and the
-same ``predict`` interface (:mod:`rrrobot_gym.agents`), so gaits and PPO are measured alike.
+Every agent runs episodes of ``--duration`` (default 50 s) from the paper's start (no noise) on
+each model, along the 8 compass headings and each gait's own direction of travel, through one
+loop over the batched env and the same ``predict`` interface (:mod:`rrrobot_gym.agents`).
 
     python evaluate.py                                  # the shipped policy
     python evaluate.py --policy runs/RUN/best_model.zip --json results.json --plots docs/evaluation
@@ -12,15 +11,9 @@ same ``predict`` interface (:mod:`rrrobot_gym.agents`), so gaits and PPO are mea
         --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
     python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
 
-A turn-then-run file is scored on the model its JSON names (``"model"``, default plane) as
-"turn-then-run", under that model's physics keywords like every other agent there; a second
-file for the same model is scored beside it as "FILESTEM/turn-then-run". An
-``--also-policy NAME=FILE`` is scored as NAME on the model it was trained on (its
-``env_kwargs.json``), beside "ppo".
-
-Writes a Markdown table to stdout (``--markdown FILE`` too), records with ``--json FILE``
-(keys: agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...)
-and plots with ``--plots DIR``. Loading a policy unpickles it: load only files you trust.
+Writes Markdown tables to stdout (``--markdown FILE`` too), records with ``--json FILE`` (keys:
+agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...) and plots with
+``--plots DIR``. Loading a policy unpickles it: load only files you trust.
 """
 
 from __future__ import annotations
@@ -43,24 +36,20 @@ from .simulation import DEFAULT_TIMESTEP
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
                     "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
-"""Env keywords that change what any agent can do (motors, physics, the model checks): an
-evaluation applies a policy's to every agent it is compared with on that model."""
+"""Env keywords that change what any agent can do: a policy's apply to every agent on its model."""
 COMPASS_DEG = tuple(range(0, 360, 45))
 EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
-"""Per-step summaries of the integrator's step record that the evaluation keeps (env info keys)."""
+"""The step record's summaries (env info keys) the evaluation keeps."""
 
 
 def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS, **env_kwargs):
-    """Run every agent once along each heading (degrees), all in one batched env.
+    """Run every agent (``agents``: {name: agent}) once along each heading (degrees), all in one
+    batched env.
 
-    ``agents`` maps names to agents; robot ``a * H + h`` is agent ``a`` along heading ``h``.
-    Returns {name: run}, each run a dict of arrays: ``times`` (T+1,), ``xy`` (T+1, H, 2)
-    contact path (m), ``leg_angles`` (T+1, H, 2), ``leg_targets`` (T, H, 2) rad, ``terminated``
-    (H,), and per control step (T, H) the step record's summaries from the env's info
-    (``rrrobot_gym.validity.step_measures``: the torques the integrator applied, not a
-    rebuilt servo law) named by ``info_keys``, by default ``torque_rms``, ``torque_peak`` (N m),
-    ``leg_rate_peak`` (rad/s), ``liftoff_fraction``. After a robot's episode ends its path holds
-    its last position, then NaN (and its step summaries NaN).
+    Returns {name: run}, each run a dict of arrays: ``times`` (T+1,) s, ``xy`` (T+1, H, 2) contact
+    path (m), ``leg_angles`` (T+1, H, 2) and ``leg_targets`` (T, H, 2) rad, ``terminated`` (H,),
+    and per control step (T, H) the env info's step summaries named by ``info_keys``. After a
+    robot's episode ends its path holds its last position, then NaN (and its summaries NaN).
     """
     names = list(agents)
     n_head = len(headings_deg)
@@ -95,8 +84,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         step_effort = {key: np.array(info[key], dtype=float) for key in info_keys}
         ended_before = ended.copy()
         if np.any(terminated):
-            # SAME_STEP autoreset has already restarted a finished robot: take its last
-            # position and step summaries from final_info and mark the rest of its episode as missing.
+            # SAME_STEP autoreset has already restarted a finished robot: its last step is in final_info.
             final = info["final_info"]
             for i in np.flatnonzero(terminated & ~ended):
                 current[i, :] = np.nan
@@ -126,11 +114,9 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
 
 
 def score(run, headings_deg, duration=None):
-    """Per heading: speed along it (m/s), lateral drift (m), and from the step record the RMS
-    and peak leg torque applied (N m), the peak leg rate (rad/s) and the share of time
-    without ground contact. Speeds are over the time the run simulated, ``run["times"][-1]``
-    (whole control steps, the nearest to what :func:`run_episodes` was asked); ``duration``, if
-    given, must be that time."""
+    """Per heading: speed along it (m/s), lateral drift (m), the RMS and peak leg torque applied
+    (N m), the peak leg rate (rad/s) and the share of time without ground contact. Speeds are over
+    the time the run simulated, ``run["times"][-1]``; ``duration``, if given, must be that time."""
     simulated = float(run["times"][-1])
     if duration is not None and abs(duration - simulated) > 1e-9 * max(1.0, simulated):
         raise ValueError(f"the run simulated {simulated!r} s (whole control steps), not {duration!r} s")
@@ -143,27 +129,24 @@ def score(run, headings_deg, duration=None):
         end = path[valid][-1] - path[0]
         along = float(end @ direction)
         lateral = float(direction[0] * end[1] - direction[1] * end[0])
-        records.append(
-            {
-                "heading_deg": float(heading),
-                "speed_mps": along / duration,
-                "lateral_drift_m": lateral,
-                "displacement_m": [float(end[0]), float(end[1])],
-                # Every step has the same number of substep samples, so the episode's RMS is
-                # the root of the mean of the steps' mean squares.
-                "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
-                "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
-                "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
-                "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
-                "terminated": bool(run["terminated"][i]),
-            }
-        )
+        records.append({
+            "heading_deg": float(heading),
+            "speed_mps": along / duration,
+            "lateral_drift_m": lateral,
+            "displacement_m": [float(end[0]), float(end[1])],
+            # (every step has as many samples: the root of the mean of the steps' mean squares)
+            "effort_rms_torque_nm": float(np.sqrt(np.nanmean(run["torque_rms"][:, i] ** 2))),
+            "peak_torque_nm": float(np.nanmax(run["torque_peak"][:, i])),
+            "peak_leg_rate_radps": float(np.nanmax(run["leg_rate_peak"][:, i])),
+            "liftoff_fraction": float(np.nanmean(run["liftoff_fraction"][:, i])),
+            "terminated": bool(run["terminated"][i]),
+        })
     return records
 
 
 def physics_of(agents) -> dict:
     """The :data:`PHYSICS_KEYWORDS` the agents were trained under that differ from the env's
-    defaults (a policy trained with motor limits: its limits). Agents that disagree are an error."""
+    defaults; agents that disagree are an error."""
     defaults = make_task_config().to_kwargs()
     chosen = {}
     for name, agent in agents.items():
@@ -177,9 +160,8 @@ def physics_of(agents) -> dict:
 
 
 def parse_physics(specs) -> dict:
-    """``--physics`` KEY=VALUE specs as {key: value} (read by :func:`rrrobot_gym.cli.keyword_value`):
-    keys of :data:`PHYSICS_KEYWORDS` (not ``robot``), checked together by the env's own
-    validation. Raises ValueError naming the bad spec."""
+    """``--physics`` KEY=VALUE specs (keys of :data:`PHYSICS_KEYWORDS` but ``robot``) as {key: value},
+    checked together by the env, or a ValueError naming the bad spec."""
     chosen = {}
     allowed = ", ".join(k for k in PHYSICS_KEYWORDS if k != "robot")
     for spec in specs:
@@ -207,14 +189,11 @@ def agents_on(model: str, agents: dict, per_model=None) -> dict:
 def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None, physics=None):
     """Records for every agent, model and heading, plus the runs for plotting.
 
-    Headings: the 8 compass directions and each gait's own direction (the heading of its
-    net displacement in a first episode), so each gait is also scored where it goes.
-    ``per_model`` ({model: {name: agent}}) adds agents on one model only (a policy trained
-    there; it replaces an agent of the same name). On each model every agent runs under the
-    physics keywords its policies were trained with (:func:`physics_of`, e.g. motor limits),
-    so all are held to the same motors; each record names them under ``physics``. ``physics``
-    ({keyword: value}, e.g. motor limits) adds keywords of the caller's on every model; one
-    that differs from a policy's is an error.
+    Headings: the 8 compass directions and each open-loop gait's own direction (of its net
+    displacement in a first episode). ``per_model`` ({model: {name: agent}}) adds or replaces
+    agents on one model. On each model every agent runs under the physics keywords its policies
+    were trained with (:func:`physics_of`) plus ``physics`` ({keyword: value}; one that differs
+    from a policy's is an error); each record names them under ``physics``.
     """
     records, runs = [], {}
     for model in models:
@@ -244,9 +223,8 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
 
 
 def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = 10):
-    """The agent's speed along the compass headings at the default step and at a ``refine``
-    times finer one (same control step): a learned speed that depends on the step is an
-    artefact of the integrator, not locomotion."""
+    """The agent's speed along the compass headings at the default step and at a ``refine`` times
+    finer one (same control step): a speed that depends on the step is the integrator's artefact."""
     coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG)
     fine_run = run_episodes(
         {"agent": agent}, model, COMPASS_DEG, duration, seed, timestep=DEFAULT_TIMESTEP / refine, frame_skip=15 * refine
@@ -259,8 +237,8 @@ def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: in
 
 
 def ratios(records, model="plane"):
-    """The issue's target, measured: PPO vs gait 1 along every compass heading, and PPO vs
-    each gait along that gait's own direction."""
+    """PPO's speed over gait 1's (along its own axis) on every compass heading, and over each
+    gait's along that gait's own direction."""
     by = {(r["agent"], r["heading_deg"]): r for r in records if r["model"] == model}
     gait1_own = [r for r in records if r["model"] == model and r["agent"] == "gait1" and "gait1" in r["own_direction_of"]]
     out = {"model": model}
@@ -368,23 +346,20 @@ def plot(runs, out_dir: Path, models, duration: float = 50.0):
                             arrowprops={"arrowstyle": "->", "color": "0.7", "lw": 0.8})
             ax.set_title(f"PPO, commanded along the 8 compass headings ({model})")
             ax.legend(fontsize=7, ncol=2)
-        ax.plot(0, 0, "ko")
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-        ax.grid(alpha=0.3)
         ax = axes[1]
         for name in names:
             if name == "ppo" or (name, model) not in runs:
                 continue
             headings, run = runs[(name, model)]
             ax.plot(run["xy"][:, 0, 0], run["xy"][:, 0, 1], lw=1.0, label=name)
-        ax.plot(0, 0, "ko")
-        ax.set_aspect("equal")
-        ax.set_title(f"Table II gaits, {seconds_text(duration)} ({model})")
-        ax.set_xlabel("x (m)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        for ax in axes:  # (after the paths: drawn over them)
+            ax.plot(0, 0, "ko")
+            ax.set_aspect("equal")
+            ax.set_xlabel("x (m)")
+            ax.grid(alpha=0.3)
+        axes[1].set_title(f"Table II gaits, {seconds_text(duration)} ({model})")
+        axes[1].legend(fontsize=7)
         fig.tight_layout()
         fig.savefig(out_dir / f"paths_{model}.png", dpi=90)
         plt.close(fig)
@@ -448,8 +423,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def load_policy(parser, flag: str, path):
-    """:func:`rrrobot_gym.agents.load_ppo_agent`, its refusal of an incomplete run (a file
-    missing beside the model) as the command line's error."""
+    """:func:`rrrobot_gym.agents.load_ppo_agent`, a missing file or a refusal as the command line's error."""
+    if not Path(path).is_file():
+        parser.error(f"{flag}: no model file at {path}")
     try:
         return load_ppo_agent(path)
     except (FileNotFoundError, ValueError) as exc:
@@ -457,9 +433,8 @@ def load_policy(parser, flag: str, path):
 
 
 def main(argv=None, default_policy=None, default_pivot_policy=None):
-    """Run evaluate.py's command line ``argv`` (default: sys.argv). ``default_policy`` is the
-    model zip scored without ``--policy`` (evaluate.py passes the repository's shipped
-    ``agents/pretrained/best_model.zip``; None: ``--policy`` or ``--no-policy`` is needed), and
+    """Run evaluate.py's command line ``argv`` (default: sys.argv). ``default_policy`` is the model
+    zip scored without ``--policy`` (None: ``--policy`` or ``--no-policy`` is needed), and
     ``default_pivot_policy`` the one scored on the pivot model with it."""
     parser = build_parser()
     default_policy = None if default_policy is None else Path(default_policy)
@@ -492,16 +467,12 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         policy = args.policy if args.policy is not None else default_policy
         if policy is None:
             parser.error("--policy: give a PPO model zip (this installation has no default), or --no-policy")
-        if not policy.is_file():
-            parser.error(f"--policy: no model file at {policy}")
         agents["ppo"] = load_policy(parser, "--policy", policy)
         pivot_policy = args.pivot_policy
         if (pivot_policy is None and args.policy is None and default_pivot_policy is not None
                 and default_pivot_policy.is_file()):
             pivot_policy = default_pivot_policy
         if pivot_policy is not None:
-            if not pivot_policy.is_file():
-                parser.error(f"--pivot-policy: no model file at {pivot_policy}")
             per_model["pivot"] = {"ppo": load_policy(parser, "--pivot-policy", pivot_policy)}
     for name in GAIT_AGENT_NAMES:
         agents[name] = gait_agent(name)
@@ -542,8 +513,6 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         taken = set(agents) | {"ppo"} | {n for on_model in per_model.values() for n in on_model}
         if name in taken:
             parser.error(f"--also-policy {spec}: agent name {name!r} already taken")
-        if not Path(path).is_file():
-            parser.error(f"--also-policy {spec}: no model file at {path}")
         policy = load_policy(parser, f"--also-policy {spec}", path)
         per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
     try:

@@ -1,20 +1,15 @@
 """Gait search: CMA-ES over open-loop per-leg sinusoids, scored in one batched env.
 
-The paper names gait search as future work; this module does it for the gait family
-
-    phi_k(t) = o_k + a_k sin(w t + beta_k),   beta_1 = 0, beta_2 = phase gap,
-
-six numbers (:class:`SinusoidGait`). A whole population is simulated as ONE
-:class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`, with the env's own settings and
-envelope (an episode ends when the robot leaves the model: slip, lift-off, leg on the
-floor, tilt), so a searched gait is scored exactly as the env would score it.
+The gait family is phi_k(t) = o_k + a_k sin(w t + beta_k), beta_1 = 0, beta_2 = phase gap: six
+numbers (:class:`SinusoidGait`). A population runs as ONE
+:class:`rrrobot_gym.envs.vector.RRRobotVectorEnv` with the env's own envelope, so a searched gait
+is scored exactly as the env would score it.
 
     from rrrobot_gym.gait_search import search
-    result = search(model="plane", objective="own", budget_seconds=600, seed=0)
-    result.write_json("best_gaits.json")
+    search(model="plane", objective="own", budget_seconds=600, seed=0).write_json("best_gaits.json")
 
-or ``rrrobot gait-search --model plane --objective own --budget-seconds 600 --out best_gaits.json``.
-Needs the ``search`` extra (``cma``, ``tqdm``); ``ray_address`` needs ``distributed`` (``ray``).
+or ``rrrobot gait-search``. Needs the ``search`` extra (``cma``, ``tqdm``); ``ray_address`` needs
+``distributed`` (``ray``).
 
 Glossary
 --------
@@ -33,25 +28,18 @@ Output JSON (:meth:`SearchResult.to_json`, schema ``rrrobot_gym.gait_search/1``)
 - ``schema``, ``family`` ("sinusoid"), ``parameter_names``, ``bounds`` ({name: [lo, hi]})
 - ``model``, ``objective``, ``heading_deg`` (null for "own"), ``env_kwargs`` (the env
   keywords besides ``model`` and ``reset_noise_scale``), ``reset_noise_scale``, ``ramp_s``
-  (s, every gait's swing grows in over this long: :func:`ramp_factor`; absent in files
-  made before it, which mean 0),
-  ``duration_s`` (episode length scored), ``start_seeds``
+  (s, :func:`ramp_factor`; absent means 0), ``duration_s`` (episode length scored), ``start_seeds``
 - ``seed``, ``budget`` ({"evaluations", "seconds"}, null if not limited),
   ``used`` ({"evaluations", "seconds", "generations", "restarts"}), ``popsize``,
-  ``screen`` (random gaits tried first), ``command`` (how it was made), ``history``
-  (per population scored: evaluations so far, seconds, best fitness and speed so far,
-  the population's median fitness)
+  ``screen`` (random gaits tried first), ``command``, ``history`` (per population scored:
+  evaluations so far, seconds, best fitness and speed so far, the population's median fitness)
 - ``robust_pool``: how many of the fittest distinct gaits were re-scored on new starts (null: none)
 - ``gaits``: best first, each ``{"name", "parameters": {name: value}, "fitness",
   "speed_mps", "direction_deg", "terminated_starts", "search_rank", "robust",
-  "robustness"}``; ``search_rank`` is the gait's place by the search's fitness (1: the
-  fittest), ``robust`` whether it stayed in the model on every start it was scored from
-  (the search's, the re-score's and the paper's; null if not re-scored); ``robustness``
-  (if re-scored) is ``{"seeds", "duration_s", "reset_noise_scale", "speeds_mps",
-  "terminated", "mean_speed_mps", "min_speed_mps", "paper_start_speed_mps",
-  "paper_start_terminated", "peak_torque_nm", "peak_leg_rate_radps"}`` on start seeds
-  the search never used. With a re-score, the best gait is the fittest robust one
-  (:func:`rank_robust_first`).
+  "robustness"}``; ``search_rank`` is the gait's place by fitness (1: the fittest), ``robust``
+  whether it stayed in the model on every start it was scored from (null if not re-scored);
+  ``robustness`` (if re-scored) is :func:`robustness`'s report on start seeds the search never
+  used. With a re-score, the best gait is the fittest robust one (:func:`rank_robust_first`).
 One evaluation = one gait scored from all its start seeds.
 """
 
@@ -61,15 +49,16 @@ import json
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action
+from . import dynamics
 from .analysis import json_safe
+from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action, upright_contact_points
 from .control import TARGETS_SINUSOID, sinusoid_targets
-from .params import whole_number
+from .params import real_number, whole_number
 
 SCHEMA = "rrrobot_gym.gait_search/1"
 PARAMETER_NAMES = ("amplitude_1", "amplitude_2", "offset_1", "offset_2", "frequency", "phase_gap")
@@ -83,23 +72,13 @@ BOUNDS = {
     "frequency": (1.0, 15.0),
     "phase_gap": (-math.pi, math.pi),
 }
-"""The search box, per parameter (rad, rad, rad, rad, rad/s, rad).
-
-- offsets: the whole action range, [-pi/4, 5pi/4] (action -1 .. +1): every leg target the
-  env can command is a possible centre of swing.
-- amplitudes: 0 (a leg held still) to 1.5 rad, and never past the action range: a gait is
-  *repaired* by shrinking a_k to min(a_k, o_k - min, max - o_k) (:func:`repair`), so its
-  targets are a true sinusoid, never one flattened by the action clip. 1.5 rad (86 deg)
-  either way already swings a leg from horizontal to past vertical; with the offset
-  constraint the reachable swing is the whole action range anyway.
-- frequency: 1 rad/s (a 6.3 s period: three periods in a 20 s episode, enough to show a
-  net drift rather than one lurch) to 15 rad/s: at the env's 0.05 s control step that is
-  8.4 targets a period, about the fewest that still draw a sinusoid with the env's linear
-  target ramps; the paper's gaits run at 8 rad/s. The servo (natural frequency ~59 rad/s)
-  tracks this band.
-- phase gap: a full turn, [-pi, pi]; the sign picks the direction of travel (the paper's
-  swapped phases).
+"""The search box, per parameter (rad, rad, rad, rad, rad/s, rad). Offsets span the whole action
+range; amplitudes are repaired to keep o_k +- a_k inside it (:func:`repair`), so the targets are a
+true sinusoid, never one flattened by the action clip. Frequencies: from three periods in a 20 s
+episode to about 8 control steps a period (the paper's gaits run at 8 rad/s). The phase gap's sign
+picks the direction of travel (the paper's swapped phases).
 """
+
 
 TERMINATION_PENALTY = 1.0
 """m/s, L in :func:`fitness_from_runs`: a speed no sinusoid reaches here (the best
@@ -129,12 +108,9 @@ def repair(parameters) -> np.ndarray:
 
 
 DEFAULT_RAMP_S = 2.0
-"""s, how long a search's gaits take to grow their swing from nothing (:func:`ramp_factor`). The
-legs start at rest; a full swing from the first step ends the fastest plane gaits on some starts
-and not others (they leave the model 1-1.5 s in), so a search without a ramp ranks gaits by
-which starts it happened to draw. Measured on the best gait of a 10-minute search without one:
-5 of 8 new starts ended it; with a 2 s ramp none of 16 did (0.5 s and 1 s ramps: all 16 ended;
-``docs/notes/gait_search.md``)."""
+"""s, how long a search's gaits take to grow their swing from nothing (:func:`ramp_factor`): without
+a ramp the fastest plane gaits leave the model on some starts and not others
+(``docs/notes/gait_search.md``)."""
 
 
 def ramp_factor(times, ramp_s: float) -> np.ndarray:
@@ -165,11 +141,18 @@ def sinusoid_angles(parameters, times, ramp_s: float = 0.0) -> np.ndarray:
 
 
 def _check_ramp(ramp_s) -> float:
-    if isinstance(ramp_s, bool) or not isinstance(ramp_s, (int, float, np.integer, np.floating)):
-        raise TypeError(f"ramp_s must be a number of seconds, got {ramp_s!r}")
-    if not (math.isfinite(ramp_s) and ramp_s >= 0.0):
-        raise ValueError(f"ramp_s must be a finite number of seconds >= 0, got {ramp_s!r}")
+    if real_number("ramp_s", ramp_s) < 0.0:
+        raise ValueError(f"ramp_s must be a number of seconds >= 0, got {ramp_s!r}")
     return float(ramp_s)
+
+
+def positive_seconds(label: str, value) -> float:
+    """``float(value)`` for a finite number of seconds > 0, else a ValueError naming ``label``."""
+    if isinstance(value, (bool, str)) or not isinstance(value, (int, float, np.integer, np.floating)) or not (
+        math.isfinite(value) and value > 0
+    ):
+        raise ValueError(f"{label} must be a positive number of seconds, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -195,23 +178,11 @@ class SinusoidGait:
 
     def __post_init__(self):
         for key in PARAMETER_NAMES:
-            value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-                raise TypeError(f"SinusoidGait.{key} must be a real number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"SinusoidGait.{key} must be finite, got {value!r}")
-            object.__setattr__(self, key, float(value))
+            object.__setattr__(self, key, real_number(f"SinusoidGait.{key}", getattr(self, key)))
         for key in ("amplitude_1", "amplitude_2"):
             if getattr(self, key) < 0.0:
                 raise ValueError(f"SinusoidGait.{key} must be >= 0 rad, got {getattr(self, key)}")
         object.__setattr__(self, "ramp_s", _check_ramp(self.ramp_s))
-
-    @classmethod
-    def from_array(cls, values, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
-        values = np.asarray(values, dtype=float).ravel()
-        if values.shape != (6,):
-            raise ValueError(f"a sinusoid gait has 6 parameters ({', '.join(PARAMETER_NAMES)}), got {values.size}")
-        return cls(*values.tolist(), ramp_s=ramp_s, name=name)
 
     @classmethod
     def from_dict(cls, values: dict, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
@@ -268,15 +239,71 @@ class SinusoidGait:
 # ---------------------------------------------------------------- scoring a population
 
 
+def body_yaw(states) -> np.ndarray:
+    """rad (N,): the heading of the body's x axis, atan2(R10, R00) of its rotation."""
+    qw, qx, qy, qz = np.asarray(states)[:, dynamics.QUAT].T
+    return np.arctan2(2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
+def rollout(act, n, duration, reset, *, model, env_kwargs, record=False) -> dict:
+    """Run ``n`` robots in ONE env for ``duration`` s, each until its first termination (the env's
+    envelope), after ``env.reset(**reset)``; ``act(k, observations, dt)`` gives control step k's actions (n, 2).
+
+    Returns a dict: ``displacement`` (n, 2) m of the contact point up to the end, ``end_time`` (n,) s,
+    ``terminated`` (n,), ``torque_peak`` N m and ``leg_rate_peak`` rad/s (n,) while the run lasted,
+    ``dt`` and ``duration`` (s, whole control steps); with ``record`` also ``upright`` (T + 1, n, 2) m,
+    the upright contact point (below the centre: free of the contact point's swing with the tilt),
+    and ``yaw`` (T + 1, n) rad, the body's yaw unwrapped, both held at their last value inside the model.
+    """
+    from .envs.vector import RRRobotVectorEnv
+
+    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model=model, **env_kwargs)
+    try:
+        steps = control_steps("duration", duration, env.dt)
+        obs, _ = env.reset(**reset)
+        first = last = env.states[:, 0:2].copy()
+        radius = env.config.sim.robot.radius
+        up, yaw = [upright_contact_points(env.states, radius)], [body_yaw(env.states)]
+        end_step, alive = np.full(n, steps), np.ones(n, dtype=bool)
+        torque_peak, rate_peak = np.zeros(n), np.zeros(n)
+        for k in range(steps):
+            actions = np.clip(np.asarray(act(k, obs, env.dt), dtype=np.float64), -1.0, 1.0).astype(np.float32)
+            obs, _, terminated, _, info = env.step(actions)
+            ending, running = terminated & alive, alive & ~terminated
+            last = np.where(alive[:, None], env.states[:, 0:2], last)
+            torque_peak[running] = np.maximum(torque_peak[running], info["torque_peak"][running])
+            rate_peak[running] = np.maximum(rate_peak[running], info["leg_rate_peak"][running])
+            if ending.any():  # (SAME_STEP autoreset restarted these robots: their last step is in final_info)
+                final = info["final_info"]
+                last[ending, 0], last[ending, 1] = final["x_position"][ending], final["y_position"][ending]
+                torque_peak[ending] = np.maximum(torque_peak[ending], final["torque_peak"][ending])
+                rate_peak[ending] = np.maximum(rate_peak[ending], final["leg_rate_peak"][ending])
+                end_step[ending] = k + 1
+            alive = running
+            if record:
+                upright = np.where(alive[:, None], upright_contact_points(env.states, radius), up[-1])
+                if ending.any():
+                    upright[ending, 0], upright[ending, 1] = final["x_upright"][ending], final["y_upright"][ending]
+                up.append(upright)
+                yaw.append(np.where(alive, body_yaw(env.states), yaw[-1]))
+            elif not alive.any():
+                break
+        out = {"displacement": last - first, "end_time": end_step * env.dt, "terminated": ~alive,
+               "torque_peak": torque_peak, "leg_rate_peak": rate_peak, "dt": env.dt, "duration": steps * env.dt}
+        if record:
+            out["upright"], out["yaw"] = np.array(up), np.unwrap(np.array(yaw), axis=0)
+        return out
+    finally:
+        env.close()
+
+
+RUN_FIELDS = ("displacement", "end_time", "terminated", "torque_peak", "leg_rate_peak")
+
+
 @dataclass
 class PopulationRuns:
-    """What one batched rollout measured, per gait p and start s (arrays (P, S) unless noted).
-
-    ``displacement`` (P, S, 2) m, contact point from start to the episode's end (or to
-    the step its episode terminated); ``end_time`` s; ``terminated`` bool;
-    ``torque_peak`` N m and ``leg_rate_peak`` rad/s, the largest the step record saw
-    while the episode lasted.
-    """
+    """What one batched rollout measured, per gait p and start s (arrays (P, S) unless noted):
+    the :data:`RUN_FIELDS` of :func:`rollout`, ``displacement`` (P, S, 2)."""
 
     displacement: np.ndarray
     end_time: np.ndarray
@@ -285,88 +312,43 @@ class PopulationRuns:
     leg_rate_peak: np.ndarray
     duration: float
 
+    @classmethod
+    def concatenate(cls, parts) -> "PopulationRuns":
+        """The runs of chunks of one population, in order."""
+        fields = {k: np.concatenate([getattr(p, k) for p in parts]) for k in RUN_FIELDS}
+        return cls(duration=parts[0].duration, **fields)
 
-def rollout_population(
-    parameters,
-    *,
-    model: str = "plane",
-    duration: float = 20.0,
-    start_seeds=(0, 1),
-    reset_noise_scale: float = 0.01,
-    ramp_s: float = 0.0,
-    **env_kwargs,
-) -> PopulationRuns:
-    """Run every gait (rows of ``parameters``, used as given) from every start, in ONE env.
 
-    Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait
-    sees depends only on its seed, not on its row, so splitting a population into chunks
-    (:func:`evaluate_population` on Ray) gives the same numbers. The gait's targets are
-    commanded at the end of each control step, as :class:`rrrobot_gym.agents.GaitAgent` does, with the
-    swing ramped in over ``ramp_s`` s (:func:`sinusoid_angles`).
-    """
-    ramp_s = _check_ramp(ramp_s)
-    from .envs.vector import RRRobotVectorEnv
-
+def _check_population(parameters) -> np.ndarray:
     params = np.asarray(parameters, dtype=float)
     if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
         raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
     if not np.all(np.isfinite(params)):
         raise ValueError("parameters contain NaN or inf")
+    return params
+
+
+def rollout_population(parameters, *, model="plane", duration=20.0, start_seeds=(0, 1), reset_noise_scale=0.01,
+                       ramp_s=0.0, **env_kwargs) -> PopulationRuns:  # fmt: skip
+    """Run every gait (rows of ``parameters``, used as given) from every start, in ONE env.
+
+    Robot ``p * S + s`` is gait p from start seed ``start_seeds[s]``: the start a gait sees depends
+    only on its seed, not on its row, so chunks of a population (:func:`evaluate_population` on
+    Ray) give the same numbers. The targets are commanded at the end of each control step, as
+    :class:`rrrobot_gym.agents.GaitAgent` does, the swing ramped in over ``ramp_s`` s.
+    """
+    ramp_s = _check_ramp(ramp_s)
+    params = _check_population(parameters)
     seeds = [int(s) for s in start_seeds]
     if not seeds:
         raise ValueError("start_seeds must name at least one start")
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
-    n_gaits, n_starts = len(params), len(seeds)
-    env = RRRobotVectorEnv(
-        num_envs=n_gaits * n_starts,
-        max_episode_steps=None,
-        model=model,
-        reset_noise_scale=reset_noise_scale,
-        **env_kwargs,
-    )
-    try:
-        steps = control_steps("duration", duration, env.dt)
-    except ValueError:
-        env.close()
-        raise
-    rows = np.repeat(params, n_starts, axis=0)
-    env.reset(seed=seeds * n_gaits)
-    start_xy = env.states[:, 0:2].copy()
-    end_xy = np.full_like(start_xy, np.nan)
-    end_step = np.full(len(rows), steps)
-    alive = np.ones(len(rows), dtype=bool)
-    torque_peak = np.zeros(len(rows))
-    rate_peak = np.zeros(len(rows))
-    for k in range(steps):
-        actions = np.clip(leg_targets_to_action(sinusoid_angles(rows, (k + 1) * env.dt, ramp_s)), -1.0, 1.0)
-        _, _, terminated, _, info = env.step(actions.astype(np.float32))
-        ending = terminated & alive
-        if ending.any():
-            # SAME_STEP autoreset already restarted these robots: their last position is in final_info.
-            final = info["final_info"]
-            end_xy[ending, 0] = final["x_position"][ending]
-            end_xy[ending, 1] = final["y_position"][ending]
-            torque_peak[ending] = np.maximum(torque_peak[ending], final["torque_peak"][ending])
-            rate_peak[ending] = np.maximum(rate_peak[ending], final["leg_rate_peak"][ending])
-            end_step[ending] = k + 1
-        running = alive & ~terminated
-        torque_peak[running] = np.maximum(torque_peak[running], info["torque_peak"][running])
-        rate_peak[running] = np.maximum(rate_peak[running], info["leg_rate_peak"][running])
-        alive = running
-        if not alive.any():
-            break
-    end_xy[alive] = env.states[alive, 0:2]
-    env.close()
-    shape = (n_gaits, n_starts)
-    return PopulationRuns(
-        displacement=(end_xy - start_xy).reshape(n_gaits, n_starts, 2),
-        end_time=(end_step * env.dt).reshape(shape),
-        terminated=(~alive).reshape(shape),
-        torque_peak=torque_peak.reshape(shape),
-        leg_rate_peak=rate_peak.reshape(shape),
-        duration=steps * env.dt,
-    )
+    rows = np.repeat(params, len(seeds), axis=0)
+    runs = rollout(lambda k, obs, dt: leg_targets_to_action(sinusoid_angles(rows, (k + 1) * dt, ramp_s)), len(rows),
+                   positive_seconds("duration", duration), {"seed": seeds * len(params)}, model=model,
+                   env_kwargs={"reset_noise_scale": reset_noise_scale, **env_kwargs})  # fmt: skip
+    shape = (len(params), len(seeds))
+    fields = {k: runs[k].reshape(shape + runs[k].shape[1:]) for k in RUN_FIELDS}
+    return PopulationRuns(duration=runs["duration"], **fields)
 
 
 @dataclass
@@ -397,17 +379,13 @@ def objective_directions(runs: PopulationRuns, objective: str, heading_deg=None)
 def fitness_from_runs(runs: PopulationRuns, objective: str = "own", heading_deg=None) -> PopulationScores:
     """Score runs, penalising a gait that leaves the model on any start.
 
-    v_s is start s's travel along the objective's direction up to its episode's end,
-    divided by the FULL episode duration T (so stopping early already costs travel).
+    v_s is start s's travel along the objective's direction up to its episode's end, divided by
+    the FULL episode duration T (so stopping early already costs travel); L = :data:`TERMINATION_PENALTY`.
 
     - No start terminated: fitness = max(mean_s v_s, -L/2).
-    - Some start terminated: fitness = -L + clip(mean_s v_s, -L/4, L/4) + (L/4) mean_s(t_end,s / T).
-
-    with L = :data:`TERMINATION_PENALTY` = 1 m/s. The second case is always below -L/2 (an
-    episode that terminated ended before T), the first never is, so a gait that leaves
-    the model loses to every gait that does not; among gaits that leave it, the longer
-    they stay in and the further they get, the better, which keeps a slope for CMA-ES
-    in a region where everything fails.
+    - Some start terminated: fitness = -L + clip(mean_s v_s, -L/4, L/4) + (L/4) mean_s(t_end,s / T),
+      always below -L/2: such a gait loses to every gait that stays in, and among them the longer
+      and further they get the better, which keeps a slope for CMA-ES where everything fails.
     """
     _check_objective(objective, heading_deg)
     units = objective_directions(runs, objective, heading_deg)
@@ -445,10 +423,6 @@ def _check_objective(objective, heading_deg):
         raise ValueError("heading_deg is only used with objective 'heading' (objective 'own' follows the gait)")
 
 
-def _evaluate_chunk(parameters, settings):
-    return rollout_population(parameters, **settings)
-
-
 def ray_runtime_env() -> dict:
     """A Ray ``runtime_env`` that ships this copy of :mod:`rrrobot_gym` to the workers, so
     they run the driver's code whatever is installed on the cluster."""
@@ -462,10 +436,9 @@ RAY_TOKEN_HELP = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
 
 
 def check_ray_address(address: str) -> None:
-    """Raise ConnectionError, in one sentence naming ``address`` (host:port or ray://host:port)
-    and what to do, if nothing answers there within :data:`RAY_CONNECT_SECONDS`, or (host:port,
-    RAY_AUTH_MODE not "token") if the cluster wants an authentication token: ``ray.init`` retries
-    either for a long time before a traceback. "auto", "local" and an address without a port are left to Ray."""
+    """Raise ConnectionError, in one sentence naming ``address`` and what to do, if nothing answers
+    at host:port within :data:`RAY_CONNECT_SECONDS` or (RAY_AUTH_MODE not "token") the cluster wants a
+    token: ``ray.init`` retries either for a long time. "auto", "local" and no port are left to Ray."""
     import socket
 
     if not isinstance(address, str):
@@ -513,38 +486,31 @@ def _ray_refuses_token(address: str) -> bool:
     return False
 
 
-def ray_map(function, rows, settings, ray_address, ray_chunks=None) -> list:
-    """``function(chunk, settings)`` on chunks of ``rows`` (a sequence), each a Ray task, in
-    order: the results of the chunks. Connects to ``ray_address`` first unless this process
-    already runs a Ray session (:func:`check_ray_address`, then ``ray.init`` shipping this
-    package); ``ray_chunks`` chunks, default the cluster's CPUs."""
+def ray_map(function, rows, settings, ray_address=None, ray_chunks=None) -> list:
+    """The results of ``function(chunk, settings)`` on chunks of ``rows`` (a sequence), in order:
+    without ``ray_address`` one chunk, run here; with it, ``ray_chunks`` chunks (default: the
+    cluster's CPUs), each a Ray task. Connects to ``ray_address`` first unless this process already
+    runs a Ray session (:func:`check_ray_address`, then ``ray.init`` shipping this package)."""
+    if ray_address is None:
+        return [function(rows, settings)]
     try:
         import ray
     except ImportError:  # pragma: no cover - depends on the install
         raise ImportError("ray_address needs Ray: pip install 'rrrobot_gym[distributed]'") from None
-    if ray_chunks is not None and (isinstance(ray_chunks, bool) or int(ray_chunks) != ray_chunks or ray_chunks < 1):
-        raise ValueError(f"ray_chunks must be a positive integer, got {ray_chunks!r}")
+    if ray_chunks is not None:
+        ray_chunks = whole_number("ray_chunks", ray_chunks)
     if not ray.is_initialized():
         check_ray_address(ray_address)
         ray.init(address=ray_address, runtime_env=ray_runtime_env(), include_dashboard=False, log_to_driver=False)
     if ray_chunks is None:
         ray_chunks = max(1, int(ray.cluster_resources().get("CPU", 1)))
-    chunks = [c for c in np.array_split(np.arange(len(rows)), min(int(ray_chunks), len(rows))) if len(c)]
+    chunks = [c for c in np.array_split(np.arange(len(rows)), min(ray_chunks, len(rows))) if len(c)]
     task = ray.remote(num_cpus=1)(function)
     return ray.get([task.remote(rows[c[0]:c[-1] + 1], settings) for c in chunks])
 
 
-def _ray_rollout(params, settings, ray_address, ray_chunks):
-    """rollout_population split into chunks of rows, each a Ray task with its own env."""
-    parts = ray_map(_evaluate_chunk, params, settings, ray_address, ray_chunks)
-    return PopulationRuns(
-        displacement=np.concatenate([p.displacement for p in parts]),
-        end_time=np.concatenate([p.end_time for p in parts]),
-        terminated=np.concatenate([p.terminated for p in parts]),
-        torque_peak=np.concatenate([p.torque_peak for p in parts]),
-        leg_rate_peak=np.concatenate([p.leg_rate_peak for p in parts]),
-        duration=parts[0].duration,
-    )
+def _rollout_chunk(parameters, settings):
+    return rollout_population(parameters, **settings)
 
 
 def evaluate_population(
@@ -561,25 +527,14 @@ def evaluate_population(
     ray_chunks: int | None = None,
     **env_kwargs,
 ) -> PopulationScores:
-    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`).
-
-    Locally, the whole population is one batched env. With ``ray_address`` (a Ray
-    address, or "local" to start one; an already initialised Ray session in this process
-    is used as is), the rows are split into ``ray_chunks`` chunks (default: the cluster's
-    CPUs), each a Ray task that builds its own batched env. Other keywords go to
-    :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`.
-    """
+    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`): one batched env, or
+    with ``ray_address`` (or "local" to start a Ray here) chunks of rows as Ray tasks (:func:`ray_map`).
+    Other keywords go to :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`."""
     _check_objective(objective, heading_deg)
     settings = dict(model=model, duration=duration, start_seeds=tuple(start_seeds), reset_noise_scale=reset_noise_scale,
                     ramp_s=ramp_s, **env_kwargs)  # fmt: skip
-    params = np.asarray(parameters, dtype=float)
-    if ray_address is None:
-        runs = rollout_population(params, **settings)
-    else:
-        if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
-            raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
-        runs = _ray_rollout(params, settings, ray_address, ray_chunks)
-    return fitness_from_runs(runs, objective, heading_deg)
+    parts = ray_map(_rollout_chunk, _check_population(parameters), settings, ray_address, ray_chunks)
+    return fitness_from_runs(PopulationRuns.concatenate(parts), objective, heading_deg)
 
 
 # ---------------------------------------------------------------- the search
@@ -588,6 +543,11 @@ def evaluate_population(
 ROBUSTNESS_SEED_OFFSET = 100_000
 """Robustness starts use seeds ``ROBUSTNESS_SEED_OFFSET + i``: the search's start seeds
 are small integers, so these are starts the search never saw."""
+
+
+def write_json(path, data) -> None:
+    """``data`` as the JSON files of the searches are written (NaN refused)."""
+    Path(path).write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
 
 
 @dataclass
@@ -599,17 +559,13 @@ class SearchResult:
     used: dict
     history: list = field(default_factory=list)
 
-    def best_gait(self) -> SinusoidGait:
-        best = self.gaits[0]
-        return SinusoidGait.from_dict(best["parameters"], name=best["name"], ramp_s=self.settings["ramp_s"])
-
     def to_json(self) -> dict:
         return json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
                            "bounds": {k: list(v) for k, v in BOUNDS.items()}, **self.settings,
                            "used": self.used, "gaits": self.gaits, "history": self.history})
 
     def write_json(self, path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=1, allow_nan=False) + "\n")
+        write_json(path, self.to_json())
 
 
 def search(
@@ -638,63 +594,43 @@ def search(
     command: str | None = None,
     **env_kwargs,
 ) -> SearchResult:
-    """Search the sinusoid family with a random screen and then CMA-ES; returns the best gaits.
+    """Search the sinusoid family with a random screen and then CMA-ES (:func:`maximise`); returns the best gaits.
 
-    Budget: stop after ``budget_evaluations`` gaits scored or ``budget_seconds`` of wall
-    clock (whichever comes first; at least one must be given). Time is checked between
-    populations, so a search may overrun by one population's rollout. The screen (default
-    ``2 * popsize`` uniform random gaits in the box, plus ``start`` if given) picks CMA-ES's
-    starting mean; ``screen=0`` starts from ``start`` (or the box centre). CMA-ES runs in the
-    unit box with step ``sigma0``, bounded to it by ``cma``'s bound handling, seeded from
-    ``seed`` (so a search is repeatable); when it converges before the budget ends it restarts
-    from the best gait so far with a fresh seed. Every candidate is repaired (:func:`repair`)
-    before it is scored, so the gaits reported are the gaits simulated.
+    Budget: ``budget_evaluations`` gaits scored and/or ``budget_seconds`` of wall clock, checked
+    between populations (a search may overrun by one population). The screen is ``screen``
+    (default ``2 * popsize``) uniform random gaits plus ``start`` if given. Every candidate is
+    repaired (:func:`repair`) before it is scored, so the gaits reported are the gaits simulated,
+    and grows its swing in over ``ramp_s`` s. Populations are large by CMA-ES's standards (its
+    own default for 6 parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
 
-    Every gait grows its swing in over the first ``ramp_s`` s (:data:`DEFAULT_RAMP_S`; 0: none).
-
-    Populations are large by CMA-ES's standards (default 64; its own default for 6
-    parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
-
-    ``keep`` best gaits are returned. With ``robustness_seeds`` (default 8), the
-    ``max(keep, robust_pool)`` fittest distinct gaits (:func:`distinct_fittest`) are re-scored (robustness) on that many start-noise
-    seeds the search never used, over ``robustness_duration`` s (default 50 s, the paper's run;
-    None: the search's ``duration``), and once from the paper's start (no noise), and the gaits
-    that stayed in the model on every start come first (:func:`rank_robust_first`): the fastest
-    gaits sit on the envelope's edge, where two starts can miss a start that ends the episode.
-    Without a re-score (``robustness_seeds=0``) the order is the search's fitness.
+    ``keep`` best gaits are returned. With ``robustness_seeds``, the ``max(keep, robust_pool)``
+    fittest distinct gaits (:func:`distinct_fittest`) are re-scored (:func:`robustness`) on that many
+    new start seeds over ``robustness_duration`` s (None: ``duration``) and from the paper's start,
+    and those that stayed in the model on every start come first (:func:`rank_robust_first`): the
+    fastest gaits sit on the envelope's edge, where two starts can miss one that ends the episode.
     """
-    try:
-        import cma  # noqa: F401 - (fail before the work, not at the first generation)
-    except ImportError:  # pragma: no cover - depends on the install
-        raise ImportError("gait search needs cma: pip install 'rrrobot_gym[search]'") from None
     _check_objective(objective, heading_deg)
     if budget_evaluations is None and budget_seconds is None:
         raise ValueError("give a budget: budget_evaluations (gaits scored) and/or budget_seconds (wall clock)")
     if budget_evaluations is not None:
         budget_evaluations = whole_number("budget_evaluations", budget_evaluations)
-    if budget_seconds is not None and not (
-        isinstance(budget_seconds, (int, float)) and not isinstance(budget_seconds, bool)
-        and math.isfinite(budget_seconds) and budget_seconds > 0
-    ):
-        raise ValueError(f"budget_seconds must be a positive number, got {budget_seconds!r}")
+    if budget_seconds is not None:
+        positive_seconds("budget_seconds", budget_seconds)
     whole_number("seed", seed, minimum=0)
     popsize = whole_number("popsize", popsize)
     if popsize < 2:
         raise ValueError(f"popsize must be at least 2 for CMA-ES, got {popsize}")
-    screen = 2 * popsize if screen is None else screen
-    whole_number("screen", screen, minimum=0)
+    screen = whole_number("screen", 2 * popsize if screen is None else screen, minimum=0)
     keep = whole_number("keep", keep)
     ramp_s = _check_ramp(ramp_s)
     robust_pool = whole_number("robust_pool", robust_pool)
     if not (isinstance(sigma0, (int, float)) and math.isfinite(sigma0) and 0 < sigma0 <= 1):
         raise ValueError(f"sigma0 must be in (0, 1] (a step in the unit box), got {sigma0!r}")
-    if robustness_seeds is not None and not (isinstance(robustness_seeds, int) and robustness_seeds >= 0):
-        raise ValueError(f"robustness_seeds must be a non-negative integer, got {robustness_seeds!r}")
-    for label, seconds in (("duration", duration), ("robustness_duration", robustness_duration)):
-        # (the re-score's duration was checked only when it ran, after the whole budget)
-        if seconds is not None and not (isinstance(seconds, (int, float, np.integer, np.floating))
-                                        and not isinstance(seconds, bool) and math.isfinite(seconds) and seconds > 0):
-            raise ValueError(f"{label} must be a positive number of seconds, got {seconds!r}")
+    if robustness_seeds is not None:
+        whole_number("robustness_seeds", robustness_seeds, minimum=0)
+    positive_seconds("duration", duration)
+    if robustness_duration is not None:
+        positive_seconds("robustness_duration", robustness_duration)
     start_seeds = tuple(int(s) for s in start_seeds)
     if any(s >= ROBUSTNESS_SEED_OFFSET for s in start_seeds):
         raise ValueError(f"start_seeds must be below {ROBUSTNESS_SEED_OFFSET} (the robustness seeds start there)")
@@ -711,64 +647,54 @@ def search(
     if robustness_duration is not None:
         control_steps("robustness_duration", robustness_duration, probe.dt)
 
-    lows, highs = _lows_highs()
-    to_params = lambda unit: repair(lows + np.asarray(unit) * (highs - lows))  # noqa: E731
-    to_unit = lambda params: (np.asarray(params) - lows) / (highs - lows)  # noqa: E731
+    to_params, to_unit = unit_box()
     scoring = dict(model=model, objective=objective, heading_deg=heading_deg, duration=duration,
                    start_seeds=start_seeds, reset_noise_scale=reset_noise_scale, ramp_s=ramp_s,
                    ray_address=ray_address, ray_chunks=ray_chunks, **env_kwargs)
-
     began = time.perf_counter()
-    archive = {"params": [], "fitness": [], "speed": [], "direction": [], "terminated": []}
-    history = []
-    evaluations = 0
-    bar = None
+    history, evaluations, bar = [], 0, None
     if progress:
         from tqdm import tqdm
 
-        if budget_evaluations is not None:
-            bar = tqdm(total=budget_evaluations, unit="gait", desc="gait search", dynamic_ncols=True)
-        else:
-            bar = tqdm(total=round(budget_seconds), unit="s", desc="gait search", dynamic_ncols=True)
+        by_count = budget_evaluations is not None
+        bar = tqdm(total=budget_evaluations if by_count else round(budget_seconds), unit="gait" if by_count else "s",
+                   desc="gait search", dynamic_ncols=True)  # fmt: skip
 
     def remaining():
         left = math.inf if budget_evaluations is None else budget_evaluations - evaluations
-        if budget_seconds is not None and time.perf_counter() - began >= budget_seconds:
-            left = 0
-        return left
+        return 0 if budget_seconds is not None and time.perf_counter() - began >= budget_seconds else left
 
-    def score(params):
-        nonlocal evaluations
+    def score(params):  # (fitness, speed, direction, terminated starts) a gait
         scores = evaluate_population(params, **scoring)
-        evaluations += len(params)
-        for key, values in (("params", params), ("fitness", scores.fitness), ("speed", scores.speed_mps),
-                            ("direction", scores.direction_deg), ("terminated", scores.terminated_starts)):
-            archive[key].extend(list(values))
-        best = int(np.argmax(archive["fitness"]))
+        return np.column_stack([scores.fitness, scores.speed_mps, scores.direction_deg, scores.terminated_starts])
+
+    def report(archive, rows):
+        nonlocal evaluations
+        evaluations, best = len(archive.rows), archive.rows[archive.best]
         history.append({"evaluations": evaluations, "seconds": round(time.perf_counter() - began, 3),
-                        "best_fitness": float(archive["fitness"][best]), "best_speed_mps": float(archive["speed"][best]),
-                        "median_fitness": float(np.median(scores.fitness))})
+                        "best_fitness": float(best[0]), "best_speed_mps": float(best[1]),
+                        "median_fitness": float(np.median(rows[:, 0]))})  # fmt: skip
         if bar is not None:
             if budget_evaluations is not None:
-                bar.update(min(len(params), bar.total - bar.n))
+                bar.update(min(len(rows), bar.total - bar.n))
             else:
                 bar.update(max(0, min(bar.total, round(time.perf_counter() - began)) - bar.n))
-            bar.set_postfix_str(f"best {1e3 * archive['speed'][best]:.1f} mm/s")
-        return scores
+            bar.set_postfix_str(f"best {1e3 * best[1]:.1f} mm/s")
 
     try:
         first = [] if start is None else [repair(start)]
-        generations, restarts = maximise(lambda params: score(params).fitness, to_params, to_unit, dimension=6,
-                                         first=first, screen=screen, popsize=popsize, sigma0=sigma0, seed=seed, remaining=remaining)
+        archive = maximise(score, to_params, to_unit, dimension=6, first=first, screen=screen, popsize=popsize,
+                           sigma0=sigma0, seed=seed, remaining=remaining, report=report)  # fmt: skip
     finally:
         if bar is not None:
             bar.close()
     seconds = time.perf_counter() - began
 
-    by_fitness = np.argsort(-np.array(archive["fitness"]), kind="stable")
+    params, rows = np.array(archive.params), np.array(archive.rows)
+    by_fitness = np.argsort(-rows[:, 0], kind="stable")
     if robustness_seeds:
         pool = max(keep, robust_pool)
-        order = distinct_fittest(to_unit(np.array(archive["params"])), by_fitness, pool, POOL_SPACING)
+        order = distinct_fittest(to_unit(params), by_fitness, pool, POOL_SPACING)
         ranks = np.empty(len(by_fitness), dtype=int)
         ranks[by_fitness] = np.arange(1, len(by_fitness) + 1)
         search_ranks = [int(ranks[i]) for i in order]
@@ -776,27 +702,25 @@ def search(
         pool, order = keep, by_fitness[:keep]
         search_ranks = list(range(1, len(order) + 1))
     gaits = [{
-        "parameters": dict(zip(PARAMETER_NAMES, map(float, archive["params"][i]))),
-        "fitness": float(archive["fitness"][i]),
-        "speed_mps": float(archive["speed"][i]),
-        "direction_deg": float(archive["direction"][i]),
-        "terminated_starts": int(archive["terminated"][i]),
+        "parameters": dict(zip(PARAMETER_NAMES, map(float, params[i]))),
+        "fitness": float(rows[i, 0]),
+        "speed_mps": float(rows[i, 1]),
+        "direction_deg": float(rows[i, 2]),
+        "terminated_starts": int(rows[i, 3]),
         "search_rank": rank,
         "robust": None,
     } for rank, i in zip(search_ranks, order)]  # fmt: skip
     if robustness_seeds:
-        reports = robustness(np.array([archive["params"][i] for i in order]), model=model, objective=objective,
-                             heading_deg=heading_deg, directions_deg=[g["direction_deg"] for g in gaits],
-                             seeds=robustness_seeds,
+        reports = robustness(params[order], model=model, objective=objective, heading_deg=heading_deg,
+                             directions_deg=[g["direction_deg"] for g in gaits], seeds=robustness_seeds,
                              duration=duration if robustness_duration is None else robustness_duration,
                              reset_noise_scale=reset_noise_scale, ramp_s=ramp_s, ray_address=ray_address,
                              ray_chunks=ray_chunks, **env_kwargs)  # fmt: skip
         for gait, report in zip(gaits, reports):
             gait["robustness"] = report
         gaits = rank_robust_first(gaits)
-    gaits = gaits[:keep]
     label = f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
-    gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits, start=1)]
+    gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits[:keep], start=1)]
     settings = {
         "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": dict(env_kwargs),
         "reset_noise_scale": reset_noise_scale, "ramp_s": ramp_s, "duration_s": float(scored),
@@ -805,61 +729,96 @@ def search(
         "popsize": popsize, "screen": int(screen), "sigma0": float(sigma0), "command": command,
         "robust_pool": pool if robustness_seeds else None,
     }
-    used = {"evaluations": evaluations, "seconds": round(seconds, 3), "generations": generations, "restarts": restarts}
+    used = {"evaluations": evaluations, "seconds": round(seconds, 3), "generations": archive.generations,
+            "restarts": archive.restarts}
     return SearchResult(gaits=gaits, settings=settings, used=used, history=history)
 
 
-def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsize=64, sigma0=0.25, seed=0, remaining):
-    """A random screen, then CMA-ES with restarts, maximising ``score`` within a budget.
+def unit_box(extra_bounds=()):
+    """(to_params, to_unit): the affine maps from the unit box onto the sinusoid's six numbers
+    (:data:`BOUNDS`, repaired: :func:`repair`) and then ``extra_bounds`` ((low, high) each), and back."""
+    lows, highs = _lows_highs()
+    lows = np.r_[lows, [low for low, _ in extra_bounds]]
+    highs = np.r_[highs, [high for _, high in extra_bounds]]
 
-    ``score(params)`` takes candidates (n, D), D = ``dimension``, and returns their fitness (n,);
-    the caller keeps what it needs of them. ``to_params`` maps a point of the unit box [0, 1]^D to a candidate
-    (repaired as the caller wants), ``to_unit`` back. The screen scores ``first`` (a list of
-    candidates) and ``screen`` uniform random points (fewer if the budget is smaller), drawn
-    from ``seed``; CMA-ES starts from the fittest candidate so far (the box's centre if none)
-    with step ``sigma0``, bounded to the box, and restarts from the fittest with a fresh seed
-    when it converges. ``remaining()`` is how many more candidates the budget allows (checked
-    before each population; a population is cut to it). Returns (generations, restarts).
+    def to_params(unit):
+        params = lows + np.clip(unit, 0.0, 1.0) * (highs - lows)
+        params[:6] = repair(params[:6])
+        return params
+
+    return to_params, lambda params: (np.asarray(params) - lows) / (highs - lows)
+
+
+@dataclass
+class Archive:
+    """Every candidate :func:`maximise` scored (``params``) and its score row (``rows``, column 0 the
+    fitness), in order; ``best`` indexes the first of the fittest."""
+
+    params: list = field(default_factory=list)
+    rows: list = field(default_factory=list)
+    best: int | None = None
+    generations: int = 0
+    restarts: int = 0
+
+    def add(self, params, rows) -> None:
+        i = int(np.argmax(rows[:, 0]))
+        if self.best is None or rows[i, 0] > self.rows[self.best][0]:
+            self.best = len(self.rows) + i
+        self.params += list(np.asarray(params, dtype=float))
+        self.rows += list(rows)
+
+
+def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsize=64, sigma0=0.25, seed=0, remaining,
+             report=None) -> Archive:  # fmt: skip
+    """A random screen, then CMA-ES with restarts, maximising the fitness of ``score`` within a budget.
+
+    ``score(params)`` takes candidates (n, D), D = ``dimension``, and returns their score rows (n, K),
+    column 0 the fitness; ``report(archive, rows)``, if given, sees each population's. ``to_params``
+    maps a point of the unit box [0, 1]^D to a candidate, ``to_unit`` back. The screen scores
+    ``first`` (a list of candidates) and ``screen`` uniform random points (fewer if the budget is
+    smaller), drawn from ``seed``; CMA-ES starts from the fittest candidate so far (the box's centre
+    if none) with step ``sigma0``, bounded to the box, and restarts from the fittest with a fresh
+    seed when it converges. ``remaining()`` is how many more candidates the budget allows (checked
+    before each population; a population is cut to it). Returns the :class:`Archive`.
     """
     try:
         import cma
     except ImportError:  # pragma: no cover - depends on the install
         raise ImportError("the search needs cma: pip install 'rrrobot_gym[search]'") from None
     rng = np.random.default_rng(seed)
-    best = {"fitness": -math.inf, "params": None}
+    archive = Archive()
 
     def scored(params):
-        fitness = np.asarray(score(params), dtype=float)
-        i = int(np.argmax(fitness))
-        if fitness[i] > best["fitness"]:
-            best["fitness"], best["params"] = float(fitness[i]), np.asarray(params[i], dtype=float)
-        return fitness
+        rows = np.asarray(score(params), dtype=float)
+        archive.add(params, rows)
+        if report is not None:
+            report(archive, rows)
+        return rows[:, 0]
 
     first = list(first)
     n_screen = int(min(screen, remaining() - len(first))) if screen else 0
     candidates = first + [to_params(u) for u in rng.uniform(size=(max(0, n_screen), dimension))]
     if candidates:
         scored(np.array(candidates))
-    generations = restarts = 0
-    mean = to_unit(best["params"]) if best["params"] is not None else np.full(dimension, 0.5)
+    mean = to_unit(archive.params[archive.best]) if archive.rows else np.full(dimension, 0.5)
     while remaining() >= 1:
         # cma treats seed 0 as "seed from the clock": shift by one to stay repeatable.
         es = cma.CMAEvolutionStrategy(
             np.clip(mean, 1e-6, 1 - 1e-6), sigma0,
-            {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + restarts + 1, "verbose": -9},
+            {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + archive.restarts + 1, "verbose": -9},
         )
         while remaining() >= 1 and not es.stop():
             units = es.ask()
             n = int(min(len(units), remaining()))
             fitness = scored(np.array([to_params(u) for u in units[:n]]))
-            generations += 1
+            archive.generations += 1
             if n < len(units):
                 break
             es.tell(units, (-fitness).tolist())  # cma minimises
         if es.stop():
-            restarts += 1
-        mean = to_unit(best["params"])
-    return generations, restarts
+            archive.restarts += 1
+        mean = to_unit(archive.params[archive.best])
+    return archive
 
 
 POOL_SPACING = 0.02
@@ -901,9 +860,9 @@ def robustness(parameters, *, model="plane", objective="own", heading_deg=None, 
     """Re-score gaits (P, 6) on ``seeds`` start-noise seeds the search never used
     (``ROBUSTNESS_SEED_OFFSET + i``), and once from the paper's start (no noise).
 
-    Speeds are along the objective's direction: the heading, or for "own" the gait's own
-    direction as the search measured it (``directions_deg``), so a gait that is knocked
-    onto another course by a different start scores low. One dict per gait (module docstring).
+    Speeds (m/s) are along the heading, or for "own" the gait's direction as the search measured it
+    (``directions_deg``), so a gait knocked onto another course by a new start scores low. One report
+    a gait: per-start speeds and terminations, their mean and worst, the paper's start's, and the peaks.
     """
     params = np.asarray(parameters, dtype=float)
     _check_objective(objective, heading_deg)

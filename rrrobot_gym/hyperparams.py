@@ -1,9 +1,7 @@
-"""Tuned PPO hyperparameters for RRRobot-v0: what ``train.py`` trains the shipped policy with.
+"""Tuned PPO hyperparameters for RRRobot-v0, declared once: ``train.py``'s defaults.
 
-SB3's PPO defaults suit a single env: with a batched env they make each update tiny and
-slow (``n_steps=2048`` per env, minibatches of 64: at 16 envs ``learn(2000)`` runs 32,768
-steps, 512 minibatches an epoch, 192 s on this project's 2-core machine). Ours take short
-rollouts from many robots and large minibatches:
+SB3's PPO defaults (``n_steps=2048`` per env, minibatches of 64) suit a single env; with a
+batched env ours take short rollouts from many robots and large minibatches:
 
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
@@ -15,15 +13,13 @@ rollouts from many robots and large minibatches:
     model.learn(1_000_000)
 
 Save the VecNormalize statistics beside the model and evaluate with
-``training=False, norm_reward=False``. These constants are the one declaration of the PPO
-defaults: :class:`rrrobot_gym.training.Args` (``train.py``'s options) takes its defaults from
-them, and ``train.py`` builds its model with :func:`ppo_hyperparams`. ``train.py`` also runs a
-goal-conditioned policy mirrored (:mod:`rrrobot_gym.agents.mirror`: headings towards -Y as
-mirror images of those towards +Y, built on :func:`rrrobot_gym.dynamics.mirror_states`) and
-keeps the evaluation with the best worst heading.
+``training=False, norm_reward=False``. ``train.py`` also runs a goal-conditioned policy mirrored
+(:mod:`rrrobot_gym.agents.mirror`) and keeps the evaluation with the best worst heading.
 """
 
 from __future__ import annotations
+
+from .params import whole_number
 
 NUM_ENVS = 64
 """robots simulated together in the batched env."""
@@ -78,15 +74,10 @@ def ppo_hyperparams(num_envs: int = NUM_ENVS, *, learning_rate: float = LEARNING
                     batch_size: int | None = None, n_epochs: int = N_EPOCHS, gamma: float = GAMMA,
                     gae_lambda: float = GAE_LAMBDA, clip_range: float = CLIP_RANGE, ent_coef: float = ENT_COEF,
                     net_arch=NET_ARCH, log_std_init: float = LOG_STD_INIT) -> dict:
-    """Keyword arguments for ``stable_baselines3.PPO("MlpPolicy", venv, **...)`` on ``num_envs`` robots.
-
-    By default n_steps 256, batch_size min(4096, n_steps num_envs), n_epochs 10, learning rate
-    3e-4 falling linearly to 0 over the run (``learn``'s total_timesteps; ``learning_rate_final``
-    None: constant), gamma 0.99, GAE lambda 0.95, clip 0.2, no entropy bonus, two hidden layers
-    of 128 and an initial log std of -2, on the CPU. Each keyword overrides one of these.
-    """
-    if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-        raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+    """Keyword arguments for ``stable_baselines3.PPO("MlpPolicy", venv, **...)`` on ``num_envs``
+    robots, on the CPU: the constants above, each overridden by its keyword (``batch_size`` None:
+    min(MAX_BATCH_SIZE, n_steps num_envs); ``learning_rate_final`` None: a constant rate)."""
+    num_envs = whole_number("num_envs", num_envs)
     return {
         "learning_rate": learning_rate_schedule(learning_rate, learning_rate_final),
         "n_steps": n_steps,

@@ -1,10 +1,7 @@
-"""Plots of the contact-point path in the style of the paper's Figs. 7-9.
+"""Plots of the contact-point path in the style of the paper's Figs. 7-9, written to files.
 
-matplotlib is an optional dependency (``pip install rrrobot_gym[plots]``): it is
-imported inside the functions, so the simulator and the environment never need it.
-Figures are drawn with the non-interactive Agg backend and written to files.
-
-A panel shows, in metres, with equal aspect:
+matplotlib is an optional dependency (``pip install rrrobot_gym[plots]``), imported inside the
+functions and used on the Agg backend. A panel shows, in metres, with equal aspect:
 - the raw contact path (thin): it wiggles back and forth at the gait frequency;
 - the path averaged over each gait period: the travel the robot actually makes;
 - the start, a solid arrow giving the direction of motion (the paper's "solid
@@ -69,12 +66,11 @@ def time_mark_spacing(duration: float, max_marks: int = 6) -> float:
     return 10.0 * decade
 
 
-def draw_contact_path(ax, times, x, y, period: float, title: str = "", time_mark_every: float | None = None):
+def draw_contact_path(ax, times, x, y, period: float, title: str = ""):
     """Draw one contact path on the matplotlib axes ``ax`` (see the module docstring).
 
     ``times`` (T,) s; ``x``, ``y`` (T,) m; ``period`` s, the gait period used to
     average the path. A run shorter than one period is drawn raw only.
-    ``time_mark_every`` s between time marks; None picks a round spacing.
     """
     times, x, y = (np.asarray(a, dtype=float) for a in (times, x, y))
     if not (times.shape == x.shape == y.shape and times.ndim == 1 and len(times) >= 2):
@@ -88,7 +84,7 @@ def draw_contact_path(ax, times, x, y, period: float, title: str = "", time_mark
         path_times, path = times, np.stack([x, y], axis=-1)
     ax.plot(x[0], y[0], "ko", ms=5, label="start", zorder=5)
     _draw_direction_arrow(ax, path_times, path, period)
-    _draw_time_marks(ax, path_times, path, time_mark_every or time_mark_spacing(duration), period)
+    _draw_time_marks(ax, path_times, path, time_mark_spacing(duration), period)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -99,11 +95,8 @@ def draw_contact_path(ax, times, x, y, period: float, title: str = "", time_mark
 
 
 def _draw_direction_arrow(ax, times, path, period):
-    """Solid arrow along the (averaged) path at mid-run, pointing the way it goes.
-
-    Mid-run rather than at the end: a circling path ends near its start-up
-    transient, where an arrow would be lost among the early wiggles.
-    """
+    """Solid arrow along the (averaged) path at mid-run (a circling path ends near its start-up
+    transient, where an arrow would be lost among the early wiggles), pointing the way it goes."""
     middle = 0.5 * (times[0] + times[-1])
     half_span = min(2.0 * period, 0.25 * (times[-1] - times[0]))
     tail = np.array([np.interp(middle - half_span, times, path[:, k]) for k in range(2)])
@@ -160,11 +153,7 @@ def _draw_time_marks(ax, times, path, every, period):
 
 
 def _save(fig, path, dpi):
-    """Write ``fig``; a PNG is reduced to a 128-colour palette.
-
-    Thousands of anti-aliased raw-path segments give a full-colour PNG of ~350 kB at
-    100 dpi; the palette version is about a third of that and looks the same.
-    """
+    """Write ``fig``; a PNG is reduced to a 128-colour palette (a third of the size, and it looks the same)."""
     if Path(path).suffix.lower() != ".png":
         fig.savefig(path, dpi=dpi)
         return

@@ -19,7 +19,7 @@ from __future__ import annotations
 import cmath
 import functools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,11 +35,8 @@ targets exactly, so the stiff servo leaves the integration (see :func:`advance`)
 
 BACKENDS = ("auto", "numpy", "numba")
 """How :func:`advance` integrates (``SimConfig.backend``): "numba", the compiled stepper of
-:mod:`rrrobot_gym.compiled` (numba installed; servo legs, RK4, and the ramp, held or sinusoid
-targets of :mod:`rrrobot_gym.control`); "numpy", :data:`INTEGRATORS` on Python floats and numpy
-arrays; "auto" (default), the compiled stepper where numba is installed and it covers the scene
-and targets, else numpy. Both integrate the same equations
-(:func:`rrrobot_gym.dynamics.derivative_kernel`)."""
+:mod:`rrrobot_gym.compiled` (for the scenes and targets it covers); "numpy", :data:`INTEGRATORS`
+on Python floats and numpy arrays; "auto" (default), numba where installed and covering, else numpy."""
 
 DEFAULT_TIMESTEP = 1.0 / 300.0
 """s, RK4 step of the defaults; keeps the contact point within 1 mm of the
@@ -58,8 +55,7 @@ class SimConfig:
     legs: str = "servo"  # "servo" (PD servo dynamics) or "kinematic" (legs follow a smooth path exactly)
     torque_limit: float | None = None  # N m, the leg motors' stall torque; None: unlimited (the paper's servo)
     leg_rate_limit: float | None = None  # rad/s, the motors' no-load speed (needs torque_limit); None: unlimited
-    # "auto", "numpy" or "numba" (BACKENDS): how, not what, is integrated, so it is left out of the repr
-    # (which describes the physics: tests/reference_paths.py keys its stored paths on it)
+    # BACKENDS: how, not what, is integrated, so not in the repr (which keys tests/reference_paths.py)
     backend: str = field(default="auto", repr=False)
 
     def __post_init__(self):
@@ -403,10 +399,8 @@ def _stage_fns(config: SimConfig, targets, blend=None):
     return f, first
 
 
-def _derivative_fn(config: SimConfig, targets, kinematic_legs: bool = False):
+def _derivative_fn(config: SimConfig, targets):
     """f(t, y) for a component-first state y: shape (13,) (one robot) or (13, N), as an array."""
-    if kinematic_legs and config.legs != "kinematic":
-        config = replace(config, legs="kinematic")
     f, _ = _stage_fns(config, targets)
 
     def g(t, y):
@@ -430,11 +424,9 @@ def _leg_path_end(targets, blend, t_end):
 class StepRecord:
     """What an :func:`advance` did, sampled at the start of every integration substep.
 
-    Made by the integrator from the derivative it evaluates there anyway (the first stage
-    of each substep), so the torques are the ones it applied (the servo law on the targets
-    and their rate, after any motor limit; with kinematic legs, the torques the prescribed
-    motion took) and the force is Newton's for the motion it integrated
-    (:func:`rrrobot_gym.dynamics.contact_kernel`). Nothing downstream rebuilds them.
+    Made by the integrator from the first-stage derivative it evaluates anyway: the torques it
+    applied (after any motor limit; kinematic legs: what the prescribed motion took) and Newton's
+    force for the motion it integrated (:func:`rrrobot_gym.dynamics.contact_kernel`).
 
     Shapes: S samples; one robot: (S,), (S, 2), (S, 3); a batch of N: (S, N), (S, N, 2), (S, N, 3).
     :meth:`summary` gives each robot's extremes over the samples (what the env's measures read).
@@ -464,9 +456,8 @@ class StepRecord:
     def summary(self) -> dict:
         """Per robot, over the samples: a dict keyed :data:`SUMMARY_KEYS` of ([N],) arrays.
 
-        The compiled stepper makes it as it finishes each block of robots, in both threads; a
-        record from the numpy steppers, or made or changed by hand, is summarised here, to the
-        same numbers (a NaN wins a min or max; the squares are summed sample by sample).
+        The compiled stepper's own summary where it made one; else computed here, to the same
+        numbers (a NaN wins a min or max; the squares are summed sample by sample).
         """
         if self._summary is not None:
             return dict(zip(SUMMARY_KEYS, self._summary))
@@ -500,12 +491,11 @@ the sum of both legs' squared torques (N^2 m^2); the peak |torque| (N m, both le
 
 
 def _largest_magnitude(values):
-    """max |v| per robot over samples and legs of (S, N, 2) values, from a max and a min (no
-    array of magnitudes: at N = 4096 the record's arrays are large)."""
+    """max |v| per robot over samples and legs of (S, N, 2) values (a max and a min: no array of magnitudes)."""
     return np.maximum(values.max(axis=(0, 2)), -values.min(axis=(0, 2)))
 
 
-_RECORD_ROWS = compiled.RECORD_ROWS  # torque (2), force (3), normal, tangential, clearance (2), leg rates (2): one layout for both backends
+_RECORD_ROWS = compiled.RECORD_ROWS  # one layout of the record's rows for both backends
 
 
 class _Recorder:
@@ -612,19 +602,14 @@ def advance(
 
     The step is the largest that divides ``duration`` evenly and is no larger than
     ``config.step``. Returns the new state (same shape as ``state``), and with
-    ``record=True`` also a :class:`StepRecord` of the torques applied and the ground force
-    at the start of every substep: ``(state, record)``.
+    ``record=True`` also a :class:`StepRecord`: ``(state, record)``.
 
-    With ``config.legs == "kinematic"`` the legs follow a path exactly: the targets'
-    own path (their angles, rates and accelerations) when the legs are on it at t0,
-    else a minimum-jerk quintic from the legs' current angles and rates onto that path
-    over ``duration`` (for held targets: onto the held angles, at rest). The body
-    reacts to whatever torque that takes; only the body's equations are integrated.
+    With ``config.legs == "kinematic"`` the legs follow the targets' own path exactly when
+    they are on it at t0, else a minimum-jerk quintic onto that path over ``duration``; only
+    the body's equations are integrated.
 
     ``workers`` > 1 shares a batch's robots among that many of numba's threads (the compiled
-    stepper only: the compiled loop holds no GIL). The robots are independent and the step is
-    chosen for the whole batch first, so the result is bit-identical to one worker. Worth it
-    for large batches (``benchmarks.throughput``).
+    stepper only), bit-identical to one worker.
 
     ``check`` validates the state (:func:`check_state`) and the targets against it
     (:func:`check_targets`); callers that made both themselves, as the envs do, pass False.
@@ -755,9 +740,8 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
 
 
 ROW_BY_ROW_MAX = 20
-"""A batch of at most this many robots is integrated one robot at a time on Python floats:
-below it numpy's per-call overhead costs more than the loop (robot by robot takes about 0.8x the
-batched time at 16 robots, 0.9x at 20 and 24, 1.5x at 32). The choice depends on the batch size only."""
+"""A batch of at most this many robots is integrated one robot at a time on Python floats, where
+numpy's per-call overhead costs more than the loop (docs/notes/layout.md). It depends on the size only."""
 
 
 def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
@@ -765,12 +749,11 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
     [the record's rows (S, 11, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
     out = np.empty_like(state)
     rows = []
-    # A target source may give one robot's targets on floats itself (``robot(i)``: the ramps and
-    # gaits of :mod:`rrrobot_gym.control`); any other is indexed at every evaluation.
-    one_robot = getattr(targets, "robot", None) or (lambda i: _RowsOf(targets, i, float))
+    # A source's own ``robot(i)`` gives one robot's targets on floats; any other is indexed at every evaluation.
+    one_robot = getattr(targets, "robot", None) or (lambda i: _RowOf(targets, i))
     for i in range(len(state)):
         try:
-            y, recorder = _integrate(config, one_robot(i), _blend_rows(blend, i, float),
+            y, recorder = _integrate(config, one_robot(i), _blend_row(blend, i),
                                      state[i].tolist(), t0, h, n_steps, record)  # fmt: skip
             out[i] = y
             rows.append(None if recorder is None else recorder.rows)
@@ -780,14 +763,12 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
     return out, np.stack(rows, axis=2) if record else None
 
 
-def _blend_rows(blend, rows, cast=None):
-    """The part of a kinematic blend (t0, coeffs1, coeffs2) for the robots ``rows`` (a slice,
-    or one robot's index with ``cast=float`` for the float steppers)."""
+def _blend_row(blend, i):
+    """Robot i's part of a kinematic blend (t0, coeffs1, coeffs2), on floats."""
     if blend is None:
         return None
     t_blend, *coeffs = blend
-    take = (lambda v: _take(v, rows)) if cast is None else (lambda v: cast(_take(v, rows)))
-    return (t_blend, *(tuple(take(v) for v in c) for c in coeffs))
+    return (t_blend, *(tuple(float(_take(v, i)) for v in c) for c in coeffs))
 
 
 def _integrate_batch(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
@@ -798,23 +779,19 @@ def _integrate_batch(config: SimConfig, targets, blend, state, t0: float, h: flo
     return np.stack(y, axis=1), (None if recorder is None else recorder.rows)
 
 
-def _take(value, rows):
-    """``value[rows]`` for a per-robot array, ``value`` itself for a number shared by all robots."""
-    return value[rows] if isinstance(value, np.ndarray) and value.ndim else value
+def _take(value, i):
+    """``value[i]`` for a per-robot array, ``value`` itself for a number shared by all robots."""
+    return value[i] if isinstance(value, np.ndarray) and value.ndim else value
 
 
-class _RowsOf:
-    """A leg-target source as seen by one robot of a batch (``rows`` an index, ``cast=float``:
-    Python floats for the float stepper)."""
+class _RowOf:
+    """A leg-target source as seen by robot i of a batch, on Python floats."""
 
-    def __init__(self, targets, rows, cast=None):
-        self._targets, self._rows, self._cast = targets, rows, cast
+    def __init__(self, targets, i):
+        self._targets, self._i = targets, i
 
     def leg_targets(self, t):
-        triples = self._targets.leg_targets(t)
-        if self._cast is None:
-            return tuple(tuple(_take(v, self._rows) for v in triple) for triple in triples)
-        return tuple(tuple(self._cast(_take(v, self._rows)) for v in triple) for triple in triples)
+        return tuple(tuple(float(_take(v, self._i)) for v in triple) for triple in self._targets.leg_targets(t))
 
 
 @dataclass(frozen=True)

@@ -7,20 +7,12 @@ Reads top to bottom: arguments, environments, model, callbacks, learn, save.
     python train.py --resume runs/RUN/checkpoints/ppo_500000_steps.zip
 
 Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard logs,
-``evaluations.npz``, ``best_model.zip``, periodic checkpoints, and at the end (or on
-Ctrl-C) ``final_model.zip`` with ``vecnormalize.pkl`` (the observation normalisation)
-beside every saved model; ``env_kwargs.json``, every env keyword of the training env (as
-rl-zoo3 saves them; ``rrrobot_gym.agents.load_ppo_agent`` rebuilds the env from it), ``args.json`` and
-``command.txt``. Loading a model unpickles it: load only files you trust.
-
-``best_model.zip`` is the model of the best evaluation (``EvalCallback``, every
-``--eval-freq`` steps, on the training env's reward; best by the headings' mean return, or
-with ``--select-by worst`` by the worst heading's). A run too short for any evaluation
-has none: then ``best_model.zip`` (and ``vecnormalize.pkl``) is a copy of the final model,
-chosen by nothing, and the log says so.
-
-Training runs in whole rollouts of ``num_envs x n_steps`` env steps, so
-``--total-timesteps`` is rounded up to a whole number of rollouts (the log says by how much).
+``evaluations.npz``, ``best_model.zip`` (the best evaluation by ``--select-by``, every
+``--eval-freq`` steps; a run too short for any is given a copy of the final model),
+checkpoints, ``final_model.zip`` (also on Ctrl-C), each model's VecNormalize statistics beside
+it, ``env_kwargs.json`` (every env keyword, from which ``rrrobot_gym.agents.load_ppo_agent``
+rebuilds the env), ``args.json`` and ``command.txt``. ``--total-timesteps`` is rounded up to
+whole rollouts of ``num_envs x n_steps``. Loading a model unpickles it: trusted files only.
 """
 
 from __future__ import annotations
@@ -50,86 +42,66 @@ from .simulation import BACKENDS
 ENV_ID = "RRRobot-v0"
 
 
+def _option(default, help_text):
+    """An :class:`Args` field: a command-line option with its default and its --help text."""
+    return field(default=default, metadata={"help": help_text})
+
+
 @dataclass
 class Args:
-    exp_name: str = field(default="ppo", metadata={"help": "name of this experiment (part of the run name)"})
-    seed: int = field(default=1, metadata={"help": "seed of every RNG: python, numpy, torch, the envs"})
-    total_timesteps: int = field(
-        default=20_000_000,
-        metadata={"help": "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps"},
-    )
-    model: str = field(default="plane", metadata={"help": "dynamic model: plane or pivot"})
-    direction_deg: float | None = field(
-        default=None,
-        metadata={"help": "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading"},
-    )
-    num_envs: int = field(default=hp.NUM_ENVS, metadata={"help": "robots simulated together in the batched env"})
-    n_steps: int = field(default=hp.N_STEPS, metadata={"help": "PPO rollout length per env"})
-    batch_size: int = field(default=hp.MAX_BATCH_SIZE, metadata={"help": "PPO minibatch size"})
-    n_epochs: int = field(default=hp.N_EPOCHS, metadata={"help": "PPO epochs per rollout"})
-    learning_rate: float = field(default=hp.LEARNING_RATE, metadata={"help": "Adam learning rate (at the start, with --learning-rate-final)"})
-    learning_rate_final: float | None = field(
-        default=hp.LEARNING_RATE_FINAL,
-        metadata={"help": "Adam learning rate at the run's end, reached linearly from --learning-rate; none: constant"},
-    )
-    gamma: float = field(default=hp.GAMMA, metadata={"help": "discount factor (per 0.05 s control step)"})
-    gae_lambda: float = field(default=hp.GAE_LAMBDA, metadata={"help": "GAE lambda"})
-    clip_range: float = field(default=hp.CLIP_RANGE, metadata={"help": "PPO clip range"})
-    ent_coef: float = field(default=hp.ENT_COEF, metadata={"help": "entropy bonus coefficient"})
-    log_std_init: float = field(default=hp.LOG_STD_INIT, metadata={"help": "initial log std of the Gaussian policy"})
-    net_arch: str = field(default=",".join(map(str, hp.NET_ARCH)), metadata={"help": "hidden layer sizes of policy and value nets"})
-    healthy_reward: float = field(
-        default=1.0, metadata={"help": "env reward per step that stays inside the model (survival first, then speed)"}
-    )
-    clock_frequency: float | None = field(
-        default=None, metadata={"help": "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none"}
-    )
-    torque_limit: float | None = field(
-        default=None, metadata={"help": "N m, the leg motors' stall torque (the env's torque_limit); default unlimited"}
-    )
-    leg_rate_limit: float | None = field(
-        default=None,
-        metadata={"help": "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default unlimited"},
-    )
-    backend: str = field(
-        default="auto",
-        metadata={"help": "simulator backend (the env's backend): auto (numba where installed), numba or numpy"},
-    )
-    env: list[str] | None = field(
-        default=None,
-        metadata={"help": "another env keyword as KEY=VALUE, e.g. contact_quadrature=trapezoid (repeatable, as "
-                          "gait-search's; not those with options of their own; saved in env_kwargs.json, so "
-                          "evaluate.py holds the agents compared to them)"},
-    )
-    episode_steps: int = field(default=1000, metadata={"help": "control steps per training episode (1000 = 50 s)"})
-    eval_freq: int = field(default=250_000, metadata={"help": "evaluate every this many env steps"})
-    checkpoint_freq: int = field(default=1_000_000, metadata={"help": "save a checkpoint every this many env steps"})
-    resume: str | None = field(default=None, metadata={"help": "a model zip to continue from (its vecnormalize.pkl beside it)"})
-    runs_dir: str = field(default="runs", metadata={"help": "where runs are written"})
-    progress_bar: bool = field(default=True, metadata={"help": "show a progress bar (needs tqdm and rich)"})
-    residual_on: str | None = field(
-        default=None,
-        metadata={"help": "a turn-then-run JSON (agents/searched/turn_then_run.json): learn a residual on that agent's actions"},
-    )
-    residual_scale: float = field(
-        default=0.05, metadata={"help": "with --residual-on: the largest change of the base's action (action units)"}
-    )
-    mirror: bool | None = field(
-        default=None,
-        metadata={"help": "run headings towards -Y as mirror images of those towards +Y (rrrobot_gym/agents/mirror.py): "
-                          "the policy learns half the compass; default: on for a goal-conditioned policy, off "
-                          "for a --direction-deg specialist or a --residual-on policy, and as the --resume run was"},
-    )
-    select_by: str = field(
-        default="worst",
-        metadata={"help": "which evaluation picks best_model.zip: mean (the headings' mean return) or worst "
-                          "(the worst heading's return)"},
-    )
-    torch_threads: int = field(
-        default=2,
-        metadata={"help": "torch CPU threads for PPO's updates; the model's construction, the rollouts and the "
-                          "evaluations run on one (the env steps between updates, so its core is free then)"},
-    )
+    exp_name: str = _option("ppo", "name of this experiment (part of the run name)")
+    seed: int = _option(1, "seed of every RNG: python, numpy, torch, the envs")
+    total_timesteps: int = _option(
+        20_000_000, "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps")
+    model: str = _option("plane", "dynamic model: plane or pivot")
+    direction_deg: float | None = _option(
+        None, "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading")
+    num_envs: int = _option(hp.NUM_ENVS, "robots simulated together in the batched env")
+    n_steps: int = _option(hp.N_STEPS, "PPO rollout length per env")
+    batch_size: int = _option(hp.MAX_BATCH_SIZE, "PPO minibatch size")
+    n_epochs: int = _option(hp.N_EPOCHS, "PPO epochs per rollout")
+    learning_rate: float = _option(hp.LEARNING_RATE, "Adam learning rate (at the start, with --learning-rate-final)")
+    learning_rate_final: float | None = _option(
+        hp.LEARNING_RATE_FINAL,
+        "Adam learning rate at the run's end, reached linearly from --learning-rate; none: constant")
+    gamma: float = _option(hp.GAMMA, "discount factor (per 0.05 s control step)")
+    gae_lambda: float = _option(hp.GAE_LAMBDA, "GAE lambda")
+    clip_range: float = _option(hp.CLIP_RANGE, "PPO clip range")
+    ent_coef: float = _option(hp.ENT_COEF, "entropy bonus coefficient")
+    log_std_init: float = _option(hp.LOG_STD_INIT, "initial log std of the Gaussian policy")
+    net_arch: str = _option(",".join(map(str, hp.NET_ARCH)), "hidden layer sizes of policy and value nets")
+    healthy_reward: float = _option(1.0, "env reward per step that stays inside the model (survival first, then speed)")
+    clock_frequency: float | None = _option(
+        None, "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none")
+    torque_limit: float | None = _option(
+        None, "N m, the leg motors' stall torque (the env's torque_limit); default unlimited")
+    leg_rate_limit: float | None = _option(
+        None, "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default "
+        "unlimited")
+    backend: str = _option(
+        "auto", "simulator backend (the env's backend): auto (numba where installed), numba or numpy")
+    env: list[str] | None = _option(
+        None, "another env keyword as KEY=VALUE, e.g. contact_quadrature=trapezoid (repeatable, as gait-search's; not "
+        "those with options of their own; saved in env_kwargs.json, so evaluate.py holds the agents compared to them)")
+    episode_steps: int = _option(1000, "control steps per training episode (1000 = 50 s)")
+    eval_freq: int = _option(250_000, "evaluate every this many env steps")
+    checkpoint_freq: int = _option(1_000_000, "save a checkpoint every this many env steps")
+    resume: str | None = _option(None, "a model zip to continue from (its vecnormalize.pkl beside it)")
+    runs_dir: str = _option("runs", "where runs are written")
+    progress_bar: bool = _option(True, "show a progress bar (needs tqdm and rich)")
+    residual_on: str | None = _option(
+        None, "a turn-then-run JSON (agents/searched/turn_then_run.json): learn a residual on that agent's actions")
+    residual_scale: float = _option(0.05, "with --residual-on: the largest change of the base's action (action units)")
+    mirror: bool | None = _option(
+        None, "run headings towards -Y as mirror images of those towards +Y (rrrobot_gym/agents/mirror.py): the policy "
+        "learns half the compass; default: on for a goal-conditioned policy, off for a --direction-deg specialist or a "
+        "--residual-on policy, and as the --resume run was")
+    select_by: str = _option(
+        "worst", "which evaluation picks best_model.zip: mean (the headings' mean return) or worst (the worst "
+        "heading's return)")
+    torch_threads: int = _option(
+        2, "torch CPU threads for PPO's updates; the model's construction, the rollouts and the evaluations run on one "
+        "(the env steps between updates, so its core is free then)")
 
 
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
@@ -140,8 +112,7 @@ value function and return normalisation were trained with."""
 
 
 def _parser(given_only=False):
-    """The command line of :class:`Args`; with ``given_only`` every default is left out, so the
-    parsed namespace holds only the flags given."""
+    """The command line of :class:`Args`; with ``given_only`` the namespace holds only the flags given."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      argument_default=argparse.SUPPRESS if given_only else None)
     for f in dataclasses.fields(Args):
@@ -187,8 +158,7 @@ def resume_overrides(args: Args, argv=None) -> dict:
 
 
 def learning_rate(args: Args):
-    """SB3's learning_rate: --learning-rate, or a :class:`rrrobot_gym.hyperparams.LinearRate` to
-    --learning-rate-final."""
+    """SB3's learning_rate: --learning-rate, falling linearly to --learning-rate-final if given."""
     return hp.learning_rate_schedule(args.learning_rate, args.learning_rate_final)
 
 
@@ -261,12 +231,11 @@ def parse_args(argv=None) -> Args:
 
 
 LOG_STD_INIT_RANGE = (-20.0, 5.0)
-"""--log-std-init's range: e^-20 is no noise at all, e^5 = 148 action units is noise over [-1, 1] many times."""
+"""--log-std-init's range: e^-20 is no noise, e^5 = 148 action units spans [-1, 1] many times."""
 
 
 def _check_ppo_settings(parser, args):
-    """The PPO settings SB3 and torch would take and fail on later (NaN in the first rollout's
-    update, an assertion, a bad seed) or train on without meaning (a discount above 1)."""
+    """The PPO settings SB3 and torch would take and fail on later, or train on without meaning."""
     for name in ("gamma", "gae_lambda"):
         value = getattr(args, name)
         if not 0.0 <= value <= 1.0:
@@ -291,7 +260,7 @@ def _check_ppo_settings(parser, args):
 
 def _check_resumed_model(parser, args):
     """The --resume zip is an SB3 model with its normalisation statistics beside it, observing as
-    many numbers as this run's env gives (SB3 found out only after the env was made, by assertion)."""
+    many numbers as this run's env gives."""
     import zipfile
 
     data = None
@@ -317,8 +286,8 @@ def _check_resumed_model(parser, args):
 
 
 def _check_resumed_residual(parser, args):
-    """A residual policy (residual.json in its run directory) resumes only as one, on the same scale;
-    a plain one never does (their observations differ in size, which SB3 would report unnamed)."""
+    """A residual policy (residual.json in its run directory) resumes only as one, on the same
+    scale; a plain one never does."""
     run_dir = run_directory(args.resume)
     try:
         saved = load_base(run_dir)
@@ -369,8 +338,7 @@ def env_config(args: Args) -> dict:
 
 
 def ppo_kwargs(args: Args) -> dict:
-    """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this
-    run's settings."""
+    """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this run's."""
     settings = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda",
                 "clip_range", "ent_coef", "log_std_init")
     return hp.ppo_hyperparams(args.num_envs, net_arch=[int(n) for n in args.net_arch.split(",")],
@@ -385,11 +353,16 @@ def rounded_timesteps(args: Args) -> int:
 
 def make_env(args: Args, num_envs: int, seed: int):
     """The batched env behind SB3's VecEnv API, with episode statistics."""
-    from stable_baselines3.common.vec_env import VecMonitor
-
     from .envs.sb3 import RRRobotSB3VecEnv
 
     venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
+    return _as_policy_sees(args, venv, seed)
+
+
+def _as_policy_sees(args: Args, venv, seed: int):
+    """``venv`` seeded, with episode statistics, as the policy sees it (--residual-on, --mirror)."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
     venv.seed(seed)
     return mirrored(args, on_base(args, VecMonitor(venv)))
 
@@ -408,29 +381,21 @@ def mirrored(args: Args, venv):
     return make_mirrored_vec_env(venv, make_task_config(**env_kwargs(args)))
 
 
-class CompassEval:
-    """Fixed evaluation headings: the 8 compass directions (or the specialist's one), one env each."""
-
-    @staticmethod
-    def headings(args: Args):
-        if args.direction_deg is not None:
-            return np.array([math.radians(args.direction_deg)])
-        if args.mirror:  # the others are these headings' mirror images: the same episodes
-            return np.radians(np.arange(0, 181, 45, dtype=float))
-        return np.radians(np.arange(0, 360, 45, dtype=float))
+def eval_headings(args: Args):
+    """rad, the fixed evaluation headings: the 8 compass directions (or the specialist's one)."""
+    if args.direction_deg is not None:
+        return np.array([math.radians(args.direction_deg)])
+    if args.mirror:  # the others are these headings' mirror images: the same episodes
+        return np.radians(np.arange(0, 181, 45, dtype=float))
+    return np.radians(np.arange(0, 360, 45, dtype=float))
 
 
 def make_eval_env(args: Args, seed: int):
-    """One env per evaluation heading, from the paper's start (no start noise).
-
-    Otherwise the training env: the same keywords (so the same reward: best_model.zip is
-    chosen on the reward that is logged) and the same episode length, --episode-steps.
-    """
-    from stable_baselines3.common.vec_env import VecMonitor
-
+    """One env per evaluation heading, from the paper's start (no noise); otherwise the training
+    env's keywords (the same reward) and episode length."""
     from .envs.sb3 import RRRobotSB3VecEnv
 
-    headings = CompassEval.headings(args)
+    headings = eval_headings(args)
 
     class _FixedHeadings(RRRobotSB3VecEnv):
         def reset(self):
@@ -440,18 +405,13 @@ def make_eval_env(args: Args, seed: int):
     venv = _FixedHeadings(
         num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
     )
-    venv.seed(seed)
-    return mirrored(args, on_base(args, VecMonitor(venv)))
+    return _as_policy_sees(args, venv, seed)
 
 
 def stop_on_ctrl_c():
-    """A callback that ends training at the next env step after Ctrl-C.
-
-    Ctrl-C raising KeyboardInterrupt wherever it lands could land inside a checkpoint's
-    torch.save, which then fails with a RuntimeError (a broken zip) instead of the interrupt,
-    and the run died without its final model. Here the first Ctrl-C only sets a flag; learn()
-    returns at the next step and main() saves. A second Ctrl-C interrupts at once.
-    """
+    """A callback that ends training at the next env step after Ctrl-C, so the interrupt never
+    lands inside a checkpoint's save (a broken zip, no final model); main() then saves. A second
+    Ctrl-C interrupts at once."""
     import contextlib
     import signal
     import threading
@@ -484,15 +444,10 @@ def stop_on_ctrl_c():
 
 
 def threads_for_updates(threads: int):
-    """An SB3 callback that runs torch on ``threads`` CPU threads while PPO updates and on one while
-    it collects a rollout. The two phases take turns, so the core the env used is idle during the
-    update, where minibatches of 4096 give torch's matrix products work to share (--torch-threads 2:
-    about 0.7x the wall time of one thread, ``python -m benchmarks.train_time --threads``). Rollouts
-    stay on one thread (their forward passes are 64 rows, which a second thread only slows), and so
-    does the model's construction: its orthogonal initial weights come from a QR factorisation whose
-    bits depend on the thread count. The updates' sums are below torch's grain for splitting, and on
-    our machine a run's model came out the same to the bit on one thread or two (the benchmark
-    checks it); on others that is likely, not promised."""
+    """An SB3 callback that runs torch on ``threads`` CPU threads while PPO updates (the env's core
+    is idle then; docs/benchmarks.md) and on one while it collects a rollout (64-row forward
+    passes, which a second thread only slows). The model is built on one thread too: its initial
+    weights' bits depend on the thread count."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -551,8 +506,7 @@ def main(argv=None) -> Path:
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
     class SaveBest(EvalCallback):
-        """EvalCallback that saves best_model.zip, with the normalisation statistics beside it, at
-        the evaluation best by --select-by: the mean or the minimum of the headings' returns."""
+        """Saves best_model.zip and its statistics at the best evaluation by --select-by."""
 
         best_score = -math.inf
 
@@ -570,37 +524,21 @@ def main(argv=None) -> Path:
                           f"return {score:,.0f}", flush=True)
             return result
 
-    evaluation = SaveBest(
-        eval_env,
-        n_eval_episodes=len(CompassEval.headings(args)),
-        eval_freq=max(1, args.eval_freq // args.num_envs),
-        log_path=str(run_dir),
-        deterministic=True,
-    )
-    checkpoints = CheckpointCallback(
-        save_freq=max(1, args.checkpoint_freq // args.num_envs),
-        save_path=str(run_dir / "checkpoints"),
-        name_prefix="ppo",
-        save_vecnormalize=True,
-    )
+    evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
+                          eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir))
+    checkpoints = CheckpointCallback(save_freq=max(1, args.checkpoint_freq // args.num_envs),
+                                     save_path=str(run_dir / "checkpoints"), name_prefix="ppo", save_vecnormalize=True)
     print(f"run: {run_dir}", flush=True)
     total_timesteps = rounded_timesteps(args)
     if total_timesteps != args.total_timesteps:
-        print(
-            f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
-            f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}",
-            flush=True,
-        )
+        print(f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
+              f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}", flush=True)
     stop = stop_on_ctrl_c()
     try:
         with stop.handling_ctrl_c():
-            model.learn(
-                total_timesteps=total_timesteps,
-                callback=CallbackList([stop, evaluation, checkpoints, threads_for_updates(args.torch_threads)]),
-                progress_bar=args.progress_bar,
-                reset_num_timesteps=args.resume is None,
-                tb_log_name="tb",
-            )
+            model.learn(total_timesteps=total_timesteps, progress_bar=args.progress_bar, tb_log_name="tb",
+                        callback=CallbackList([stop, evaluation, checkpoints, threads_for_updates(args.torch_threads)]),
+                        reset_num_timesteps=args.resume is None)
     except KeyboardInterrupt:  # a second Ctrl-C: stop at once
         stop.requested = True
         print("interrupted again: saving the model before exiting", flush=True)

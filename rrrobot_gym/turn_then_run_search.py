@@ -2,35 +2,27 @@
 
 The agent (:class:`rrrobot_gym.agents.turn_then_run.TurnThenRunAgent`) turns the body with a
 turning sinusoid until a searched running gait points along the commanded heading, blends into
-that gait and runs it. This module finds, for a running gait from a gait-search file:
+that gait and runs it. For a running gait of a gait-search file this module finds:
 
-1. **direction**: the running gait's direction of travel minus the body's yaw (the agent's
-   ``direction_offset_deg``), measured from the paper's start and two noisy starts, the gait and
-   its mirror image, after the first 2 s, to the whole degree;
-2. **turning gait**: the sinusoid that turns the body fastest inside the model (largest
-   sustained yaw rate over 10 s, from the paper's start and two noisy starts);
-3. **maneuver**: the turning gait, the switch's lead time and the blend time together, scored
-   through the agent itself on ``headings_deg`` x starts: the mean speed along the heading (the
-   contact point's displacement / ``duration``), penalised for leaving the model as the gait
-   search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`). Its screen holds
-   the turning gait of step 2, gentler copies of it and a warm start's maneuver.
+1. **direction**: the gait's direction of travel minus the body's yaw (``direction_offset_deg``),
+   from the paper's start and two noisy starts, the gait and its mirror, to the whole degree;
+2. **turning gait**: the sinusoid that turns the body fastest inside the model (sustained yaw rate);
+3. **maneuver**: the turning gait, the switch's lead and the blend together, scored through the
+   agent on ``headings_deg`` x starts: the mean speed along the heading, penalised for leaving the
+   model as gait search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`).
 
 Steps 2 and 3 are a random screen then CMA-ES within a wall-clock budget
-(:func:`rrrobot_gym.gait_search.maximise`), each population one batched env, or chunks of it as
-Ray tasks (``ray_address``). The heading correction's gains are tuned afterwards on a grid through
-the agent (:func:`tune_steering`): 50 s on the 8 compass headings from the paper's start and noisy
-starts; the combination whose runs end least, then with the best worst heading, then the best
-mean, is written.
+(:func:`rrrobot_gym.gait_search.maximise`), each population one batched env or chunks of it as Ray
+tasks. :func:`tune_steering` then tunes the heading correction's gains on a grid through the agent.
 
     rrrobot turn-then-run-search --model plane --run-gaits agents/searched/plane_own.json \\
         --budget 900 --out agents/searched/turn_then_run.json
     rrrobot turn-then-run-steer --agent agents/searched/turn_then_run.json --gain 0.5 1 \\
         --limit 0.05 0.1 --out agents/searched/turn_then_run.json
 
-Every env of a search gets the running gait file's env keywords (its ``env_kwargs``: motor
-limits, say) updated by ``env_kwargs``; the agent's file records them as ``env_kwargs``.
+Every env gets the running gait file's ``env_kwargs`` updated by ``env_kwargs``; the agent's
+file records them as ``env_kwargs``.
 """
-
 from __future__ import annotations
 
 import itertools
@@ -42,25 +34,33 @@ from pathlib import Path
 
 import numpy as np
 
-from . import dynamics
+from .agents.turn_then_run import (
+    TurnThenRunAgent,
+    agent_from_spec,
+    load_turn_then_run_agent,
+    per_leg_angles,
+    per_leg_gait,
+    wrap_angle,
+)
 from .envs import task
 from .gait_search import (
-    BOUNDS,
     PARAMETER_NAMES,
     load_gaits,
     maximise,
     penalised_fitness,
-    ray_map,
+    positive_seconds,
     ramp_factor,
+    ray_map,
     repair,
+    rollout,
+    unit_box,
 )
+from .params import check_model, whole_number
 
 COMPASS_DEG = tuple(range(0, 360, 45))
 DEFAULT_HEADINGS_DEG = (0.0, 45.0, 135.0, 180.0)
-"""Headings the maneuver is scored on: from the paper's start a running gait travelling at yaw +-90
-deg needs a quarter turn for 0 and 180 deg and a 45 deg turn either way for 45 and 135 deg, so every
-turn the agent makes on the compass is scored (a 45 deg turn in one sense left unscored has
-overshot by tens of degrees)."""
+"""Headings the maneuver is scored on: from the paper's start, for a gait travelling at yaw +-90 deg,
+every turn the agent makes on the compass (a quarter turn, and 45 deg either way)."""
 WINDOW_STEPS = 15
 """Control steps of the agent's yaw moving average (about one period of the gaits searched)."""
 TURN_SECONDS, SETTLE_SECONDS = 10.0, 1.0
@@ -81,13 +81,6 @@ class SearchError(ValueError):
 # ---------------------------------------------------------------- rollouts
 
 
-def body_yaw(states) -> np.ndarray:
-    """rad (N,): the heading of the body's x axis, atan2(R10, R00) of its rotation."""
-    q = np.asarray(states)[:, dynamics.QUAT]
-    qw, qx, qy, qz = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.arctan2(2.0 * (qx * qy + qw * qz), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
 def start_states(seeds, reset_noise_scale: float) -> np.ndarray:
     """States (N, 13): None is the paper's start; a seed s the env's start after ``reset(seed=s)``
     with that ``reset_noise_scale``."""
@@ -98,55 +91,6 @@ def start_states(seeds, reset_noise_scale: float) -> np.ndarray:
         if seed is not None:
             noise[i] = seeding.np_random(int(seed))[0].uniform(-reset_noise_scale, reset_noise_scale, size=10)
     return task.start_states(noise)
-
-
-def rollout(act, starts, headings_rad, duration, *, model, env_kwargs, record=False):
-    """Run robots from ``starts`` (N, 13) along ``headings_rad`` (N,) in ONE env for ``duration`` s.
-
-    ``act(k, observations, dt)`` returns the actions (N, 2) of control step k. A robot's run ends
-    at its first termination (the env's envelope); it is not tracked after. Returns a dict:
-    ``displacement`` (N, 2) m of the contact point up to the end, ``end_time`` (N,) s,
-    ``terminated`` (N,), ``dt`` and ``duration`` (s, whole control steps); with ``record`` also
-    ``upright`` (T + 1, N, 2) m, the upright contact point (below the centre: free of the contact
-    point's swing with the body's tilt), and ``yaw`` (T + 1, N) rad, the body's yaw unwrapped,
-    both held at their last value inside the model after a robot's end.
-    """
-    from .envs.vector import RRRobotVectorEnv
-
-    n = len(starts)
-    env = RRRobotVectorEnv(num_envs=n, max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs)
-    try:
-        steps = task.control_steps("duration", duration, env.dt)
-        obs, _ = env.reset(seed=0, options={"state": starts, "target_direction": headings_rad})
-        first = last = env.states[:, 0:2].copy()
-        radius = env.config.sim.robot.radius
-        up, yaw = [task.upright_contact_points(env.states, radius)], [body_yaw(env.states)]
-        end_step, alive = np.full(n, steps), np.ones(n, dtype=bool)
-        for k in range(steps):
-            actions = np.clip(np.asarray(act(k, obs, env.dt), dtype=np.float64), -1.0, 1.0).astype(np.float32)
-            obs, _, terminated, _, info = env.step(actions)
-            ending = terminated & alive
-            here = np.where(alive[:, None], env.states[:, 0:2], last)
-            if ending.any():  # (autoreset restarted these robots: their last position is in final_info)
-                here[ending, 0] = info["final_info"]["x_position"][ending]
-                here[ending, 1] = info["final_info"]["y_position"][ending]
-                end_step[ending] = k + 1
-            alive &= ~terminated
-            last = here
-            if record:
-                upright = np.where(alive[:, None], task.upright_contact_points(env.states, radius), up[-1])
-                if ending.any():
-                    upright[ending, 0] = info["final_info"]["x_upright"][ending]
-                    upright[ending, 1] = info["final_info"]["y_upright"][ending]
-                up.append(upright)
-                yaw.append(np.where(alive, body_yaw(env.states), yaw[-1]))
-        out = {"displacement": last - first, "end_time": end_step * env.dt, "terminated": ~alive, "dt": env.dt,
-               "duration": steps * env.dt}  # fmt: skip
-        if record:
-            out["upright"], out["yaw"] = np.array(up), np.unwrap(np.array(yaw), axis=0)
-        return out
-    finally:
-        env.close()
 
 
 def yaw_rate(yaw, dt, after: float) -> np.ndarray:
@@ -169,8 +113,6 @@ def _sinusoids(rows, ramp_s=0.0, mirror=None):
     """``act`` for :func:`rollout`: each robot runs its sinusoid (rows (N, 6)), or where ``mirror``
     (N,) its leg-exchanged mirror image (the same legs' motions, exchanged), the swing ramped in
     over ``ramp_s`` s; targets commanded at the end of each step as the gait agents do."""
-    from .agents.turn_then_run import per_leg_angles, per_leg_gait
-
     rows = np.asarray(rows, dtype=float)
     mirror = np.zeros(len(rows), dtype=bool) if mirror is None else np.asarray(mirror, dtype=bool)
     per_leg = np.array([per_leg_gait(g, m) for g, m in zip(rows, mirror)])
@@ -195,12 +137,12 @@ def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, se
     seeds = list(seeds)
     rows = np.array([run_gait.as_array()] * (2 * len(seeds)))
     mirror = np.arange(len(rows)) >= len(seeds)
-    runs = rollout(_sinusoids(rows, run_gait.ramp_s, mirror), start_states(seeds * 2, reset_noise_scale), np.zeros(len(rows)),
-                   DIRECTION_SECONDS, model=model, env_kwargs=env_kwargs, record=True)  # fmt: skip
+    runs = _rollout(_sinusoids(rows, run_gait.ramp_s, mirror), start_states(seeds * 2, reset_noise_scale),
+                    np.zeros(len(rows)), DIRECTION_SECONDS, model=model, env_kwargs=env_kwargs, record=True)
     k0 = int(round(DIRECTION_SETTLE / runs["dt"]))
     travel = runs["upright"][-1] - runs["upright"][k0]
     yaw = runs["yaw"][k0:].mean(axis=0)
-    offsets = np.degrees(_wrap(np.arctan2(travel[:, 1], travel[:, 0]) - yaw))
+    offsets = np.degrees(wrap_angle(np.arctan2(travel[:, 1], travel[:, 0]) - yaw))
     kept = ~runs["terminated"]
     if not kept.any():
         raise SearchError(f"the running gait {run_gait.name} left the model on every start: it has no direction")
@@ -209,23 +151,14 @@ def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, se
             "ended": runs["terminated"].tolist()}  # fmt: skip
 
 
-def _wrap(angle):
-    return (np.asarray(angle) + math.pi) % (2.0 * math.pi) - math.pi
+def _rollout(act, starts, headings_rad, duration, *, model, env_kwargs, record=False):
+    """:func:`rrrobot_gym.gait_search.rollout` of robots from ``starts`` (N, 13) along ``headings_rad`` (N,)."""
+    reset = {"seed": 0, "options": {"state": starts, "target_direction": headings_rad}}
+    return rollout(act, len(starts), duration, reset, model=model, env_kwargs={**env_kwargs, "reset_noise_scale": 0.0},
+                   record=record)
 
 
 # ---------------------------------------------------------------- step 2: the turning gait
-
-
-def _to_params_6(unit):
-    lows, highs = _box(0)
-    return repair(lows + np.clip(unit, 0.0, 1.0) * (highs - lows))
-
-
-def _box(extra):
-    """Lows and highs of the sinusoid's six numbers, then ``extra`` more (set by the caller)."""
-    lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES] + [0.0] * extra)
-    highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES] + [1.0] * extra)
-    return lows, highs
 
 
 def score_turning(params, settings) -> np.ndarray:
@@ -235,9 +168,9 @@ def score_turning(params, settings) -> np.ndarray:
     params = np.asarray(params, dtype=float)
     seeds = settings["seeds"]
     s = len(seeds)
-    runs = rollout(_sinusoids(np.repeat(params, s, axis=0)), np.tile(start_states(seeds, settings["reset_noise_scale"]), (len(params), 1)),
-                   np.zeros(len(params) * s), TURN_SECONDS, model=settings["model"], env_kwargs=settings["env_kwargs"],
-                   record=True)  # fmt: skip
+    starts = np.tile(start_states(seeds, settings["reset_noise_scale"]), (len(params), 1))
+    runs = _rollout(_sinusoids(np.repeat(params, s, axis=0)), starts, np.zeros(len(params) * s), TURN_SECONDS,
+                    model=settings["model"], env_kwargs=settings["env_kwargs"], record=True)  # fmt: skip
     rates = yaw_rate(runs["yaw"], runs["dt"], SETTLE_SECONDS).reshape(len(params), s)
     mean = rates.mean(axis=1)
     fitness = penalised_fitness(np.abs(mean), (runs["end_time"] / runs["duration"]).reshape(len(params), s),
@@ -257,8 +190,6 @@ def maneuver_bounds(run_gait):
 
 def make_agent(maneuver, settings):
     """The agent of a maneuver (turning gait's six numbers, lead s, blend s) for ``settings``' running gait."""
-    from .agents.turn_then_run import TurnThenRunAgent
-
     m = np.asarray(maneuver, dtype=float)
     return TurnThenRunAgent(m[:6], settings["run_gait"], dt=settings["dt"], lead=float(m[6]), ramp=float(m[7]),
                             direction_offset=math.radians(settings["direction_offset_deg"]), window=WINDOW_STEPS,
@@ -283,7 +214,7 @@ def run_agents(agents, headings_deg, seeds, duration, *, model, env_kwargs, rese
             actions[rows], memory[a] = agent.predict(obs[rows], state=memory[a], episode_start=np.full(k_cases, k == 0))
         return actions
 
-    runs = rollout(act, starts, heads, duration, model=model, env_kwargs=env_kwargs, record=record)
+    runs = _rollout(act, starts, heads, duration, model=model, env_kwargs=env_kwargs, record=record)
     speed = (runs["displacement"][:, 0] * np.cos(heads) + runs["displacement"][:, 1] * np.sin(heads)) / runs["duration"]
     shape = (len(agents), k_cases)
     return speed.reshape(shape), runs["terminated"].reshape(shape), runs["end_time"].reshape(shape), runs
@@ -301,22 +232,7 @@ def score_maneuvers(params, settings) -> np.ndarray:
     return np.column_stack([fitness, speed])
 
 
-def _scored(function, settings, ray_address, ray_chunks):
-    """``function(params, settings)`` locally, or in chunks as Ray tasks."""
-    if ray_address is None:
-        return lambda params: function(params, settings)
-    return lambda params: np.concatenate(ray_map(function, np.asarray(params), settings, ray_address, ray_chunks))
-
-
 # ---------------------------------------------------------------- the search
-
-
-def _check_seconds(label, value, minimum=0.0):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (
-        math.isfinite(value) and value > minimum
-    ):
-        raise SearchError(f"{label} must be a number of seconds > {minimum:g}, got {value!r}")
-    return float(value)
 
 
 def load_run_gait(path, name=None):
@@ -336,33 +252,24 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
            starts=2, duration=None, turning_share=0.5, warm_start=None, run_at_once_below_deg=10.0,
            popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, progress=None,
            command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
-    """Search the turn-then-run agent's maneuver for the running gait of ``run_gaits`` (a gait-search
-    file; its best gait, or ``run_gait`` by name): the module docstring's steps 1-3 within
-    ``budget_seconds`` of wall clock (a ``turning_share`` of it for step 2; each step scores at
-    least its screen's first candidates, so a tiny budget still ends with an agent).
+    """The module docstring's steps 1-3 for the running gait of ``run_gaits`` (a gait-search file;
+    its best gait, or ``run_gait`` by name) within ``budget_seconds`` of wall clock, a ``turning_share``
+    of it for step 2 (each step scores at least its screen's first candidates).
 
-    The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy
-    starts (env reset seeds 1, 2, ...; ``reset_noise_scale``) over ``duration`` s (default 20 s, 30 s
-    for a running gait with a swing ramp, whose blends are longer). ``warm_start``: an agent file
-    whose maneuver joins the screen (with longer blends too where allowed). ``seed`` seeds the
-    screens and CMA-ES. ``popsize``: the turning gait's CMA-ES population (its screen 8 x that), the
-    maneuver's is half of it (its screen 2 x that). Env keywords: the gait file's ``env_kwargs`` updated by ``env_kwargs``.
-    ``progress``: a callable given a line per stage and, at most every 10 s, the search's progress; or None.
+    The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy starts
+    (reset seeds 1, 2, ...) over ``duration`` s (default 20 s, 30 s for a running gait with a swing
+    ramp). ``warm_start``: an agent file whose maneuver joins the screen. ``popsize``: the turning
+    gait's CMA-ES population (screen 8 x that), the maneuver's half of it (screen 2 x that).
+    ``progress``: None, or a callable given a line per stage and at most every 10 s.
 
-    Returns the agent file's dict (:func:`write_agent`), ``run_gait_file`` relative to
-    ``out_path``'s folder (the loader looks there), with the search's record under ``"search"``.
+    Returns the agent file's dict, ``run_gait_file`` relative to ``out_path``'s folder (the loader
+    looks there), with the search's record under ``"search"``.
     """
-    from .params import MODELS
-
-    if model not in MODELS:
-        raise SearchError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
-    budget_seconds = _check_seconds("budget_seconds", budget_seconds)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise SearchError(f"seed must be a whole number >= 0, got {seed!r}")
-    if isinstance(starts, bool) or not isinstance(starts, (int, np.integer)) or starts < 1:
-        raise SearchError(f"starts must be a whole number >= 1 (the paper's start and starts - 1 noisy ones), got {starts!r}")
-    if isinstance(popsize, bool) or not isinstance(popsize, (int, np.integer)) or popsize < 4:
-        raise SearchError(f"popsize must be a whole number >= 4, got {popsize!r}")
+    check_model(model)
+    budget_seconds = positive_seconds("budget_seconds", budget_seconds)
+    whole_number("seed", seed, minimum=0)
+    whole_number("starts", starts)
+    popsize = whole_number("popsize", popsize, minimum=4)
     if not (isinstance(turning_share, (int, float)) and 0.0 < turning_share < 1.0):
         raise SearchError(f"turning_share must be a fraction in (0, 1), got {turning_share!r}")
     heads = [float(h) for h in headings_deg]
@@ -374,11 +281,9 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     if gait_file.get("model", "plane") != model:
         raise SearchError(f"the running gait's file {run_gaits} was searched on the {gait_file.get('model')} model, not {model}")
     env_kwargs = {**(gait_file.get("env_kwargs") or {}), **env_kwargs}
-    duration = _check_seconds("duration", duration) if duration is not None else (30.0 if gait.ramp_s > 0 else 20.0)
+    duration = positive_seconds("duration", duration) if duration is not None else (30.0 if gait.ramp_s > 0 else 20.0)
     warm = None
     if warm_start is not None:
-        from .agents.turn_then_run import load_turn_then_run_agent
-
         agent = load_turn_then_run_agent(warm_start)  # (a ValueError naming the problem)
         warm = np.r_[agent.turn_gait, agent.lead, agent.ramp]
     from .envs.vector import RRRobotVectorEnv
@@ -390,10 +295,19 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     began = time.perf_counter()
     said = {"at": -math.inf}
 
-    def say_now_and_then(line):  # (a population's line at most every 10 s)
-        if time.perf_counter() - said["at"] >= 10.0:
-            said["at"] = time.perf_counter()
-            say(line)
+    def reporter(stage, best):
+        """``report`` for :func:`maximise`: a line at most every 10 s, ``best(row)`` the best so far."""
+
+        def report(archive, rows):
+            if time.perf_counter() - said["at"] >= 10.0:
+                said["at"] = time.perf_counter()
+                say(f"{stage}: {len(archive.rows)} scored, {time.perf_counter() - began:.0f} s, "
+                    f"best {best(archive.rows[archive.best])}")
+
+        return report
+
+    def scorer(function, settings):
+        return lambda params: np.concatenate(ray_map(function, np.asarray(params), settings, ray_address, ray_chunks))
 
     seeds = [None] + list(range(1, starts))
 
@@ -404,57 +318,24 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
 
     # 2. turning gait
     turning_settings = dict(model=model, env_kwargs=env_kwargs, seeds=[None, 11, 12], reset_noise_scale=reset_noise_scale)
-    turning = {"params": [], "out": []}
-    turn_score = _scored(score_turning, turning_settings, ray_address, ray_chunks)
-
-    def score_turn(params):
-        out = turn_score(params)
-        turning["params"] += list(params)
-        turning["out"] += list(out)
-        best = max(turning["out"], key=lambda o: o[0])
-        say_now_and_then(f"turning gait: {len(turning['out'])} scored, {time.perf_counter() - began:.0f} s, best {best[1]:+.3f} rad/s")
-        return out[:, 0]
-
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
                [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
-    lows6, highs6 = _box(0)
-    turn_deadline = began + turning_share * budget_seconds
-    turn_used = maximise(score_turn, _to_params_6, lambda p: (np.asarray(p) - lows6) / (highs6 - lows6), dimension=6,
-                         first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize,
-                         sigma0=0.2, seed=seed, remaining=_until(turn_deadline))  # fmt: skip
-    best_turn = int(np.argmax([o[0] for o in turning["out"]]))
-    turn = np.asarray(turning["params"][best_turn])
-    turn_rate = float(turning["out"][best_turn][1])
+    to_params, to_unit = unit_box()
+    turning = maximise(scorer(score_turning, turning_settings), to_params, to_unit, dimension=6,
+                       first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize, sigma0=0.2,
+                       seed=seed, remaining=_until(began + turning_share * budget_seconds),
+                       report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s"))  # fmt: skip
+    turn = np.asarray(turning.params[turning.best])
+    turn_rate = float(turning.rows[turning.best][1])
     if turn_rate > 0:  # the agent's turning gait turns clockwise (its mirror anticlockwise)
         turn = mirror_gait(turn)
 
     # 3. maneuver
     lead_max, blend_max = maneuver_bounds(gait)
-    lows, highs = _box(2)
-    lows[6:], highs[6:] = (0.0, BLEND_MIN), (lead_max, blend_max)
-
-    def to_params(unit):
-        p = lows + np.clip(unit, 0.0, 1.0) * (highs - lows)
-        p[:6] = repair(p[:6])
-        return p
-
-    def to_unit(p):
-        return (np.asarray(p) - lows) / (highs - lows)
-
+    to_params, to_unit = unit_box([(0.0, lead_max), (BLEND_MIN, blend_max)])
     settings = dict(model=model, env_kwargs=env_kwargs, seeds=seeds, headings_deg=heads, duration=duration, dt=dt,
                     run_gait=gait.as_array(), run_ramp=gait.ramp_s, direction_offset_deg=offset,
                     run_at_once_below_deg=float(run_at_once_below_deg), reset_noise_scale=reset_noise_scale)  # fmt: skip
-    maneuvers = {"params": [], "out": []}
-    maneuver_score = _scored(score_maneuvers, settings, ray_address, ray_chunks)
-
-    def score_maneuver(params):
-        out = maneuver_score(params)
-        maneuvers["params"] += list(params)
-        maneuvers["out"] += list(out)
-        best = max(o[0] for o in maneuvers["out"])
-        say_now_and_then(f"maneuver: {len(maneuvers['out'])} scored, {time.perf_counter() - began:.0f} s, best fitness {1e3 * best:.1f} mm/s")
-        return out[:, 0]
-
     first = [to_params(to_unit(np.r_[turn, 0.6, 1.0]))]
     for factor in (0.3, 0.5, 0.7):  # gentler copies of the fastest turn: a spin overshoots
         gentle = turn.copy()
@@ -463,21 +344,21 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     if warm is not None:
         first.append(to_params(to_unit(warm)))
         first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
-    man_used = maximise(score_maneuver, to_params, to_unit, dimension=8, first=first, screen=popsize,
-                        popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds))  # fmt: skip
-    best = int(np.argmax([o[0] for o in maneuvers["out"]]))
-    maneuver, scores = np.asarray(maneuvers["params"][best]), maneuvers["out"][best]
+    maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first,
+                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds),
+                         report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"))  # fmt: skip
+    maneuver, scores = np.asarray(maneuvers.params[maneuvers.best]), maneuvers.rows[maneuvers.best]
     seconds = time.perf_counter() - began
     spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
     spec["search"] = {
         "seed": seed, "budget_seconds": budget_seconds, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
         "direction": direction,
-        "turning_gait": {"parameters": turning["params"][best_turn].tolist(), "yaw_rate_radps": turn_rate,
-                         "evaluations": len(turning["out"]), "generations": turn_used[0], "seeds": [None, 11, 12],
+        "turning_gait": {"parameters": turning.params[turning.best].tolist(), "yaw_rate_radps": turn_rate,
+                         "evaluations": len(turning.rows), "generations": turning.generations, "seeds": [None, 11, 12],
                          "duration_s": TURN_SECONDS},
         "maneuver": {"headings_deg": heads, "seeds": seeds, "duration_s": duration, "fitness": float(scores[0]),
-                     "speeds_mps": [float(v) for v in scores[1:]], "evaluations": len(maneuvers["out"]),
-                     "generations": man_used[0], "lead_max_s": lead_max, "blend_max_s": blend_max,
+                     "speeds_mps": [float(v) for v in scores[1:]], "evaluations": len(maneuvers.rows),
+                     "generations": maneuvers.generations, "lead_max_s": lead_max, "blend_max_s": blend_max,
                      "warm_start": None if warm_start is None else str(warm_start)},
     }  # fmt: skip
     return spec
@@ -507,10 +388,6 @@ def agent_spec(maneuver, gait, run_gaits, out_path, offset_deg, dt, model, env_k
     return spec
 
 
-def write_agent(spec, path) -> None:
-    Path(path).write_text(json.dumps(spec, indent=1, allow_nan=False) + "\n")
-
-
 # ---------------------------------------------------------------- the heading correction
 
 
@@ -521,16 +398,12 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
                   reset_noise_scale=0.01, command=None, progress=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
     """The heading correction's gains for an agent file, on a grid through the agent itself.
 
-    ``grid`` maps some of ``steer_param``, ``steer_gain``, ``steer_integral``, ``steer_limit`` and
-    ``steer_after_s`` to lists of values; every combination is run (with the file's own keys for
-    the rest, and the file without any correction first) for ``duration`` s along
+    ``grid`` maps some of :data:`STEER_KEYS` to lists of values; every combination (the file's own
+    keys for the rest), and the file without any correction first, runs ``duration`` s along
     ``headings_deg`` from each start of ``seeds`` (None: the paper's). The combination whose runs
-    end least, then with the best worst speed, then the best mean, is kept. Env keywords: the
-    file's ``env_kwargs`` updated by ``env_kwargs``. Returns the file's dict with the kept keys and
-    the grid's record under ``"steer_tune"``, its ``run_gait_file`` relative to ``out_path``'s folder.
+    end least, then with the best worst speed, then the best mean, is kept: the file's dict with
+    it and the grid's record under ``"steer_tune"``, ``run_gait_file`` relative to ``out_path``'s folder.
     """
-    from .agents.turn_then_run import load_turn_then_run_agent
-
     agent_file = Path(agent_file)
     load_turn_then_run_agent(agent_file)  # (a ValueError naming the problem)
     spec = json.loads(agent_file.read_text())
@@ -539,15 +412,13 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
         raise SearchError(f"unknown steering key(s) {', '.join(unknown)}: expected some of {', '.join(STEER_KEYS)}")
     if not grid or any(not isinstance(v, (list, tuple)) or not v for v in grid.values()):
         raise SearchError(f"give each steering key of the grid one or more values, got {grid!r}")
-    duration = _check_seconds("duration", duration)
+    duration = positive_seconds("duration", duration)
     base = {k: v for k, v in spec.items() if k not in STEER_KEYS}
     keys = list(grid)
     combos = [{}] + [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
     folder = agent_file.resolve().parent
-    agents = []
-    for combo in combos:
-        trial = {**base, **({} if not combo else {k: spec[k] for k in STEER_KEYS if k in spec}), **combo}
-        agents.append(_agent_from_spec(trial, folder))  # (a bad value: a ValueError naming it)
+    trials = [{**base, **({k: spec[k] for k in STEER_KEYS if k in spec} if combo else {}), **combo} for combo in combos]
+    agents = [agent_from_spec(trial, folder) for trial in trials]  # (a bad value: a ValueError naming it)
     model = spec.get("model", "plane")
     env_kwargs = {**(spec.get("env_kwargs") or {}), **env_kwargs}
     seeds = list(seeds)
@@ -562,24 +433,10 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
                          "mean_mps": float(speed[j].mean()), "speeds_mps": speed[j].tolist()})  # fmt: skip
         say(f"steering: {len(rows)} of {len(combos)} combinations, {time.perf_counter() - began:.0f} s")
     ranked = sorted(range(len(rows)), key=lambda r: (rows[r]["ended"], -rows[r]["worst_mps"], -rows[r]["mean_mps"]))
-    best = rows[ranked[0]]
-    out = {**base, **({} if not best["combo"] else {k: spec[k] for k in STEER_KEYS if k in spec}), **best["combo"]}
+    out = dict(trials[ranked[0]])
     if out_path is not None:
         out["run_gait_file"] = os.path.relpath((folder / spec["run_gait_file"]).resolve(), Path(out_path).resolve().parent)
     out["made_by"] = list(spec.get("made_by") or []) + ([command] if command else [])
     out["steer_tune"] = {"grid": grid, "seeds": seeds, "headings_deg": list(headings_deg), "duration_s": duration,
                          "seconds": round(time.perf_counter() - began, 1), "rows": [rows[r] for r in ranked]}  # fmt: skip
     return out
-
-
-def _agent_from_spec(spec, folder):
-    """The agent of an agent file's dict whose ``run_gait_file`` is relative to ``folder``."""
-    import tempfile
-
-    from .agents.turn_then_run import load_turn_then_run_agent
-
-    spec = {**spec, "run_gait_file": str((Path(folder) / spec["run_gait_file"]).resolve())}
-    with tempfile.TemporaryDirectory() as scratch:
-        path = Path(scratch) / "agent.json"
-        path.write_text(json.dumps(spec))
-        return load_turn_then_run_agent(path)

@@ -1,16 +1,13 @@
 """Where the model stops describing a real robot: contact force and leg clearance.
 
-The RRRobot model assumes a shell that rolls without slip and never
-leaves the ground, and legs that never touch it. The equations of motion hold these
-true by construction, so they cannot tell when a motion needs an impossible force: a
-controller free to whip the legs can demand a pull from the ground (a hop), more grip
-than a floor gives, or push a leg through the floor. These functions measure that.
+The model's shell rolls without slip and never leaves the ground, and its legs never touch it,
+by construction; so a motion can need an impossible force: a pull from the ground (a hop), more
+grip than a floor gives, or a leg through the floor. These functions measure that.
 
-The force comes from Newton's second law for the whole robot, with the accelerations of
-the motion actually integrated (:func:`rrrobot_gym.dynamics.contact_kernel`, kinematics
-only): the integrator records it at the start of every substep, together with the torques
-it applied (:class:`rrrobot_gym.simulation.StepRecord`), and :func:`step_measures` turns a
-record into the measures an environment checks. Nothing here rebuilds a servo input.
+The force is Newton's for the whole robot with the integrated accelerations
+(:func:`rrrobot_gym.dynamics.contact_kernel`), recorded by the integrator at every substep
+(:class:`rrrobot_gym.simulation.StepRecord`); :func:`step_measures` turns a record into the
+measures an environment checks.
 """
 
 from __future__ import annotations
@@ -41,9 +38,7 @@ def ground_force(states, derivatives, params: RobotParams, model: str):
 
     ``derivatives`` are the state derivatives (N, 13) at ``states`` (from
     :func:`rrrobot_gym.dynamics.state_derivative` with the torques that acted). For the
-    pivot model this is the force of the spherical joint instead. The integrator records
-    the same quantity from the same function (:func:`rrrobot_gym.dynamics.contact_kernel`)
-    at every substep: see :class:`rrrobot_gym.simulation.StepRecord`.
+    pivot model this is the force of the spherical joint instead.
     """
     fx, fy, fz, normal, *_ = _contact(states, derivatives, params, model)
     return np.stack([fx, fy, fz], axis=-1), normal

@@ -233,7 +233,7 @@ def test_a_physics_number_json_does_not_read_is_still_a_number():
 
     assert parse_physics(["torque_limit=.3", "timestep=1/600", "frame_skip=30"]) == {
         "torque_limit": 0.3, "timestep": 1 / 600, "frame_skip": 30}
-    assert parse_physics(["integrator=rk3"]) == {"integrator": "rk3"}
+    assert parse_physics(["action_hold=zero_order"]) == {"action_hold": "zero_order"}
     with pytest.raises(ValueError, match="must be finite"):
         parse_physics(["torque_limit=inf"])
 

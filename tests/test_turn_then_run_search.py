@@ -83,7 +83,7 @@ def test_the_search_record_matches_what_the_agent_file_runs(tiny_agent_file):
     (["--budget", "-60"], "--budget: must be a positive number of seconds"),
     (["--budget", "nan"], "--budget: must be finite"),
     (["--model", "moon"], "--model: invalid choice: 'moon'"),
-    (["--popsize", "2"], "popsize must be a whole number >= 4"),
+    (["--popsize", "2"], "popsize must be an integer >= 4"),
     (["--turning-share", "1"], "turning_share must be a fraction in (0, 1)"),
     (["--headings", "1e9"], "headings_deg must be one or more finite headings"),
     (["--run-gaits", str(SEARCHED / "turn_then_run.json")], "is not a gait-search result"),

@@ -21,16 +21,12 @@ GAIT_AGENT_NAMES = ("gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3",
 class GaitAgent:
     """A scripted gait with the ``predict`` interface of a Stable-Baselines3 policy.
 
-    ``gait`` is any leg-target law with ``angles(times) -> (T, 2)`` rad: a Table II
-    :class:`~rrrobot_gym.control.Gait` (one amplitude) or a searched
-    :class:`~rrrobot_gym.gait_search.SinusoidGait` (one amplitude a leg).
-    ``dt`` (s) must be the control step of the env the agent acts in: the agent counts
-    steps and commands the gait at ``(steps + sample_fraction) * dt``, so a wrong ``dt``
-    plays the gait at the wrong speed. :meth:`for_env` takes it from the env.
-
-    The recurrent ``state`` is each env's count of control steps since its episode
-    started (an int array, one entry per env); ``episode_start`` resets it. Observations
-    are not used: the gait is open loop, as in the paper.
+    ``gait`` is any leg-target law with ``angles(times) -> (T, 2)`` rad (a Table II
+    :class:`~rrrobot_gym.control.Gait` or a searched :class:`~rrrobot_gym.gait_search.SinusoidGait`),
+    commanded at ``(steps + sample_fraction) * dt``: ``dt`` (s) must be the control step of the env
+    the agent acts in (:meth:`for_env` takes it from the env). The recurrent ``state`` is each env's
+    count of control steps since its episode started; ``episode_start`` resets it. Observations are
+    not used: the gait is open loop, as in the paper.
     """
 
     def __init__(self, gait: Gait, dt: float, name: str | None = None, sample_fraction: float = 1.0):

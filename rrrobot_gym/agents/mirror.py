@@ -1,16 +1,12 @@
 """A policy that runs the headings on the robot's -Y side as mirror images of the +Y side's.
 
-The robot, the ground and the task are symmetric in the world's x-z plane once the legs are
-exchanged (:func:`rrrobot_gym.dynamics.mirror_states`), and the paper's start lies in that
-plane. So the best motion along a heading t with sin t < 0 is the mirror image of the best
-motion along -t. A mirrored policy uses that: when the commanded heading points to -Y it is
-shown the mirror image of what the env observes (:func:`rrrobot_gym.envs.task.mirror_observations`)
-and its action is mirrored back (the legs' targets exchanged). Its network then only ever
-sees headings in [0, pi], and whatever it learns on one side holds on the other.
-
-Training (``train.py --mirror``) wraps SB3's VecEnv in :func:`make_mirrored_vec_env`; a run
-writes ``mirror.json`` beside its models, and ``rrrobot_gym.agents.load_ppo_agent`` then returns a
-:class:`MirroredAgent`, so ``evaluate.py --policy`` scores it like any policy.
+The robot, the ground, the task and the paper's start are symmetric in the world's x-z plane
+once the legs are exchanged (:func:`rrrobot_gym.dynamics.mirror_states`), so along a heading t
+with sin t < 0 a mirrored policy is shown the mirror image of the observation
+(:func:`rrrobot_gym.envs.task.mirror_observations`) and its action is mirrored back: its network
+only sees headings in [0, pi]. ``train.py --mirror`` wraps SB3's VecEnv in
+:func:`make_mirrored_vec_env` and writes ``mirror.json``, from which
+``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`MirroredAgent`.
 """
 
 from __future__ import annotations
@@ -29,8 +25,7 @@ SIN_INDEX = dict((name, start) for name, start, _ in OBSERVATION_FIELDS)["target
 
 SIN_TOLERANCE = 1e-6
 """Headings within this (in sine) of 0 or pi are their own mirror images and are not mirrored
-(an env may hold pi as -pi, whose sine is -1.2e-16). Mirrored or not, such an episode from the
-paper's start is the same motion, mirrored: the same speed."""
+(pi held as -pi has sine -1.2e-16)."""
 
 
 def mirrored_rows(observations):
@@ -79,8 +74,7 @@ def make_mirrored_vec_env(venv, config):
         def step_wait(self):
             observations, rewards, dones, infos = self.venv.step_wait()
             for i in np.flatnonzero(dones):
-                # The episode's last observation (PPO bootstraps truncated episodes' values from
-                # it), in the frame its episode was seen in.
+                # (PPO bootstraps a truncated episode's value from it: in its episode's frame)
                 final = np.asarray(infos[i]["terminal_observation"])[None]
                 infos[i]["terminal_observation"] = to_policy_frame(final, mirrored_rows(final), config)[0]
             return self._view(observations), rewards, dones, infos

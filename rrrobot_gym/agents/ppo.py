@@ -17,19 +17,16 @@ from .residual import RESIDUAL_FILE, ResidualAgent, load_base, run_directory
 
 
 SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
-"""Env keywords whoever runs a policy chooses (evaluate.py: the model, the heading of each
-episode and a noise-free start); :attr:`PPOAgent.env_kwargs` leaves them out."""
+"""Env keywords whoever runs a policy chooses; :attr:`PPOAgent.env_kwargs` leaves them out."""
 
 
 class PPOAgent:
     """A PPO policy that normalises raw env observations with saved statistics.
 
-    ``obs_mean``, ``obs_var``, ``clip_obs`` and ``epsilon`` are those of SB3's
-    ``VecNormalize`` at the end of training (None: the policy takes raw observations).
-    ``env_config`` holds the training env's keywords (train.py's ``env_kwargs.json``):
-    ``gymnasium.make("RRRobot-v0", **agent.env_config)`` rebuilds it. ``env_kwargs`` is the
-    same without :data:`SCENE_KEYWORDS`: what an evaluation in a scene of its own choosing
-    keeps (the observation, the physics, the reward).
+    ``obs_mean``, ``obs_var``, ``clip_obs`` and ``epsilon`` are SB3's ``VecNormalize``'s at the
+    end of training (None: raw observations). ``env_config`` holds the training env's keywords
+    (``gymnasium.make("RRRobot-v0", **agent.env_config)`` rebuilds it); ``env_kwargs`` the same
+    without :data:`SCENE_KEYWORDS`, what an evaluation of its own scene keeps.
     """
 
     name = "ppo"
@@ -65,12 +62,10 @@ class PPOAgent:
 
 
 def normalization_path(model_path) -> Path:
-    """Where the VecNormalize statistics of a saved model live, by this project's naming.
-
-    ``best_model.zip`` -> ``vecnormalize.pkl``; ``final_model.zip`` -> ``final_vecnormalize.pkl``;
-    a checkpoint ``ppo_<N>_steps.zip`` -> ``ppo_vecnormalize_<N>_steps.pkl`` (SB3's naming);
-    anything else ``<stem>.zip`` -> ``<stem>_vecnormalize.pkl``.
-    """
+    """Where the VecNormalize statistics of a saved model live: ``best_model.zip`` ->
+    ``vecnormalize.pkl``; ``final_model.zip`` -> ``final_vecnormalize.pkl``; a checkpoint
+    ``ppo_<N>_steps.zip`` -> ``ppo_vecnormalize_<N>_steps.pkl``; ``<stem>.zip`` ->
+    ``<stem>_vecnormalize.pkl``."""
     model_path = Path(model_path)
     stem = model_path.stem
     if stem == "best_model":
@@ -86,12 +81,9 @@ def normalization_path(model_path) -> Path:
 
 
 def check_run_files(model_path, vecnormalize_path=None) -> None:
-    """Raise FileNotFoundError naming the first file that ``train.py`` writes with a model and that
-    is missing beside ``model_path``: its observation statistics (:func:`normalization_path`,
-    unless ``vecnormalize_path`` is given), its run's ``env_kwargs.json``, and ``mirror.json`` or
-    ``residual.json`` when the run's ``args.json`` says it was trained mirrored or as a residual.
-    Without them the policy would run on observations or an env it was not trained on, and its
-    speeds would mean nothing."""
+    """Raise FileNotFoundError naming the first file ``train.py`` writes with a model that is
+    missing: its observation statistics, ``env_kwargs.json``, and ``mirror.json`` or
+    ``residual.json`` if ``args.json`` names them. Without them the policy's speeds mean nothing."""
     model_path = Path(model_path)
     run_dir = run_directory(model_path)
     needed = [(Path(vecnormalize_path) if vecnormalize_path is not None else normalization_path(model_path),
@@ -110,14 +102,11 @@ def check_run_files(model_path, vecnormalize_path=None) -> None:
 
 
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
-    """Load ``model_path`` (an SB3 PPO zip), its VecNormalize statistics (``vecnormalize_path``,
-    or beside it: :func:`normalization_path`) and its run's ``env_kwargs.json`` (the training
-    env's keywords; older runs saved only the observation's, the rest then default); a run
-    missing any file it needs is refused (:func:`check_run_files`). The run's directory holds the zip, or is one up for a checkpoint
-    (:func:`rrrobot_gym.agents.residual.run_directory`). A run with ``residual.json`` (``train.py
-    --residual-on``) gives a :class:`rrrobot_gym.agents.residual.ResidualAgent`: the policy on its base agent;
-    one with ``mirror.json`` (``train.py --mirror``) a :class:`rrrobot_gym.agents.mirror.MirroredAgent`.
-    Unpickles the model and the statistics: trusted files only.
+    """Load ``model_path`` (an SB3 PPO zip), its VecNormalize statistics (``vecnormalize_path``, or
+    :func:`normalization_path`) and its run's ``env_kwargs.json``; a run missing a file it needs
+    is refused (:func:`check_run_files`). A run with ``residual.json`` gives a
+    :class:`~rrrobot_gym.agents.residual.ResidualAgent`, one with ``mirror.json`` a
+    :class:`~rrrobot_gym.agents.mirror.MirroredAgent`. Unpickles the files: trusted files only.
     """
     from stable_baselines3 import PPO
 

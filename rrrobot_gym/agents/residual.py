@@ -1,20 +1,16 @@
 """A learned residual on top of a scripted base agent (the turn-then-run baseline).
 
-The policy does not act alone: each step the base agent (``rrrobot_gym/agents/turn_then_run.py``) chooses
-its action from the observation, and the policy adds a bounded correction,
+Each step the base agent (:mod:`rrrobot_gym.agents.turn_then_run`) chooses its action and the
+policy adds a bounded correction,
 
     action = clip(base_action + scale * clip(residual, -1, 1), -1, 1)
 
-so an untrained policy (SB3's action head starts near zero) already runs the base agent, and
-training can only move the legs' targets within ``scale`` (action units; one unit is 0.75 pi
-rad of leg target) of the base's. The policy observes the env's observation followed by
-:data:`FEATURES` of the base agent: the action it chose, its gait clock (sin, cos of the
-phase) and whether it is turning or running (blending is neither).
-
-Training (``train.py --residual-on agents/searched/turn_then_run.json``) wraps SB3's VecEnv in
-:class:`ResidualVecEnv`; a run writes ``residual.json`` beside its models, and
-``rrrobot_gym.agents.load_ppo_agent`` then returns a :class:`ResidualAgent` (the base agent and the policy),
-so ``evaluate.py --policy`` scores it like any policy.
+so an untrained policy already runs the base agent, and training moves the legs' targets within
+``scale`` action units (one unit is 0.75 pi rad) of the base's. The policy observes the env's
+observation and the base agent's :data:`FEATURES`: its action, its gait clock (sin, cos of the
+phase) and whether it is turning or running (blending is neither). ``train.py --residual-on``
+wraps SB3's VecEnv (:func:`make_residual_vec_env`) and writes ``residual.json``, from which
+``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`ResidualAgent`.
 """
 
 from __future__ import annotations
@@ -93,8 +89,7 @@ def make_residual_vec_env(venv, base, scale):
         def step_wait(self):
             observations, rewards, dones, infos = self.venv.step_wait()
             for i in np.flatnonzero(dones):
-                # The episode's last observation as the policy would have seen it (PPO bootstraps
-                # truncated episodes' values from it): the base agent's next step, thrown away.
+                # (PPO bootstraps a truncated episode's value from it: the base's next step, thrown away)
                 final = infos[i]["terminal_observation"][None]
                 actions, state = self.base.predict(final, state=self.base.state_rows(self.base_state, [i]))
                 infos[i]["terminal_observation"] = np.concatenate([final, base_features(state, actions)], axis=1)[0]

@@ -15,33 +15,25 @@ heading is atan2((n x h)_x, h_x), with n = ``up_in_body`` and h = ``heading_in_b
 The switch: when the yaw's moving average over ``window`` control steps, projected ``lead``
 seconds ahead at its current rate, reaches its target, the running gait's phase is shifted so
 its leg targets match the turning gait's there, and the gait parameters are blended over
-``ramp`` seconds with the phase kept continuous. The file's parameters were found by a CMA-ES
-search through this controller (``rrrobot turn-then-run-search``,
-:mod:`rrrobot_gym.turn_then_run_search`), on the model named by the
-file's ``"model"`` (``"plane"`` if absent), under the env keywords in its ``"env_kwargs"`` (kept
-on the agent as ``search_env_kwargs`` for reference, not applied: as for searched gaits).
+``ramp`` seconds with the phase kept continuous. The file's parameters come from
+``rrrobot turn-then-run-search`` on the file's ``"model"`` (``"plane"`` if absent) under its
+``"env_kwargs"`` (kept on the agent as ``search_env_kwargs``, not applied).
 
-Heading correction (optional, off unless the file sets ``"steer_gain"`` or ``"steer_integral"``):
-while blending and running, the running gait is changed by d (in the running gait's own
-six-number frame; its mirror gets the mirror image of the change),
+Heading correction (off unless the file sets ``"steer_gain"`` or ``"steer_integral"``): while
+blending and running, the running gait is changed by d (in its own six-number frame; its mirror
+gets the mirror image of the change),
 
     d = clip(sense * (steer_gain * e + steer_integral * integral of e dt), -steer_limit, +steer_limit)
     "offset":    o1 + d, o2 - d            "amplitude": a1 (1 + d), a2 (1 - d)
 
 scaled by the blend weight while blending and by a weight rising linearly from 0 at
 ``steer_after_s`` s into the episode to 1 ``ramp`` s later (a gait on the edge of the envelope
-slips when changed at its start); e is the wrapped error of the yaw's moving average
-(the switch's window) from the running gait's target yaw, sense +1 for the running gait, -1 for
-its mirror, and the integral runs in mode RUN only (held while d saturates). A positive gain
-suits a gait that a positive d turns clockwise (both searched running gaits:
-``docs/notes/turn_then_run.md``; ``rrrobot turn-then-run-steer`` tunes the gains). ``steer_limit`` may be one number or
-[low, high] (low <= 0 <= high) for an asymmetric range. ``"run_at_once_below_deg"`` (default 0):
-a start needing a smaller turn than this runs at once instead (the correction then takes the
-rest); without it only an exact zero turn does.
-
-A running gait searched with a swing ramp from rest (its file's ``ramp_s``,
-:func:`rrrobot_gym.gait_search.ramp_factor`) keeps that ramp when a start runs at once: it is then
-the searched gait's own agent until the correction sets in. After a turn the blend stands for it.
+slips when changed at its start); e is the wrapped error of the yaw's moving average from the
+running gait's target yaw, sense +1 for the running gait, -1 for its mirror, and the integral
+runs in mode RUN only (held while d saturates). A positive gain suits a gait that a positive d
+turns clockwise (``docs/notes/turn_then_run.md``). ``steer_limit``: one number, or [low, high]
+(low <= 0 <= high). ``"run_at_once_below_deg"`` (default 0): a start needing a smaller turn runs
+at once, keeping the running gait's own swing ramp from rest (its file's ``ramp_s``).
 """
 
 from __future__ import annotations
@@ -53,8 +45,8 @@ from pathlib import Path
 import numpy as np
 
 from ..envs.task import OBSERVATION_FIELDS, leg_targets_to_action
-from ..gait_search import load_gaits, ramp_factor
-from ..params import MODELS
+from ..gait_search import load_gaits, positive_seconds, ramp_factor
+from ..params import MODELS, whole_number
 
 _FIELDS = {name: slice(start, stop) for name, start, stop in OBSERVATION_FIELDS}
 TURN, BLEND, RUN = 0, 1, 2
@@ -88,7 +80,17 @@ def matching_phase_shift(g_from, g_to, phase, candidates=72):
     return shifts[np.argmin(np.array(cost), axis=0)]
 
 
-def _wrap(angle):
+def _number(label, value, wanted, low=-math.inf, high=math.inf, finite=True) -> float:
+    """``float(value)`` for a real number (not a bool) in [low, high], finite unless ``finite`` is
+    False, else a ValueError naming ``label`` and what it must be (``wanted``)."""
+    number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    if not (number and low <= value <= high and (math.isfinite(value) or not finite)):
+        raise ValueError(f"{label} must be {wanted}, got {value!r}")
+    return float(value)
+
+
+def wrap_angle(angle):
+    """rad, ``angle`` wrapped into [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
@@ -121,23 +123,13 @@ class TurnThenRunAgent:
         for label, gait in (("turn_gait", self.turn_gait), ("run_gait", self.run_gait)):
             if gait.shape != (6,) or not np.all(np.isfinite(gait)):
                 raise ValueError(f"{label} must be 6 finite numbers (a1, a2, o1, o2, w, gap), got {gait.tolist()}")
-        for label, value in (("dt", dt), ("ramp", ramp)):
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{label} must be a positive number of seconds, got {value}")
+        self.dt, self.ramp = positive_seconds("dt", dt), positive_seconds("ramp", ramp)
         # (a NaN lead never switches to running; a NaN offset gives NaN actions)
-        numbers = (int, float, np.integer, np.floating)
-        if isinstance(lead, bool) or not isinstance(lead, numbers) or not (math.isfinite(lead) and lead >= 0):
-            raise ValueError(f"lead must be a number of seconds >= 0, got {lead!r}")
-        offset_ok = isinstance(direction_offset, numbers) and not isinstance(direction_offset, bool)
-        if not (offset_ok and math.isfinite(direction_offset)):
-            raise ValueError(f"direction_offset must be a finite angle, got {direction_offset!r}")
-        if not (isinstance(window, int) and window >= 1):
-            raise ValueError(f"window must be a positive whole number of control steps, got {window}")
-        self.dt, self.lead, self.ramp = float(dt), float(lead), float(ramp)
-        self.direction_offset, self.window, self.name = float(direction_offset), window, name
-        for label, value in (("steer_gain", steer_gain), ("steer_integral", steer_integral)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"{label} must be a finite number, got {value!r}")
+        self.lead = _number("lead", lead, "a number of seconds >= 0", low=0.0)
+        self.direction_offset = _number("direction_offset", direction_offset, "a finite angle")
+        self.window, self.name = whole_number("window", window), name
+        self.steer_gain = _number("steer_gain", steer_gain, "a finite number")
+        self.steer_integral = _number("steer_integral", steer_integral, "a finite number")
         limit = np.atleast_1d(np.asarray(steer_limit, dtype=object))
         if limit.ndim != 1 or len(limit) not in (1, 2) or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in limit
@@ -148,22 +140,19 @@ class TurnThenRunAgent:
         if (len(limit) == 1 and limit[0] < 0) or not (low <= 0.0 <= high) or max(-low, high) > 0.5:
             raise ValueError(f"steer_limit must be a number in [0, 0.5] or [low, high] with -0.5 <= low <= 0 <= high "
                              f"<= 0.5, got {steer_limit!r}")  # fmt: skip
-        for label, value, top in (("steer_after_s", steer_after, math.inf), ("run_at_once_below_deg", run_at_once_below, 180.0),
-                                  ("run_ramp", run_ramp, math.inf)):  # fmt: skip
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0.0 <= value <= top):
-                raise ValueError(f"{label} must be a number in [0, {top}], got {value!r}")
+        self.steer_after = _number("steer_after_s", steer_after, "a number in [0, inf]", 0.0, math.inf, finite=False)
+        below = _number("run_at_once_below_deg", run_at_once_below, "a number in [0, 180]", 0.0, 180.0)
+        self.run_ramp = _number("run_ramp", run_ramp, "a number in [0, inf]", 0.0, math.inf, finite=False)
         if steer_param not in ("offset", "amplitude"):
             raise ValueError(f'steer_param must be "offset" or "amplitude", got {steer_param!r}')
-        self.steer_gain, self.steer_integral = float(steer_gain), float(steer_integral)
         self.steer_limit, self.steer_param = (float(low), float(high)), steer_param
         self.steering = self.steer_gain != 0.0 or self.steer_integral != 0.0
-        self.steer_after, self.run_at_once_below = float(steer_after), math.radians(run_at_once_below)
-        self.run_ramp = float(run_ramp)
+        self.run_at_once_below = math.radians(below)
 
     def _start(self, memory, rows, yaw):
         """Choose each restarted env's turn and gaits from its relative yaw at the start."""
-        turn_own = _wrap(-self.direction_offset - yaw)
-        turn_mirror = _wrap(self.direction_offset - yaw)
+        turn_own = wrap_angle(-self.direction_offset - yaw)
+        turn_mirror = wrap_angle(self.direction_offset - yaw)
         mirror = np.abs(turn_mirror) < np.abs(turn_own) - 1e-9
         turn = np.where(mirror, turn_mirror, turn_own)
         memory["target"][rows] = yaw + turn
@@ -211,7 +200,7 @@ class TurnThenRunAgent:
         if starting.any():
             self._start(state, starting, yaw[starting])
         # Unwrap the yaw step by step and keep the last two windows of it.
-        yaw = state["yaw"] + _wrap(yaw - state["yaw"])
+        yaw = state["yaw"] + wrap_angle(yaw - state["yaw"])
         state["yaw"] = yaw
         state["history"] = np.roll(state["history"], -1, axis=0)
         state["history"][-1] = yaw
@@ -245,7 +234,7 @@ class TurnThenRunAgent:
     def _steer(self, state, g, weight, recent):
         """The heading correction (module docstring): g with the running gait's part changed by
         d x ``weight``; the integral grows only at full weight."""
-        error = _wrap(recent - state["target"])
+        error = wrap_angle(recent - state["target"])
         running = (state["mode"] == RUN) & (weight >= 1.0)
         sense = state["run_sense"]
         low, high = self.steer_limit
@@ -272,8 +261,17 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
     agent's ``model`` is the file's ``"model"`` (``"plane"`` if absent): the model to score it on."""
     path = Path(path)
     try:
-        spec = json.loads(path.read_text())
-        run = {gait.name: gait for gait in load_gaits(path.parent / spec["run_gait_file"])}[spec["run_gait"]]
+        return agent_from_spec(json.loads(path.read_text()), path.parent, dt)
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"turn-then-run file {path}: {exc}") from None
+
+
+def agent_from_spec(spec: dict, folder, dt: float | None = None) -> TurnThenRunAgent:
+    """The agent of a turn-then-run file's dict whose ``run_gait_file`` is relative to ``folder``."""
+    try:
+        run = {gait.name: gait for gait in load_gaits(Path(folder) / spec["run_gait_file"])}[spec["run_gait"]]
         model = spec.get("model", "plane")
         if model not in MODELS:
             raise ValueError(f'"model" must be one of {", ".join(MODELS)}, got {model!r}')
@@ -285,9 +283,7 @@ def load_turn_then_run_agent(path, dt: float | None = None) -> TurnThenRunAgent:
             **{arg: spec[key] for arg, key in (("steer_after", "steer_after_s"), ("run_at_once_below", "run_at_once_below_deg"))
                if key in spec},
         )  # fmt: skip
-        agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
-        return agent
-    except (OSError, KeyError, TypeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"turn-then-run file {path}: {type(exc).__name__}: {exc}") from None
-    except ValueError as exc:
-        raise ValueError(f"turn-then-run file {path}: {exc}") from None
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{type(exc).__name__}: {exc}") from None
+    agent.model, agent.search_env_kwargs = model, dict(spec.get("env_kwargs") or {})
+    return agent

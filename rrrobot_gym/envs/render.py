@@ -1,9 +1,7 @@
 """Drawing RRRobot-v0: a top view and a side view of the robot, its path and its heading.
 
-Pure numpy geometry plus Pillow for the raster (Pillow comes with matplotlib, the
-``plots`` extra); matplotlib shows frames in a window for ``render_mode="human"``. Both
-are imported only when a frame is drawn or a window opened, so an env that does not
-render never imports them.
+numpy geometry, Pillow for the raster and matplotlib for ``render_mode="human"``'s window (the
+``plots`` extra), imported only when a frame is drawn or a window opened.
 """
 
 from __future__ import annotations
@@ -11,6 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from gymnasium.error import DependencyNotInstalled
 
 from .. import dynamics
 
@@ -43,11 +42,7 @@ def check_human_display():
     try:
         import matplotlib
     except ImportError:
-        from gymnasium.error import DependencyNotInstalled
-
-        raise DependencyNotInstalled(
-            'render_mode="human" needs matplotlib: pip install "rrrobot_gym[plots]"'
-        ) from None
+        raise DependencyNotInstalled('render_mode="human" needs matplotlib: pip install "rrrobot_gym[plots]"') from None
     backend = matplotlib.get_backend().lower()
     try:
         from matplotlib.backends import BackendFilter, backend_registry
@@ -144,19 +139,13 @@ def _font(size):
 
 
 def draw_frame(state, path, target_direction, robot, time, width=800, height=400):
-    """An RGB frame (height, width, 3) uint8: top view (left) and side view (right).
-
-    Top view: the ground seen from above, centred on the robot, with a 0.1 m grid, the path
-    of the contact point so far (``path``: a sequence of (x, y) in m, or None) and the
-    commanded heading as an arrow. Side view: the vertical plane along the commanded
-    heading (travel along the heading goes to the right), ground ticks every 0.1 m.
-    Leg 1 (at body -Y) is blue, leg 2 green.
-    """
+    """An RGB frame (height, width, 3) uint8. Left, the top view centred on the robot: a 0.1 m grid,
+    the contact point's ``path`` so far ((x, y) m, or None) and the heading as an arrow. Right, the
+    side view along the heading (travel goes right), ground ticks every 0.1 m. Leg 1 (at body -Y)
+    is blue, leg 2 green."""
     try:
         from PIL import Image, ImageDraw
     except ImportError:
-        from gymnasium.error import DependencyNotInstalled
-
         raise DependencyNotInstalled('rendering needs Pillow: pip install "rrrobot_gym[plots]"') from None
 
     state = np.asarray(state, dtype=float)
@@ -182,8 +171,7 @@ def draw_frame(state, path, target_direction, robot, time, width=800, height=400
         v = top(np.array([[cx, k * GRID_SPACING]]))[0, 1]
         draw.line([(0, v), (panel, v)], fill=_GRID, width=1)
     _draw_robot(draw, top, shell, rim_count, pins, tips, scale)
-    # Drawn over the shell: in 50 s the robot travels about its own size, so the path
-    # would otherwise hide under it.
+    # Drawn over the shell: in 50 s the robot travels about its own size.
     if path is not None and len(path) > 1:
         draw.line([tuple(p) for p in top(np.asarray(path)).tolist()], fill=_PATH, width=2)
     arrow_from = top(np.array([[cx, cy]]))[0]

@@ -22,50 +22,43 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     r"""
     ## Description
     The RRRobot of Balasubramanian, Rizzi and Mason, "Legless Locomotion: Models and
-    Experimental Demonstration": a hemispherical shell (radius 0.12 m, open side up) with
-    two short legs pinned on its rim that never touch the ground. Swinging the legs rocks
-    and twists the shell, and rolling without slip turns those oscillations into travel of
-    about a centimetre a second. The dynamics are the paper's (its equations of motion, on the plane or pivoting), from the
-    project's one implementation in `rrrobot_gym.dynamics`.
+    Experimental Demonstration": a hemispherical shell (radius 0.12 m, open side up) with two
+    short legs pinned on its rim that never touch the ground. Swinging the legs rocks and twists
+    the shell, and rolling without slip turns that into travel of about a centimetre a second.
+    The dynamics are the paper's equations of motion, rolling on a plane or pivoting (`model`),
+    from the project's one implementation in `rrrobot_gym.dynamics`.
 
-    The task is directional locomotion: move the contact point along a commanded heading
-    `target_direction` (radians in the world XY plane, from +X towards +Y), fixed by the
-    keyword or drawn anew each episode. The paper's three gaits (Table II) move the robot
-    sideways (Gait 1, along -Y from the start), a little (Gait 2: along +X on the pivot
-    model; on the plane its path bends clockwise and ends mostly along -Y) and on a
+    The task is directional locomotion along a commanded heading `target_direction` (rad in the
+    world XY plane, from +X towards +Y), fixed by the keyword or drawn anew each episode. The
+    paper's Table II gaits go sideways (Gait 1, along -Y), a little (Gait 2: along +X on the
+    pivot model; on the plane its path bends clockwise and ends mostly along -Y) and on a
     counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
 
     ## Action Space
-    The action space is a `Box(-1, 1, (2,), float32)`. Each action sets a leg's target angle
-    for the end of the control step (`dt` = `frame_skip` x `timestep` = 0.05 s by default).
-    With `action_hold="linear"` (default) the target ramps there from the last step's target
-    over the step, and the paper's PD servo (`kp`, `kd`) tracks the ramp and its rate: a new
-    action does not step the servo's angle term, whose torque step on a jump of target makes
-    the shell hop or slip within milliseconds; only the rate term steps, by `kd` times the
-    change of the ramp's slope. `action_hold="zero_order"` jumps to the target and
-    holds it with target rate 0 (step-wise targets: the servo's target rate is the paper's gait
-    derivative for a gait, zero for a held target). The map is affine:
-    action -1 is -pi/4 rad, 0 is pi/2 rad (vertical, the rest pose), +1 is 5 pi/4 rad:
-    from 45 degrees below horizontal pointing forward to 45 degrees below horizontal pointing back. Leg angle 0 points the leg
-    horizontally along the body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad.
-    Actions outside [-1, 1] are clipped (the control cost uses the clipped action); an action
-    of the wrong shape, or with NaN or inf, raises a `ValueError`.
+    A `Box(-1, 1, (2,), float32)`. Each entry sets a leg's target angle for the end of the control
+    step (`dt` = `frame_skip` x `timestep` = 0.05 s by default), affinely: -1 is -pi/4 rad, 0 is
+    pi/2 (vertical, the rest pose), +1 is 5 pi/4, from 45 degrees below horizontal pointing
+    forward to 45 degrees below horizontal pointing back (leg angle 0 is horizontal along the
+    body's +X, pi/2 straight up; the Table II gaits span -0.3 .. 1.87 rad). With
+    `action_hold="linear"` (default) the target ramps there from the last step's, and the PD servo
+    (`kp`, `kd`) tracks the ramp and its rate: a new action steps only the rate term, by `kd` times
+    the change of slope, never the angle term, whose torque step would make the shell hop or slip.
+    `"zero_order"` jumps to the target and holds it with target rate 0. Actions outside [-1, 1]
+    are clipped (the control cost uses the clipped action); a wrong shape, NaN or inf raises a
+    `ValueError`. `rrrobot_gym.envs.task.leg_targets_to_action` inverts the map (to script a gait).
 
-    | Num | Action                       | Control Min | Control Max | Target angle min | Target angle max | Type (Unit) |
-    |-----|------------------------------|-------------|-------------|------------------|------------------|-------------|
-    | 0   | target angle of leg 1 (at body -Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
-    | 1   | target angle of leg 2 (at body +Y) | -1    | 1           | -pi/4            | 5 pi/4           | angle (rad) |
-
-    `rrrobot_gym.envs.task.leg_targets_to_action` inverts the map (to script a gait).
+    | Num | Action                             | Min | Max | Target angle min | Target angle max | Type (Unit) |
+    |-----|------------------------------------|-----|-----|------------------|------------------|-------------|
+    | 0   | target angle of leg 1 (at body -Y) | -1  | 1   | -pi/4            | 5 pi/4           | angle (rad) |
+    | 1   | target angle of leg 2 (at body +Y) | -1  | 1   | -pi/4            | 5 pi/4           | angle (rad) |
 
     ## Observation Space
-    The observation space is a `Box(low, high, (15,), float32)`: unit vectors lie in [-1, 1],
-    the rest is unbounded. The body's attitude is given as two unit vectors seen from the
-    body (body coordinates: z up when upright, legs at -Y and +Y): world up, and the commanded
-    heading. Together they fix the attitude relative to the task without any singularity,
-    and they do not change when the whole scene is turned about the vertical, which the
-    dynamics do not notice either. When the robot is upright the heading in the body frame
-    is (cos(target_direction - yaw), sin(target_direction - yaw), 0), yaw being the body's heading.
+    A `Box(low, high, (15,), float32)`: unit vectors lie in [-1, 1], the rest is unbounded. The
+    attitude enters as two unit vectors in body coordinates (z up when upright, legs at -Y and
+    +Y), world up and the commanded heading: together they fix the attitude relative to the task
+    with no singularity, and they do not change when the whole scene turns about the vertical,
+    which the dynamics do not notice either. Upright, the heading in the body is
+    (cos(target_direction - yaw), sin(target_direction - yaw), 0), yaw the body's heading.
 
     | Num | Observation                                                    | Min  | Max | Type (Unit)              |
     |-----|----------------------------------------------------------------|------|-----|--------------------------|
@@ -87,97 +80,82 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | excluded (15) | contact point x                                      | -Inf | Inf | position (m)             |
     | excluded (16) | contact point y                                      | -Inf | Inf | position (m)             |
 
-    With `exclude_current_positions_from_observation=False` the contact point (x, y) is
-    appended as entries 15 and 16 (appended, not prepended, so the other indices do not
-    move). Either way it is in `info` as `x_position` and `y_position`.
+    `exclude_current_positions_from_observation=False` appends the contact point (x, y) as entries
+    15 and 16 (it is in `info` as `x_position`, `y_position` either way); a `clock_frequency`
+    appends (sin, cos)(clock_frequency t), t the episode time (s), after them.
 
     ## Rewards
     The reward is ***reward*** *=* *forward_reward - ctrl_cost + healthy_reward*:
 
-    - *forward_reward* (`info["reward_forward"]`):
+    - *forward_reward* (`info["reward_forward"]`) =
       $w_{forward} \times 100 \times \frac{(q_{after} - q_{before}) \cdot d}{dt}$, the velocity
-      **in cm/s** (hence the factor 100 on metres) along the commanded heading
-      d = (cos, sin)(target_direction) of the *upright contact point* q: where the contact
-      point would be if the shell rolled back upright without slip,
-      $q = p - r \frac{tilt}{\sin(tilt)} (R_{02}, R_{12})$ with p the contact point and
-      $(R_{02}, R_{12})$ the horizontal lean of the body's z axis. q is the contact point
-      whenever the shell is upright, so over a walk the two cover the same net distance,
-      but q does not move when the shell merely rocks or tips over: rewarding the raw
-      contact point would pay ~0.19 m (r pi/2, about 380 reward) for rolling onto the rim
-      towards the heading, and it rocks to and fro at the gait frequency (over 20 s of
-      Gait 1 its path is 15 times its net travel; q's path is its net travel).
-      The robot moves at about 1 cm/s (Gait 1: 0.9 cm/s), so a good step earns about 1 and
-      a 1000-step episode about 1000. $w_{forward}$ is `forward_reward_weight`. Summed over
-      an episode the term is $w_{forward} \times 100 / dt$ times q's net travel (m) along d,
-      less the steps that earn nothing: on the plane, a step that slips or hops past
-      `max_slip_velocity` or lifts off for longer than `max_liftoff_time`, and every step in
-      the first 0.1 s (see Episode End), whether or not such a step ends the episode.
-    - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost): $w_{control} \times \|action\|_2^2$ of
-      the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a
-      step, small next to the forward term; action 0 holds both legs vertical, the rest
-      pose and the middle of their range).
+      **in cm/s** along the heading d = (cos, sin)(target_direction) of the *upright contact
+      point* $q = p - r \frac{tilt}{\sin(tilt)} (R_{02}, R_{12})$: where the contact point p would
+      be if the shell rolled back upright without slip, $(R_{02}, R_{12})$ being the horizontal
+      lean of the body's z axis. q is p when upright, so over a walk both cover the same net
+      distance, but q stays put while the shell rocks or tips over: the raw contact point would
+      pay ~0.19 m (r pi/2, about 380 reward) for rolling onto the rim towards the heading.
+      At about 1 cm/s a good step earns about 1 and a 1000-step episode about 1000.
+      $w_{forward}$ is `forward_reward_weight`. Over an episode the term sums to
+      $w_{forward} \times 100 / dt$ times q's net travel (m) along d, less the steps that earn
+      nothing: on the plane, a step that slips or hops past `max_slip_velocity` or lifts off for
+      longer than `max_liftoff_time`, and every step in the first 0.1 s (see Episode End),
+      whether or not it ends the episode.
+    - *ctrl_cost* (`info["reward_ctrl"]` = -ctrl_cost) = $w_{control} \times \|action\|_2^2$ of
+      the clipped action, $w_{control}$ = `ctrl_cost_weight` (default 0.01: at most 0.02 a step;
+      action 0, the rest pose in the middle of the legs' range, costs nothing).
     - *healthy_reward* (`info["reward_survive"]`): `healthy_reward` (default 0; `train.py` uses 1)
-      for each step that does not terminate the episode, 0 on the step that does (a step
-      truncated by the time limit earns it).
+      for each step that does not terminate the episode (one truncated by the time limit earns it).
 
-    `info` also holds `x_position`, `y_position` (m, the contact point p), `x_velocity`,
-    `y_velocity` (m/s, p's displacement over the step / dt), `x_upright`, `y_upright` (m, q),
-    `forward_velocity` (m/s, q's velocity along d), `tilt` (rad, angle between body z and
-    world z), `target_direction` (rad), `numerical_failure` (bool), and the model-validity
-    measures of `rrrobot_gym.validity` at the end of the step: `normal_force` (N, the
-    ground's push on the shell), `friction_ratio` (the friction coefficient the no-slip
-    contact needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s),
+    `info` also holds `x_position`, `y_position` (m, p), `x_velocity`, `y_velocity` (m/s, p's
+    displacement over the step / dt), `x_upright`, `y_upright` (m, q), `forward_velocity` (m/s,
+    q's velocity along d), `tilt` (rad, between body z and world z), `target_direction` (rad),
+    `numerical_failure` (bool), and the model-validity measures of `rrrobot_gym.validity`, each the
+    worst over the step, measured whether or not `terminate_outside_model` is set: `normal_force`
+    (N, the ground's push on the shell), `friction_ratio` (the friction coefficient no-slip
+    rolling needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s),
     `liftoff_fraction` (of the step), `liftoff_time` (s, the longest spell off the ground),
     `torque_rms`, `torque_peak` (N m, the leg torques applied), `leg_rate_peak` (rad/s) and
-    `outside_model` (bool), each the worst over the step, measured whether or not
-    `terminate_outside_model` is set. `reset()` returns
-    `x_position`, `y_position`, `x_upright`, `y_upright`, `tilt` and `target_direction`.
+    `outside_model` (bool). `reset()`'s info holds `x_position`, `y_position`, `x_upright`,
+    `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
-    The paper's start: at rest at the origin, upright, both legs vertical (pi/2), plus
-    uniform noise $\mathcal{U}(-s, s)$, $s$ = `reset_noise_scale` (default 0.01), on the
-    paper's three attitude angles (rad), both leg angles (rad), the body angular velocity
-    (rad/s) and both leg rates (rad/s). Then, if `target_direction` is None, the heading
-    is drawn uniformly from [-pi, pi). All randomness comes from the env's `np_random`.
-    `reset(options={"state": s, "target_direction": a})` starts from an exact (13,) state
-    `s` (layout `rrrobot_gym.dynamics.STATE_FIELDS`; no noise added; its tilt must be below
-    pi/2) and/or with heading `a` for that episode.
+    The paper's start, at rest at the origin, upright, legs vertical (pi/2), plus uniform noise
+    $\mathcal{U}(-s, s)$, $s$ = `reset_noise_scale` (default 0.01), on the paper's three attitude
+    angles (rad), both leg angles (rad), the body angular velocity (rad/s) and both leg rates
+    (rad/s); then, if `target_direction` is None, a heading drawn uniformly from [-pi, pi). All
+    randomness comes from the env's `np_random`. `reset(options={"state": s,
+    "target_direction": a})` starts from the exact (13,) state `s` (layout
+    `rrrobot_gym.dynamics.STATE_FIELDS`; no noise; tilt below pi/2) and/or along heading `a`.
 
     ## Episode End
     ### Termination
-    1. The tilt reaches pi/2 (`rrrobot_gym.dynamics.TILT_LIMIT`): the shell's rim touches the
-       ground and the rolling model no longer holds. Checked at the end of each control step.
-    2. A numerical failure: the integration produced a non-finite state (a step too large
-       for the chosen gains or timestep). The episode ends with `info["numerical_failure"]`
-       True, reward 0, and the last finite observation (the state is not advanced): the
-       env never returns a NaN observation or reward (that step's measures in `info` are NaN:
-       there was no step to measure).
-
-    3. The robot left the model (`info["outside_model"]`, when `terminate_outside_model` is
-       True, the default): a leg tip reached the ground (leg-ground contact is not
-       modelled), or, on a plane, the floor could not give the force rolling needs, a pull
-       (hop) or grip beyond `friction_coefficient` (default 1.0; None: unlimited), for long
-       enough in one step that the shell would slip or hop at more than `max_slip_velocity`
-       (default 0.02 m/s; `info["slip_velocity"]` is the missing impulse over the step per
-       unit mass, sampled when the action starts to act and after every integration step).
-       By default (`contact_quadrature="rectangle"`) each sample stands for its whole
-       integration step, so where the force spikes for less than a step (a new action's
-       servo kick, a gait's brief peaks of grip) the measure grows with the step, to about
-       twice the impulse actually missing at the default step (README, "Episode end");
-       `contact_quadrature="trapezoid"` takes the force as a line between samples, and
-       its slip and lift-off measures converge with the step (down to about 1/200 s).
-       Slip does not end the episode in its first 0.1 s: the paper's own start (legs
-       leaving vertical abruptly) would slip at up to 0.63 m/s there. Likewise a spell off the ground (normal force <= 0) longer than
-       `max_liftoff_time` (default 0.005 s) leaves the model, also only after 0.1 s. A step
-       that slips or hops past `max_slip_velocity` or lifts off longer than
-       `max_liftoff_time`, and any step in those 0.1 s, earns no forward reward.
-       Without this check a policy free to whip its legs earns speeds no real robot could
-       reach.
+    1. The tilt reaches pi/2 (`rrrobot_gym.dynamics.TILT_LIMIT`), checked after each control step:
+       the rim touches the ground and the rolling model ends.
+    2. A numerical failure: the integration produced a non-finite state (a step too large for the
+       gains or timestep). `info["numerical_failure"]` is True, the reward 0, the observation the
+       last finite one (the state is not advanced) and the step's measures NaN: the env never
+       returns a NaN observation or reward.
+    3. The robot left the model (`info["outside_model"]`, if `terminate_outside_model`, the
+       default): without this check a policy free to whip its legs earns speeds no real robot
+       could reach. A leg tip reached the ground (leg contact is not modelled), or, on the plane
+       and from 0.1 s into the episode (before, the paper's own start, legs leaving vertical
+       abruptly, slips at up to 0.63 m/s), the floor could not give the force rolling needs:
+       the shell was off the ground (normal force <= 0) for longer than `max_liftoff_time`
+       (default 0.005 s), or the impulse the floor could not give over the step (a pull, or grip
+       beyond `friction_coefficient`, default 1.0, None unlimited) per unit mass,
+       `info["slip_velocity"]`, exceeds `max_slip_velocity` (default 0.02 m/s): the shell would
+       slip or hop that fast. The force is sampled when the action starts to act and after every
+       integration step. By default (`contact_quadrature="rectangle"`) a sample stands for its
+       whole integration step, so where the force spikes for less than a step (a new action's
+       servo kick) the slip measure grows with the step, to about twice the missing impulse at
+       the default step; `"trapezoid"` takes the force as a line between samples, and its slip
+       and lift-off measures converge with the step (down to about 1/200 s).
 
     ### Truncation
-    The registered `max_episode_steps` is 1000 control steps: 50 s of robot time at the
-    default `dt` = 0.05 s, the length of the paper's runs. The time limit comes from
-    `gymnasium.make`'s `TimeLimit` wrapper; the env itself never truncates.
+    `gymnasium.make`'s `TimeLimit` truncates after the registered `max_episode_steps`, 1000
+    control steps: 50 s at the default `dt`, the length of the paper's runs. The env itself never
+    truncates.
 
     ## Arguments
     ```python
@@ -263,14 +241,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         else:
             self.contact_lost = float(contact_lost[0])
         rewards, terminations, infos = task.step_outcome(
-            before[None],
-            after[None],
-            self._targets_array(),
-            action[None],
-            np.array([failed]),
-            self.config,
-            measures,  # (1,) arrays
-            np.array([self.time]),
+            before[None], after[None], self._targets_array(), action[None], np.array([failed]), self.config,
+            measures, np.array([self.time]),
             # (the last step's upright contact point, unless the state was replaced since)
             upright_before=self._upright[1] if self._upright[0] is before else None,
         )
@@ -288,11 +260,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
 
     def _advance(self, state, action):
-        """(new state, observation, step measures, contact_lost) after one control step, or Nones on a numerical failure."""
+        """(new state, observation, step measures, contact_lost) after one control step, or Nones on a
+        numerical failure."""
         try:
-            # A (13,) state takes the simulator's fast Python-float path. From t = 0, as the vector
-            # env steps: the ramp's time is relative to its step, and the rounding of (t - t0) is
-            # then the same in both, so they give the same states to the bit.
+            # A (13,) state takes the simulator's Python-float path; from t = 0, as the vector env
+            # steps, so the ramp's (t - t0) rounds alike and the two give the same states to the bit.
             after, measures, contact_lost = task.advance_and_check(
                 state, action, 0.0, self.config, self.leg_targets, self.contact_lost
             )
@@ -323,14 +295,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             return None
         if self.state is None:
             raise RuntimeError("RRRobotEnv.render() called before reset()")
-        frame = render.draw_frame(
-            self.state,
-            self._path,
-            self.episode_target_direction,
-            self.config.sim.robot,
-            self.time,
-            *self._frame_size,
-        )
+        frame = render.draw_frame(self.state, self._path, self.episode_target_direction, self.config.sim.robot,
+                                  self.time, *self._frame_size)
         if self.render_mode == "rgb_array":
             return frame
         if self._viewer is None and not self._no_window:
@@ -351,8 +317,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self._viewer = None
 
 
-
-RRRobotEnv.__init__.__signature__ = task.signature_with_keywords(RRRobotEnv.__init__, after=("render_mode", "width", "height"))
+RRRobotEnv.__init__.__signature__ = task.signature_with_keywords(
+    RRRobotEnv.__init__, after=("render_mode", "width", "height"))
 if RRRobotEnv.__doc__:  # (python -OO strips docstrings)
     RRRobotEnv.__doc__ = RRRobotEnv.__doc__.replace(
         "{arguments_table}", task.arguments_table(RENDER_ARGUMENTS).replace("\n", "\n    ")

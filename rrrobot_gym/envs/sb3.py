@@ -1,13 +1,9 @@
 """A Stable-Baselines3 ``VecEnv`` over the native batched env, so SB3 trains on it directly.
 
-SB3 cannot take a Gymnasium ``VectorEnv`` (DLR-RM/stable-baselines3#1608). Its own
-``VecEnv`` API resets a finished env within the same step and expects
-``info["terminal_observation"]`` and ``info["TimeLimit.truncated"]`` for it (PPO bootstraps
-the value of truncated episodes from these): exactly Gymnasium's SAME_STEP autoreset,
-which :class:`RRRobotVectorEnv` uses, so this adapter only reshapes the results.
-
-This module imports Stable-Baselines3; ``rrrobot_gym.envs`` imports it only when
-``RRRobotSB3VecEnv`` is first used.
+SB3 cannot take a Gymnasium ``VectorEnv``, but its ``VecEnv`` resets a finished env within the
+step, as Gymnasium's SAME_STEP autoreset does, so this adapter only reshapes the results
+(``info["terminal_observation"]``, ``info["TimeLimit.truncated"]``). ``rrrobot_gym.envs``
+imports this module, and so SB3, only when ``RRRobotSB3VecEnv`` is first used.
 """
 
 from __future__ import annotations
@@ -23,36 +19,24 @@ from .vector import RRRobotVectorEnv
 class RRRobotSB3VecEnv(VecEnv):
     """SB3 view of a batched Gymnasium vector env with SAME_STEP autoreset.
 
-    Args:
-        vector_env: an :class:`RRRobotVectorEnv` (e.g. from
-            ``gymnasium.make_vec("RRRobot-v0", num_envs=N)``), or any Gymnasium
-            ``VectorEnv`` with ``metadata["autoreset_mode"] == AutoresetMode.SAME_STEP``.
-            When None, one is built from ``num_envs`` and ``env_kwargs``.
-        num_envs, **env_kwargs: passed to :class:`RRRobotVectorEnv` when ``vector_env`` is None.
+    ``vector_env``: an :class:`RRRobotVectorEnv` (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``) or
+    any Gymnasium ``VectorEnv`` with SAME_STEP autoreset; None builds an :class:`RRRobotVectorEnv`
+    from ``num_envs`` and ``env_kwargs``.
 
-    Per env and step, ``infos[i]`` is the env's step info; for a finished episode it is
-    the last step's info plus ``terminal_observation`` and ``TimeLimit.truncated``
-    (truncated and not terminated), and the returned observation already starts the next
-    episode, whose reset info goes to ``reset_infos[i]``. Seeds from ``seed()`` and
-    options from ``set_options()`` apply at the next ``reset()``, as in SB3's own VecEnvs;
-    per-env options must all be equal (one options dict goes to the batched env).
+    ``infos[i]`` is env i's step info; for a finished episode, the last step's info plus
+    ``terminal_observation`` and ``TimeLimit.truncated``, while the returned observation starts
+    the next episode, whose reset info goes to ``reset_infos[i]``. Seeds from ``seed()`` and
+    options from ``set_options()`` apply at the next ``reset()``; per-env options must be equal.
 
-    The sub-envs share one batched env; ``get_attr``, ``set_attr`` and ``env_method`` follow
-    SB3's ``VecEnv`` semantics (one entry per requested index) on it:
+    The sub-envs share one batched env, so, one entry per requested index:
 
-    - ``get_attr``: for an attribute with one row per sub-env (the batched env's
-      ``per_env_attributes``, e.g. ``episode_target_directions``) row i for env i (a copy);
-      for any other attribute its value, once per index.
-    - ``set_attr``: for a per-env attribute the batched env lets callers write
-      (``per_env_settable``: ``episode_target_directions``, whose new value takes effect in the
-      next step's observation and reward), writes row i of each requested env; the other
-      per-env arrays are the simulation's state (set them with ``reset`` options) and raise
-      ``ValueError``; any other attribute is shared by all envs, so it can only be set for all
-      of them (indices None or every index): setting it for some raises ``ValueError``.
-    - ``env_method``: a method of the batched env's ``per_env_methods`` (``render``) is called
-      once and its result for env i returned for each index; any other method acts on every
-      env at once, so it is called once for all indices (its result repeated per index) and
-      refused with ``ValueError`` for some indices only.
+    - ``get_attr``: row i of a per-env attribute (``per_env_attributes``, a copy), else the value.
+    - ``set_attr``: writes row i of a settable per-env attribute (``per_env_settable``:
+      ``episode_target_directions``, in effect from the next step); the other per-env arrays are
+      the simulation's state (set them with ``reset`` options); any other attribute is shared, so
+      only indices None (or every index) may set it. The rest raise ``ValueError``.
+    - ``env_method``: a ``per_env_methods`` method (``render``) is called once and env i's result
+      returned; any other acts on every env, so only indices None (or every index) may call it.
     """
 
     def __init__(self, vector_env: VectorEnv | None = None, *, num_envs: int | None = None, **env_kwargs):
@@ -74,13 +58,9 @@ class RRRobotSB3VecEnv(VecEnv):
     def reset(self):
         seeds = None if all(seed is None for seed in self._seeds) else list(self._seeds)
         options = self._options
-        if any(options):
-            if any(option != options[0] for option in options):
-                raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
-            options = options[0]
-        else:
-            options = None
-        observations, info = self.vector_env.reset(seed=seeds, options=options)
+        if any(options) and any(option != options[0] for option in options):
+            raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
+        observations, info = self.vector_env.reset(seed=seeds, options=options[0] if any(options) else None)
         self.reset_infos = _info_list(info, self.num_envs)
         self._reset_seeds()
         self._reset_options()

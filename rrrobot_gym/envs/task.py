@@ -36,71 +36,48 @@ from ..control import HeldTargets, RampTargets
 from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, MAX_SAMPLES, NumericalFailure, SimConfig, advance, check_state
 
 LEG_TARGET_MIN = -0.25 * math.pi
-"""rad, leg target of action -1: 45 degrees below horizontal, pointing forward (body +X) and down
-(leg angle 0 points along body +X, pi/2 straight up)."""
+"""rad, leg target of action -1: 45 degrees below horizontal, forward (leg angle 0 is body +X, pi/2 up)."""
 LEG_TARGET_MAX = 1.25 * math.pi
-"""rad, leg target of action +1: 45 degrees below horizontal, pointing back (body -X) and down
-(the mirror of -1).
-Action 0 is the rest pose, legs vertical. The Table II gaits span
--0.3 .. 1.87 rad, inside [LEG_TARGET_MIN, LEG_TARGET_MAX]."""
+"""rad, leg target of action +1: 45 degrees below horizontal, back. Action 0 is the rest pose, legs
+vertical; the Table II gaits span -0.3 .. 1.87 rad."""
 _LEG_TARGET_MID = 0.5 * (LEG_TARGET_MIN + LEG_TARGET_MAX)
 _LEG_TARGET_HALF_RANGE = 0.5 * (LEG_TARGET_MAX - LEG_TARGET_MIN)
 
 FORWARD_VELOCITY_UNIT = 100.0
-"""cm per m: the forward reward counts centimetres per second. The robot moves at about
-1 cm/s, so a good step earns about 1 (and a 1000-step episode about 1000), a scale that
-suits PPO's default hyperparameters better than the raw 0.01 m/s."""
+"""cm per m: the forward reward counts cm/s, so a good step (about 1 cm/s) earns about 1, a scale
+that suits PPO's default hyperparameters better than the raw 0.01 m/s."""
 
 OBSERVATION_FIELDS = (
-    ("up_in_body", 0, 3),
-    ("heading_in_body", 3, 6),
-    ("body_rate", 6, 9),
-    ("leg_angles", 9, 11),
-    ("leg_rates", 11, 13),
-    ("target_direction_world", 13, 15),
-    ("contact_xy", 15, 17),
-)
+    ("up_in_body", 0, 3), ("heading_in_body", 3, 6), ("body_rate", 6, 9), ("leg_angles", 9, 11),
+    ("leg_rates", 11, 13), ("target_direction_world", 13, 15), ("contact_xy", 15, 17),
+)  # fmt: skip
 """(name, start, stop) of each observation entry; ``contact_xy`` only when positions are included."""
 
 RESET_INFO_KEYS = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction")
 """Keys of the info ``reset()`` returns (and a vector env's top-level info for a sub-env it reset)."""
+MEASURE_KEYS = (
+    "normal_force", "friction_ratio", "liftoff_fraction", "liftoff_time", "slip_velocity",
+    "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
+)  # fmt: skip
+"""The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
 STEP_INFO_KEYS = RESET_INFO_KEYS + (
-    "x_velocity",
-    "y_velocity",
-    "forward_velocity",
-    "reward_forward",
-    "reward_ctrl",
-    "reward_survive",
+    "x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "reward_survive",
     "numerical_failure",
-    "normal_force",
-    "friction_ratio",
-    "liftoff_fraction",
-    "liftoff_time",
-    "slip_velocity",
-    "leg_clearance",
-    "torque_rms",
-    "torque_peak",
-    "leg_rate_peak",
-    "outside_model",
-)
+) + MEASURE_KEYS + ("outside_model",)  # fmt: skip
 """Keys of the info ``step()`` returns."""
 RESET_OPTIONS = ("state", "target_direction")
-"""Keys ``reset(options=...)`` accepts: an exact start state (no noise is added) and the
-commanded heading for that episode (overrides the ``target_direction`` keyword)."""
+"""Keys ``reset(options=...)`` accepts: an exact start state (no noise) and the episode's heading."""
 
 
 NUMERICAL_FAILURES = (NumericalFailure, ArithmeticError, ValueError)
-"""What ``advance`` raises when the integration blows up: NumericalFailure for a non-finite
-result, and on the one-robot Python-float path also ZeroDivisionError, OverflowError or
-ValueError ("math domain error" from math.sin(inf)). The envs validate every input before
-calling ``advance``, so an error of these types from inside it is a blow-up, not a bad argument."""
+"""What ``advance`` raises when the integration blows up (the one-robot float path also raises
+ArithmeticError, or ValueError from math.sin(inf)). The envs validate every input first, so these
+mean a blow-up, not a bad argument."""
 
 
 REWARD_WEIGHT_LIMIT = 1e30
-"""The largest reward weight (in size) the env takes: a weight near float's range (1e308)
-times a step's velocity or effort overflows the reward to inf (and inf - inf to NaN), which
-would reach the learner without a word, and SB3's adapter hands rewards on as float32 (3.4e38
-at most); 1e30 leaves room for any velocity of a finite step in either."""
+"""The largest reward weight (in size) the env takes: a larger one times a step's velocity or
+effort could overflow the reward (float32 for SB3, 3.4e38 at most) to inf or NaN."""
 
 
 def _real(name, value, *, minimum=None, positive=False, weight=False):
@@ -116,9 +93,8 @@ def _real(name, value, *, minimum=None, positive=False, weight=False):
 
 
 def control_steps(label: str, duration: float, dt: float) -> int:
-    """The whole number of control steps of ``dt`` s nearest to ``duration`` s (a run simulates
-    that many, and its speed divides by their time), or a ValueError naming ``label`` if it is
-    under half a step (which scored one step for a duration asked, without a word)."""
+    """The whole number of control steps of ``dt`` s nearest to ``duration`` s, or a ValueError
+    naming ``label`` if it is under half a step."""
     steps = int(round(duration / dt))
     if steps < 1:
         raise ValueError(f"{label} {duration!r} s is under half of the env's {dt!r} s control step")
@@ -148,13 +124,10 @@ def _keyword(default, doc, *, shown=None):
 
 @dataclass(frozen=True)
 class TaskConfig:
-    """Everything that fixes one RRRobot-v0 scene and task: the env keywords, validated.
+    """The env keywords of one RRRobot-v0 scene and task, validated: their one definition.
 
-    The one definition of the keywords: both envs take exactly these fields as keyword
-    arguments (:func:`make_task_config`), their signatures (:func:`keyword_parameters`) and
-    their docstring's Arguments table (:func:`arguments_table`) are generated from them.
-    The simulator's part is collected in :attr:`sim`, a
-    :class:`rrrobot_gym.simulation.SimConfig`.
+    Both envs take exactly these fields; their signatures and the Arguments table are generated
+    from them. The simulator's part is :attr:`sim`, a :class:`rrrobot_gym.simulation.SimConfig`.
     """
 
     frame_skip: int = _keyword(15, "integrator steps per control step; `dt` = `frame_skip` x the step")
@@ -217,9 +190,7 @@ class TaskConfig:
         "Below pi / `dt` (a faster clock, seen once a step, aliases to a slower one)"
     )
     terminate_outside_model: bool = _keyword(True, "end the episode when the robot leaves the model (see Episode End)")
-    action_hold: str = _keyword(
-        "linear", '`"linear"`: targets ramp over each step; `"zero_order"`: jump and hold'
-    )
+    action_hold: str = _keyword("linear", '`"linear"`: targets ramp over each step; `"zero_order"`: jump and hold')
 
     def __post_init__(self):
         def put(name, value):
@@ -230,11 +201,9 @@ class TaskConfig:
             raise TypeError(f"frame_skip must be an integer, got {frame_skip!r}")
         if frame_skip < 1:
             raise ValueError(f"frame_skip must be a positive integer, got {frame_skip}")
-        if frame_skip > MAX_SAMPLES:  # (the first step failed allocating its record: 80 TiB at 10**12)
-            raise ValueError(
-                f"frame_skip must be at most {MAX_SAMPLES:.0e}, got {frame_skip}: a step's record keeps "
-                "every integration step, as simulate keeps at most that many samples"
-            )
+        if frame_skip > MAX_SAMPLES:
+            raise ValueError(f"frame_skip must be at most {MAX_SAMPLES:.0e}, got {frame_skip}: a step's record keeps "
+                             "every integration step, as simulate keeps at most that many samples")
         put("frame_skip", int(frame_skip))
         if self.robot is None:
             put("robot", RobotParams())
@@ -254,20 +223,10 @@ class TaskConfig:
                 put(name, _real(name, getattr(self, name)))
         if self.target_direction is not None:
             put("target_direction", check_radians("target_direction", _real("target_direction", self.target_direction)))
-        # SimConfig checks the model, the integrator (simulation.INTEGRATORS), the timestep
-        # and the motor limits, naming each in its message.
-        sim = SimConfig(
-            model=self.model,
-            robot=robot,
-            gains=PDGains(kp=self.kp, kd=self.kd),
-            integrator=self.integrator,
-            backend=self.backend,
-            timestep=self.timestep,
-            legs=self.legs,
-            torque_limit=self.torque_limit,
-            leg_rate_limit=self.leg_rate_limit,
-        )
-        put("_sim", sim)
+        # SimConfig checks the model, the integrator, the timestep and the motor limits.
+        put("_sim", SimConfig(model=self.model, robot=robot, gains=PDGains(kp=self.kp, kd=self.kd),
+                              integrator=self.integrator, backend=self.backend, timestep=self.timestep,
+                              legs=self.legs, torque_limit=self.torque_limit, leg_rate_limit=self.leg_rate_limit))
         put("forward_reward_weight", _real("forward_reward_weight", self.forward_reward_weight, weight=True))
         put("ctrl_cost_weight", _real("ctrl_cost_weight", self.ctrl_cost_weight, minimum=0.0, weight=True))
         put("reset_noise_scale", _real("reset_noise_scale", self.reset_noise_scale, minimum=0.0))
@@ -333,11 +292,8 @@ KEYWORDS = tuple(f.name for f in dataclasses.fields(TaskConfig))
 
 
 def make_task_config(**kwargs) -> TaskConfig:
-    """Validate the env keywords (the fields of :class:`TaskConfig`) and collect them.
-
-    Raises TypeError for an unknown keyword or a wrong type, and ValueError for a bad
-    value, naming the keyword.
-    """
+    """Validate the env keywords (the fields of :class:`TaskConfig`) and collect them: a TypeError
+    for an unknown keyword or a wrong type, a ValueError for a bad value, naming the keyword."""
     unknown = [name for name in kwargs if name not in KEYWORDS]
     if unknown:
         hints = []
@@ -346,14 +302,6 @@ def make_task_config(**kwargs) -> TaskConfig:
             hints.append(f"{name!r}" + (f" (did you mean {close[0]!r}?)" if close else ""))
         raise TypeError(f"RRRobot-v0 got unknown keyword argument(s) {', '.join(hints)}; it takes {', '.join(KEYWORDS)}")
     return TaskConfig(**kwargs)
-
-
-def keyword_parameters() -> list[inspect.Parameter]:
-    """The env keywords as keyword-only :class:`inspect.Parameter` s, for the envs' ``__signature__``."""
-    return [
-        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
-        for f in dataclasses.fields(TaskConfig)
-    ]
 
 
 def arguments_table(extra_rows=()) -> str:
@@ -378,15 +326,15 @@ def _shown(default) -> str:
 
 
 def signature_with_keywords(function, *, before=(), after=()) -> inspect.Signature:
-    """``function``'s signature with its ``**kwargs`` replaced by the env keywords.
-
-    ``before`` and ``after`` are further keyword-only :class:`inspect.Parameter` s placed
-    around them (the envs' own keywords, e.g. ``render_mode``).
-    """
+    """``function``'s signature with its ``**kwargs`` replaced by the env keywords, between its
+    keyword-only parameters named in ``before`` and ``after`` (e.g. ``render_mode``)."""
     own = [p for p in inspect.signature(function).parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
     positional = [p for p in own if p.kind is not inspect.Parameter.KEYWORD_ONLY]
     keyword_only = {p.name: p for p in own if p.kind is inspect.Parameter.KEYWORD_ONLY}
-    params = positional + [keyword_only.pop(n) for n in before] + keyword_parameters()
+    params = positional + [keyword_only.pop(n) for n in before] + [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
+        for f in dataclasses.fields(TaskConfig)
+    ]
     params += [keyword_only.pop(n) for n in after] + list(keyword_only.values())
     return inspect.Signature(params)
 
@@ -415,11 +363,8 @@ def single_observation_space(config: TaskConfig) -> spaces.Box:
 
 
 def check_actions(action, shape) -> np.ndarray:
-    """Return ``action`` as float64 of the given shape, clipped to [-1, 1].
-
-    Raises ValueError naming the problem for a wrong shape or a NaN/inf entry: these are
-    bugs in the caller, whereas an out-of-range value is an ordinary policy output.
-    """
+    """``action`` as float64 of the given shape, clipped to [-1, 1]; a wrong shape or a NaN/inf
+    entry (a caller's bug, where an out-of-range value is an ordinary policy output) raises."""
     try:
         arr = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
@@ -433,8 +378,8 @@ def check_actions(action, shape) -> np.ndarray:
 
 
 def check_observations(observation, size: int) -> np.ndarray:
-    """``observation`` ((size,) or (n, size)) as float64, or a ValueError naming a wrong shape or a
-    NaN/inf entry: what a policy of ``size`` inputs is given (torch would fail on either, naming neither)."""
+    """``observation`` ((size,) or (n, size)) as float64 for a policy of ``size`` inputs, or a
+    ValueError naming a wrong shape or a NaN/inf entry."""
     observation = np.asarray(observation, dtype=np.float64)
     if observation.ndim not in (1, 2) or observation.shape[-1] != size:
         raise ValueError(
@@ -460,29 +405,19 @@ def leg_targets_to_action(leg_targets):
 
 
 def draw_start(rng: np.random.Generator, config: TaskConfig):
-    """Draw one robot's start noise and commanded heading from ``rng``: (noise (10,), target rad).
-
-    One draw of 10 numbers U(-s, s), s = reset_noise_scale, then, if
-    ``config.target_direction`` is None, the heading U(-pi, pi). The single env and each
-    sub-env of the vector env call this with their own generator, so the two agree draw for
-    draw. :func:`start_states` turns the noise into states.
-    """
+    """One robot's start noise (10,) U(-s, s), s = reset_noise_scale, then its heading (rad; drawn
+    U(-pi, pi) if ``config.target_direction`` is None) from ``rng``: the single env and each
+    sub-env draw alike. :func:`start_states` turns the noise into states."""
     s = config.reset_noise_scale
     noise = rng.uniform(-s, s, size=10)
-    if config.target_direction is None:
-        target = float(rng.uniform(-math.pi, math.pi))
-    else:
-        target = config.target_direction
+    target = float(rng.uniform(-math.pi, math.pi)) if config.target_direction is None else config.target_direction
     return noise, target
 
 
 def start_states(noise):
-    """States (N, 13) from start noise (N, 10): the paper's start, perturbed.
-
-    The paper's start is at rest at the origin, upright, legs vertical. The noise adds to
-    the paper's three attitude angles (rad, entries 0:3), the leg angles (rad, 3:5), the body
-    angular velocity (rad/s, body frame, 5:8) and the leg rates (rad/s, 8:10).
-    """
+    """States (N, 13): the paper's start (at rest at the origin, upright, legs vertical) plus noise
+    (N, 10) on the paper's attitude angles (rad, 0:3), the leg angles (rad, 3:5), the body angular
+    velocity (rad/s, body frame, 5:8) and the leg rates (rad/s, 8:10)."""
     noise = np.asarray(noise, dtype=np.float64)
     states = np.zeros((len(noise), dynamics.STATE_SIZE))
     states[:, dynamics.QUAT] = dynamics.quat_from_paper_angles(noise[:, 0:3])
@@ -493,12 +428,8 @@ def start_states(noise):
 
 
 def parse_reset_options(options, num_envs: int | None):
-    """Validate ``reset(options=...)``: returns (states or None, targets or None).
-
-    ``num_envs`` None means a single env: "state" must be (13,) and "target_direction" a
-    number. For a vector env a (13,) state or a scalar heading is used for every sub-env.
-    Raises ValueError for an unknown key, a bad state, or a start at or past the tilt limit.
-    """
+    """Validate ``reset(options=...)``: (states or None, targets or None). ``num_envs`` None is the
+    single env ((13,) state, one heading); a vector env takes a (13,) state or one heading for all."""
     if options is None:
         return None, None
     if not isinstance(options, dict):
@@ -558,9 +489,8 @@ def check_radians(label: str, headings):
 
 
 def check_start_states(states, config: TaskConfig) -> None:
-    """Raise ValueError where a reset's ``options['state']`` ((1, 13) for the single env, (N, 13))
-    gives a float32 observation that is not finite: finite float64 values beyond float32's range
-    (a drawn start never does; the heading, which the check leaves at 0, cannot)."""
+    """Raise ValueError where a reset's ``options['state']`` (N, 13) gives a non-finite float32
+    observation: values beyond float32's range."""
     observations = observe(states, np.zeros(len(states)), config, np.zeros(len(states)))
     bad = np.flatnonzero(~np.isfinite(observations).all(axis=1))
     if bad.size:
@@ -575,20 +505,13 @@ def check_start_states(states, config: TaskConfig) -> None:
 
 
 def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=None) -> np.ndarray:
-    """Observations (N, config.observation_size) float32 of states (N, 13), targets (N,) rad
-    and the time since each episode began, ``times`` (N,) s (used by the clock only).
+    """Observations (N, config.observation_size) float32 (layout :data:`OBSERVATION_FIELDS`) of
+    states (N, 13), targets (N,) rad and ``times`` (N,) s since each episode began (for the clock).
     ``rows`` and ``heading``: the states' :func:`rotation_rows` and the targets'
-    :func:`heading_vectors`, if the caller already has them.
-
-    Layout in :data:`OBSERVATION_FIELDS`. The attitude enters as two unit vectors seen from
-    the body, world up and the commanded heading: together they fix the body's attitude
-    relative to the task with no singularity anywhere, and they are unchanged when the
-    whole scene is turned about the vertical (the dynamics are invariant to world yaw).
-    """
+    :func:`heading_vectors`, if the caller already has them."""
     rows = rotation_rows(states) if rows is None else rows
     cos_t, sin_t = heading_vectors(targets) if heading is None else heading
-    # Filled field by field into contiguous rows, then transposed into (N, size): writing a
-    # column of an (N, size) array is a strided write, ~2x the time of the copy at N = 4096.
+    # Filled by rows, then transposed: writing columns of (N, size) is a strided write, slower.
     obs = np.empty((config.observation_size, len(states)), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
     with np.errstate(over="ignore", invalid="ignore"):
@@ -620,12 +543,9 @@ after); a gait clock's two entries keep theirs."""
 
 
 def mirror_observations(observations, config: TaskConfig) -> np.ndarray:
-    """What the env observes of the mirror image of a scene (:func:`rrrobot_gym.dynamics.mirror_states`,
-    with the commanded heading's y changed in sign too), from observations (..., observation_size).
-
-    Exact, entry by entry, for float32 observations: ``observe(mirror_states(s), -t)`` equals
-    ``mirror_observations(observe(s, t))``. The mirror of an action is :func:`mirror_actions`.
-    """
+    """Observations (..., observation_size) of the mirror image of the scene: exactly,
+    ``observe(mirror_states(s), -t)`` == ``mirror_observations(observe(s, t))``
+    (:func:`rrrobot_gym.dynamics.mirror_states`; actions: :func:`mirror_actions`)."""
     obs = np.asarray(observations, dtype=np.float32)
     if obs.shape[-1:] != (config.observation_size,):
         raise ValueError(f"observations must end in {config.observation_size} entries, got shape {obs.shape}")
@@ -638,8 +558,7 @@ def mirror_observations(observations, config: TaskConfig) -> np.ndarray:
 
 
 def mirror_actions(actions) -> np.ndarray:
-    """The mirror image of actions (..., 2): the legs' targets exchanged (the action's map to a
-    target angle is the same for both legs)."""
+    """The mirror image of actions (..., 2): the legs' targets exchanged."""
     actions = np.asarray(actions)
     if actions.shape[-1:] != (2,):
         raise ValueError(f"actions must end in 2 entries (one per leg), got shape {actions.shape}")
@@ -648,8 +567,7 @@ def mirror_actions(actions) -> np.ndarray:
 
 def rotation_rows(states):
     """Rows of R(quat) of states (N, 13) (:func:`rrrobot_gym.dynamics.rotation_rows`): Python
-    floats for one robot, (N,) arrays for a batch. At N = 1 (the single env) numpy's per-call
-    overhead on one-element arrays is most of the task code's cost; floats broadcast the same."""
+    floats for one robot (numpy's per-call overhead would dominate), (N,) arrays for a batch."""
     if len(states) == 1:
         return dynamics.rotation_rows(*states[0, 2:6].tolist())
     return dynamics.rotation_rows(states[:, 2], states[:, 3], states[:, 4], states[:, 5])
@@ -672,14 +590,11 @@ def _tilt(cos_tilt):
 
 
 def upright_contact_points(states, radius, rows=None):
-    """(N, 2) m: where the contact point would be if the shell rolled back upright.
+    """(N, 2) m: where the contact point would be if the shell rolled back upright without slip.
 
-    Rolling without slip about the horizontal axis that tips the body's z axis back to
-    vertical moves the contact by r * tilt against the body axis's horizontal lean
-    b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt). So the upright contact point is
-    p - r (tilt / sin(tilt)) b_h: it equals the contact point whenever the shell is upright,
-    stays put while the shell merely rocks or tips over about a fixed axis, and moves only
-    with net travel (the holonomy of the rocking that makes the robot locomote).
+    That roll moves the contact by r * tilt against the body axis's horizontal lean
+    b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt), so the point is p - r (tilt / sin(tilt)) b_h: it
+    stays put while the shell rocks or tips over and moves only with net travel.
     ``rows``: the states' :func:`rotation_rows`, if already computed.
     """
     rows = rotation_rows(states) if rows is None else rows
@@ -717,19 +632,11 @@ def step_outcome(
     states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed, upright_before=None,
     rows_after=None, heading=None,
 ):
-    """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step.
-
-    reward_forward = forward_reward_weight * 100 * forward_velocity: cm/s of the upright
-    contact point (:func:`upright_contact_points`) along the heading. Rewarding the raw
-    contact point instead would pay ~0.19 m (r pi/2, ~380 reward) for simply tipping over
-    towards the heading; the upright point also drops the contact's rocking (over 20 s of
-    Gait 1 its path is as long as its net travel, the raw contact's is 15 times longer).
-    reward_ctrl = -ctrl_cost_weight * |action|^2 of the clipped action. A ``failed`` robot
-    (numerical blow-up; its states_after is its unchanged last finite state) gets reward 0
-    and terminates; so does one whose tilt reached the rim limit.
-    ``upright_before`` (N, 2): the upright contact points of ``states_before`` if the caller
-    kept them (the last step's x_upright, y_upright); else they are computed. ``rows_after``
-    and ``heading``: the :func:`rotation_rows` of ``states_after`` and the targets'
+    """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step: the
+    RRRobotEnv docstring's Rewards and Episode End. A ``failed`` robot (numerical blow-up; its
+    ``states_after`` is its last finite state) gets reward 0 and terminates.
+    ``upright_before`` (N, 2), ``rows_after`` and ``heading``: the :func:`upright_contact_points` of
+    ``states_before``, the :func:`rotation_rows` of ``states_after`` and the targets'
     :func:`heading_vectors`, if the caller already has them.
     """
     dt = config.dt
@@ -761,31 +668,19 @@ def step_outcome(
     return info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], terminated, info
 
 
-MEASURE_KEYS = (
-    "normal_force", "friction_ratio", "liftoff_fraction", "liftoff_time", "slip_velocity",
-    "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
-)  # fmt: skip
-"""The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
-
-
 def failed_measures(num_robots: int) -> dict:
     """The measures reported for robots whose step failed numerically (NaN; they terminate anyway)."""
     return {key: np.full(num_robots, np.nan) for key in MEASURE_KEYS}
 
 
 def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost, workers=1):
-    """One control step of ``states`` ((13,) or (N, 13)) under ``actions``.
+    """One control step of ``states`` ((13,) or (N, 13)) under ``actions``, the leg targets held
+    by ``config.action_hold`` from ``previous_targets`` (rad, the last step's). ``contact_lost``
+    (N,) s: how long each shell had been off the ground when the step began.
 
-    With ``config.action_hold == "linear"`` the leg targets ramp from ``previous_targets``
-    (rad, the last step's targets) to the action's over the step; with "zero_order" they
-    jump to the action's and are held with target rate 0. ``contact_lost`` (N,) s is how
-    long each robot's shell had been off the ground when the step began.
-
-    One integration call, whose :class:`rrrobot_gym.simulation.StepRecord` (the torques
-    applied and the ground force at every substep start) gives the step's measures.
-    Returns (states after the step, measures: an (N,) dict keyed :data:`MEASURE_KEYS`,
-    contact_lost after the step). Raises the simulator's numerical failures
-    (:data:`NUMERICAL_FAILURES`).
+    Returns (states after, measures: (N,) arrays keyed :data:`MEASURE_KEYS` from the step's
+    :class:`rrrobot_gym.simulation.StepRecord`, contact_lost after); raises
+    :data:`NUMERICAL_FAILURES`.
     """
     leg_targets = action_to_leg_targets(actions)
     if config.action_hold == "linear":
@@ -801,23 +696,14 @@ def advance_and_check(states, actions, t: float, config: TaskConfig, previous_ta
 
 
 STARTUP_GRACE = 0.1
-"""s: slipping is allowed for this long into an episode. At the paper's start the legs leave
-vertical abruptly, and even the Table II gaits would slip at up to 0.63 m/s for an instant
-(and never again: 0 after it)."""
+"""s: slipping is allowed for this long into an episode (the paper's start, legs leaving vertical
+abruptly, makes even the Table II gaits slip at up to 0.63 m/s for an instant)."""
 
 
 def outside_model(info, config: TaskConfig, elapsed):
-    """True where a robot left the model's validity envelope (:mod:`rrrobot_gym.validity`).
-
-    A leg tip at or below the ground (leg contact is not modelled), or, on a plane, a floor
-    that could not give the force rolling needs: the normal force stayed <= 0 (the shell
-    would lift off) for longer than ``max_liftoff_time``, or the impulse the floor could not
-    give over the step (a pull, or grip beyond ``friction_coefficient``), per unit mass,
-    exceeds ``max_slip_velocity`` (the shell would slip or hop that fast); from
-    :data:`STARTUP_GRACE` into the episode, ``elapsed`` (N,) being the time in s at the
-    start of the step. The pivot model has no ground contact: only its legs are checked.
-    ``info`` holds the step's measures (:func:`advance_and_check`).
-    """
+    """True where a robot left the model (the RRRobotEnv docstring's Episode End): a leg tip at or
+    below the ground, or on a plane, from :data:`STARTUP_GRACE` on (``elapsed`` (N,) s at the
+    step's start), :func:`left_the_floor`. ``info`` holds the step's measures."""
     out = info["leg_clearance"] <= 0.0
     if config.sim.model == "plane":
         started = np.asarray(elapsed, dtype=float) >= STARTUP_GRACE - 1e-9
@@ -831,19 +717,15 @@ def left_the_floor(info, config: TaskConfig):
 
 
 def tilt_reached_limit(tilts):
-    """True where the rim touches the ground (the paper's rolling model holds while the hemisphere's bottom touches the floor: it ends there)."""
+    """True where the rim touches the ground, where the paper's rolling model ends."""
     return tilts >= dynamics.TILT_LIMIT
 
 
 def finite_rows(states, observations):
-    """True for robots whose state and float32 observation are both finite.
-
-    The observation is checked too: a finite but huge float64 state overflows float32.
-    """
+    """True for robots whose state and float32 observation (which a huge state overflows) are finite."""
     if len(states) < FINITE_BY_DOT_MIN:
         return np.isfinite(states).all(axis=1) & np.isfinite(observations).all(axis=1)
-    # A row's dot product with zeros is 0 if every entry is finite and NaN if any is inf or NaN
-    # (0 * inf is NaN): one pass over the batch instead of a reduction along each short row.
+    # A row's dot product with zeros is NaN if any entry is inf or NaN: one pass over the batch.
     with np.errstate(invalid="ignore"):
         zeros_state, zeros_obs = np.zeros(states.shape[1]), np.zeros(observations.shape[1], observations.dtype)
         return np.isfinite(np.einsum("ij,j->i", states, zeros_state)) & np.isfinite(
@@ -852,5 +734,4 @@ def finite_rows(states, observations):
 
 
 FINITE_BY_DOT_MIN = 256
-"""Batches from this size on are checked by :func:`finite_rows`' dot products (3x faster at N = 4096,
-slower for small batches, where numpy's per-call overhead is the cost)."""
+"""Batches from this size on are checked by :func:`finite_rows`' dot products (faster for large batches)."""

@@ -1,19 +1,14 @@
-"""RRRobot-v0 as a native batched Gymnasium VectorEnv: N robots in one numpy state array.
+"""RRRobot-v0 as a native batched Gymnasium VectorEnv: N robots in one (N, 13) numpy state.
 
-The N robots are integrated together as one (N, 13) state by
-:func:`rrrobot_gym.simulation.advance` (the same dynamics as the single env, batched
-along the leading axis), and the task (observation, reward, termination, start) comes from
-the same functions in :mod:`rrrobot_gym.envs.task`. Each sub-env keeps its own random
-generator, seeded with ``seed + i`` as Gymnasium's ``SyncVectorEnv`` does, so sub-env i
-reproduces ``RRRobotEnv`` reset with ``seed + i`` (up to rounding: the single env integrates
-on Python floats, this env on numpy arrays; they agree to about 1e-12).
+The robots step together through :func:`rrrobot_gym.simulation.advance`, and the task comes
+from :mod:`rrrobot_gym.envs.task`, as in the single env. Sub-env i has its own generator,
+seeded ``seed + i`` as in ``SyncVectorEnv``, so it reproduces ``RRRobotEnv`` reset with
+``seed + i`` (to about 1e-12: the single env integrates on Python floats).
 
-Autoreset: ``AutoresetMode.SAME_STEP``. A sub-env that terminates or is truncated is
-reset within the same ``step``: the returned observation starts its next episode, and the
-last observation and info of the finished episode are in ``info["final_obs"]`` and
-``info["final_info"]`` (masks ``info["_final_obs"]``, ``info["_final_info"]``). For a reset
-sub-env the top-level info holds its reset info (as ``SyncVectorEnv`` does in this mode).
-This is the convention Stable-Baselines3 uses, so :class:`RRRobotSB3VecEnv` is a thin layer.
+Autoreset is ``AutoresetMode.SAME_STEP`` (Stable-Baselines3's convention): a finished sub-env
+is reset within the same ``step``, its returned observation starts the next episode, the last
+one's observation and info are in ``info["final_obs"]`` and ``info["final_info"]`` (masks
+``"_final_obs"``, ``"_final_info"``), and its top-level info is its reset info.
 """
 
 from __future__ import annotations
@@ -28,15 +23,14 @@ from .. import simulation
 from ..params import whole_number
 from . import render, task
 
+
 class RRRobotVectorEnv(VectorEnv, EzPickle):
     """N RRRobot-v0 robots stepped together (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``).
 
-    Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (the fields of
-    :class:`rrrobot_gym.envs.task.TaskConfig`; see its docstring for the spaces, reward and
-    episode end) plus ``num_envs``, ``max_episode_steps`` (control steps before truncation;
-    None never truncates) and ``workers`` (share the batch's robots among that many of numba's
-    threads, bit-identical to one: :func:`rrrobot_gym.simulation.advance`; the compiled stepper
-    only; it pays for large batches, ``python -m benchmarks.throughput``).
+    Takes the keywords of :class:`rrrobot_gym.envs.RRRobotEnv` (see its docstring for the
+    spaces, reward and episode end) plus ``num_envs``, ``max_episode_steps`` (control steps
+    before truncation; None never truncates) and ``workers`` (numba threads sharing the robots,
+    bit-identical to one; the compiled stepper only; it pays for large batches).
     ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
@@ -52,9 +46,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     per_env_attributes = ("states", "leg_targets", "contact_lost", "episode_target_directions", "episode_steps")
     """Attributes that are arrays with one row per sub-env (what the SB3 adapter's ``get_attr`` indexes)."""
     per_env_settable = ("episode_target_directions",)
-    """The per-env attributes a caller may write, row by row (the SB3 adapter's ``set_attr``):
-    a new heading takes effect in the next step. The others are the simulation's state,
-    which ``reset(options=...)`` sets consistently."""
+    """The per-env attributes a caller may write, row by row (the SB3 adapter's ``set_attr``); the
+    others are the simulation's state, which ``reset(options=...)`` sets."""
     per_env_methods = ("render",)
     """Methods that return one result per sub-env (what the SB3 adapter's ``env_method`` indexes)."""
 
@@ -70,16 +63,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         **kwargs,
     ):
         # The env keywords are the fields of task.TaskConfig (see __signature__ below).
-        EzPickle.__init__(
-            self,
-            num_envs=num_envs,
-            max_episode_steps=max_episode_steps,
-            workers=workers,
-            render_mode=render_mode,
-            width=width,
-            height=height,
-            **kwargs,
-        )
+        EzPickle.__init__(self, num_envs=num_envs, max_episode_steps=max_episode_steps, workers=workers,
+                          render_mode=render_mode, width=width, height=height, **kwargs)
         whole_number("num_envs", num_envs)
         self.max_episode_steps = max_episode_steps
         self.workers = whole_number("workers", workers)
@@ -97,12 +82,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             )
         self.num_envs = int(num_envs)
         samples = self.config.frame_skip * self.num_envs
-        if samples > simulation.MAX_SAMPLES:  # (as frame_skip alone for one robot: TaskConfig)
+        if samples > simulation.MAX_SAMPLES:
             raise ValueError(
                 f"frame_skip x num_envs must be at most {simulation.MAX_SAMPLES:.0e}, got {self.config.frame_skip} x "
                 f"{self.num_envs}: a step's record keeps every integration step of every robot ({samples:.3g} samples, "
-                "~88 bytes each)"
-            )
+                "~88 bytes each)")
         self.render_mode = render_mode
         self._frame_size = render.check_frame_size(width, height)
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
@@ -211,9 +195,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         actions = task.check_actions(actions, (self.num_envs, 2))
         before = self.states
         targets = self.episode_target_directions
-        # The headings' cos and sin (checked, if a caller wrote them) and the rotations of the new
-        # states, computed once for the observation and the step's outcome (at N = 64 the task
-        # code is most of a step).
+        # The headings' cos and sin and the new states' rotations, computed once for both
+        # the observation and the step's outcome.
         heading = self.heading_vectors(targets)
         after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
         rows = task.rotation_rows(after)
@@ -256,19 +239,14 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
-            if not np.all(np.isfinite(targets)):  # (a row written by a caller)
-                raise ValueError(f"episode_target_directions must be finite, got {targets!r}")
-            task.check_radians("episode_target_directions", targets)
-            kept = self._headings = (targets.copy(), task.heading_vectors(targets))
+            targets = task.headings("episode_target_directions", targets, self.num_envs)  # (a caller may write rows)
+            kept = self._headings = (targets, task.heading_vectors(targets))
         return kept[1]
 
     def _advance(self, states, actions, previous_targets, contact_lost):
-        """(new states, step measures, failed mask, contact_lost): one control step for every robot, isolating failures.
-
-        ``advance`` raises on any non-finite result, which would lose the whole batch for
-        one bad robot. The rows are independent, so on a failure the batch is split in
-        halves and each retried: a rare failure costs about two extra batch steps.
-        """
+        """(new states, step measures, failed mask, contact_lost) of one control step. ``advance``
+        raises for the whole batch on one robot's blow-up, so the batch is then split in halves
+        and each retried until the failed robots are isolated."""
         try:
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
@@ -281,17 +259,13 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 failed = task.failed_measures(1)
                 return states.copy(), failed, np.ones(1, dtype=bool), contact_lost.copy()
         half = len(states) // 2
-        parts = [
+        (states_0, measures_0, failed_0, lost_0), (states_1, measures_1, failed_1, lost_1) = [
             self._advance(states[rows], actions[rows], previous_targets[rows], contact_lost[rows])
             for rows in (slice(None, half), slice(half, None))
         ]
-        measures = {key: np.concatenate([part[1][key] for part in parts]) for key in parts[0][1]}
-        return (
-            np.concatenate([part[0] for part in parts]),
-            measures,
-            np.concatenate([part[2] for part in parts]),
-            np.concatenate([part[3] for part in parts]),
-        )
+        measures = {key: np.concatenate([measures_0[key], measures_1[key]]) for key in measures_0}
+        return (np.concatenate([states_0, states_1]), measures, np.concatenate([failed_0, failed_1]),
+                np.concatenate([lost_0, lost_1]))
 
     def _autoreset(self, done, observations, info, masks):
         """Reset the finished sub-envs in place (SAME_STEP); returns the new observations."""
@@ -339,14 +313,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if self.states is None:
             raise RuntimeError("RRRobotVectorEnv.render() called before reset()")
         return tuple(
-            render.draw_frame(
-                self.states[i],
-                self._paths[i],
-                float(self.episode_target_directions[i]),
-                self.config.sim.robot,
-                float(self.episode_steps[i] * self.dt),
-                *self._frame_size,
-            )
+            render.draw_frame(self.states[i], self._paths[i], float(self.episode_target_directions[i]),
+                              self.config.sim.robot, float(self.episode_steps[i] * self.dt), *self._frame_size)
             for i in range(self.num_envs)
         )
 
