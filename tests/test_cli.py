@@ -90,7 +90,10 @@ DURATION = 3.0
 def gait3_runs(tmp_path_factory):
     """Gait 3 on a plane, as given and with the legs' phases swapped, and the normal run's plot."""
     out = tmp_path_factory.mktemp("simulate")
-    common = ("simulate", "--model", "plane", "--gait", "3", "--duration", DURATION, "--sample-dt", SAMPLE_DT)
+    # (on numpy: a process of its own would otherwise compile the numba stepper on a cold cache;
+    # the backends give the same run, test_simulate_on_either_backend_gives_the_same_run)
+    common = ("simulate", "--model", "plane", "--gait", "3", "--duration", DURATION, "--sample-dt", SAMPLE_DT,
+              "--backend", "numpy")  # fmt: skip
     normal = rrrobot(*common, "--out", out / "normal.npz", "--plot", out / "normal.png")
     rrrobot(*common, "--swap-phase", "--out", out / "swapped.npz")
     return {
@@ -245,7 +248,7 @@ def test_simulate_on_either_backend_gives_the_same_run(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_figures_writes_the_panels_and_the_travel_summary(tmp_path):
     out = tmp_path / "figures"
-    rrrobot("figures", "--out", out, "--duration", 3)
+    rrrobot("figures", "--out", out, "--duration", 3, "--backend", "numpy")  # (as simulate's runs above)
     png = (out / "contact_paths.png").read_bytes()
     assert png[:8] == PNG_SIGNATURE and len(png) < 300_000
     summary = json.loads((out / "summary.json").read_text())
