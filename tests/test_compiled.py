@@ -258,6 +258,7 @@ def test_the_cache_directory_follows_every_compiled_source(tmp_path):
         open(copy, "wb").write(original)
 
 
+@pytest.mark.slow
 def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
     import shutil
     import subprocess
