@@ -6,6 +6,7 @@
     rrrobot gait-search --model plane --objective own --budget-seconds 600 --out best_gaits.json
     rrrobot turn-then-run-search --model plane --run-gaits GAITS.json --budget 900 --out AGENT.json
     rrrobot turn-then-run-steer --agent AGENT.json --gain 0.5 1 --limit 0.05 0.1 --out AGENT.json
+    rrrobot export-onnx agents/pretrained/best_model.zip --out policy.onnx
 
 (also ``python -m rrrobot_gym ...``). This module only parses arguments, calls
 :mod:`rrrobot_gym.simulation`, :mod:`rrrobot_gym.analysis` and
@@ -317,6 +318,18 @@ def _add_turn_then_run_parsers(sub):
                        help="starts: the paper's and N - 1 noisy ones (default: %(default)s)")
     steer.add_argument("--duration", type=_positive_seconds, default=PAPER_DURATION, help="s (default: %(default)g)")
     steer.set_defaults(run=run_turn_then_run_steer)
+
+    export = sub.add_parser(
+        "export-onnx",
+        help="write a trained PPO policy as one ONNX network (observation normalisation and mirror folded in)",
+        description="Write the PPO policy MODEL.zip (with the files train.py writes beside it) as ONNX: input "
+        "'observation' (N, observation size) float32, the env's raw observations; output 'action' (N, 2), what "
+        "the policy's deterministic predict gives. The VecNormalize statistics and, for a mirrored policy, the "
+        "mirror are folded in. A residual policy is refused. Needs rrrobot_gym[train] and onnx.",
+    )
+    export.add_argument("model", type=Path, metavar="MODEL.zip", help="the SB3 PPO model (e.g. a run's best_model.zip)")
+    export.add_argument("--out", type=Path, required=True, metavar="FILE.onnx", help="where to write the network")
+    export.set_defaults(run=run_export_onnx)
 
 
 def _steer_limit(text: str):
@@ -744,6 +757,27 @@ def run_turn_then_run_steer(args) -> None:
     best = spec["steer_tune"]["rows"][0]
     print(f"kept {best['combo'] or 'no correction'}: {best['ended']} runs ended, worst {1e3 * best['worst_mps']:.1f}, "
           f"mean {1e3 * best['mean_mps']:.1f} mm/s")
+    print(f"wrote {args.out}")
+
+
+# ---------------------------------------------------------------- ONNX export
+
+
+def run_export_onnx(args) -> None:
+    if args.out.suffix != ".onnx":
+        raise UsageError(f"--out must name a .onnx file, got {str(args.out)!r}")
+    check_output_path("--out", args.out)
+    for module in ("torch", "stable_baselines3", "onnx"):
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"export-onnx needs {module}: pip install 'rrrobot_gym[train]'") from None
+    from .export import export_onnx
+
+    try:
+        _write(args.out, lambda path: export_onnx(args.model, path))
+    except (FileNotFoundError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
     print(f"wrote {args.out}")
 
 
