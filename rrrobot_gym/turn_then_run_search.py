@@ -65,6 +65,8 @@ WINDOW_STEPS = 15
 """Control steps of the agent's yaw moving average (about one period of the gaits searched)."""
 TURN_SECONDS, SETTLE_SECONDS = 10.0, 1.0
 """s, the turning gait's runs, and the start left out of its yaw rate's fit."""
+TURN_SEEDS = [None, 11, 12]
+"""Starts the turning gait is scored from: the paper's (None) and two noisy ones."""
 DIRECTION_SECONDS, DIRECTION_SETTLE = 20.0, 2.0
 """s, the running gait's runs for its direction, and the start left out (its first period)."""
 TURN_POPSIZE = 64
@@ -89,7 +91,7 @@ def start_states(seeds, reset_noise_scale: float) -> np.ndarray:
     noise = np.zeros((len(seeds), 10))
     for i, seed in enumerate(seeds):
         if seed is not None:
-            noise[i] = seeding.np_random(int(seed))[0].uniform(-reset_noise_scale, reset_noise_scale, size=10)
+            noise[i] = task.draw_noise(seeding.np_random(int(seed))[0], reset_noise_scale)
     return task.start_states(noise)
 
 
@@ -146,7 +148,7 @@ def measure_direction(run_gait, *, model, env_kwargs, reset_noise_scale=0.01, se
     kept = ~runs["terminated"]
     if not kept.any():
         raise SearchError(f"the running gait {run_gait.name} left the model on every start: it has no direction")
-    signed = np.where(np.arange(len(rows)) < len(seeds), offsets, -offsets)
+    signed = np.where(mirror, -offsets, offsets)
     return {"direction_offset_deg": float(signed[kept].mean()), "offsets_deg": offsets.tolist(),
             "ended": runs["terminated"].tolist()}  # fmt: skip
 
@@ -317,7 +319,7 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     say(f"direction: {gait.name} travels at the body's yaw {direction['direction_offset_deg']:+.2f} deg (used: {offset:+.0f})")
 
     # 2. turning gait
-    turning_settings = dict(model=model, env_kwargs=env_kwargs, seeds=[None, 11, 12], reset_noise_scale=reset_noise_scale)
+    turning_settings = dict(model=model, env_kwargs=env_kwargs, seeds=TURN_SEEDS, reset_noise_scale=reset_noise_scale)
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
                [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
     to_params, to_unit = unit_box()
@@ -354,7 +356,7 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
         "seed": seed, "budget_seconds": budget_seconds, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
         "direction": direction,
         "turning_gait": {"parameters": turning.params[turning.best].tolist(), "yaw_rate_radps": turn_rate,
-                         "evaluations": len(turning.rows), "generations": turning.generations, "seeds": [None, 11, 12],
+                         "evaluations": len(turning.rows), "generations": turning.generations, "seeds": TURN_SEEDS,
                          "duration_s": TURN_SECONDS},
         "maneuver": {"headings_deg": heads, "seeds": seeds, "duration_s": duration, "fitness": float(scores[0]),
                      "speeds_mps": [float(v) for v in scores[1:]], "evaluations": len(maneuvers.rows),

@@ -408,10 +408,14 @@ def draw_start(rng: np.random.Generator, config: TaskConfig):
     """One robot's start noise (10,) U(-s, s), s = reset_noise_scale, then its heading (rad; drawn
     U(-pi, pi) if ``config.target_direction`` is None) from ``rng``: the single env and each
     sub-env draw alike. :func:`start_states` turns the noise into states."""
-    s = config.reset_noise_scale
-    noise = rng.uniform(-s, s, size=10)
+    noise = draw_noise(rng, config.reset_noise_scale)
     target = float(rng.uniform(-math.pi, math.pi)) if config.target_direction is None else config.target_direction
     return noise, target
+
+
+def draw_noise(rng: np.random.Generator, scale: float) -> np.ndarray:
+    """One robot's start noise (10,), U(-scale, scale), for :func:`start_states`."""
+    return rng.uniform(-scale, scale, size=10)
 
 
 def start_states(noise):
