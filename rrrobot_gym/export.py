@@ -45,14 +45,10 @@ def policy_module(agent):
     ppo = agent.policy if mirrored else agent
     policy = ppo.model.policy
     low, high = ppo.model.action_space.low, ppo.model.action_space.high
-    size = ppo.model.observation_space.shape[-1]
     if mirrored:
         permutation, signs = mirror_map(agent.config)
         swap = np.asarray(mirror_actions(np.arange(2)))
-    if ppo.obs_mean is None:
-        mean, scale = np.zeros(size), np.ones(size)
-    else:
-        mean, scale = ppo.obs_mean, np.sqrt(ppo.obs_var + ppo.epsilon)
+    mean, scale = ppo.obs_mean, np.sqrt(ppo.obs_var + ppo.epsilon)  # load_ppo_agent refuses a run without them
 
     class Policy(torch.nn.Module):
         def __init__(self):
