@@ -339,8 +339,7 @@ def env_config(args: Args) -> dict:
 
 def ppo_kwargs(args: Args) -> dict:
     """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this run's."""
-    settings = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gamma", "gae_lambda",
-                "clip_range", "ent_coef", "log_std_init")
+    settings = RESUME_SETTINGS + ("gamma", "log_std_init")
     return hp.ppo_hyperparams(args.num_envs, net_arch=[int(n) for n in args.net_arch.split(",")],
                               **{name: getattr(args, name) for name in settings})
 
