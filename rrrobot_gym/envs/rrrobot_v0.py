@@ -195,7 +195,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = None  # (13,) float64, see rrrobot_gym.dynamics.STATE_FIELDS
         self.episode_target_direction = None  # rad, this episode's commanded heading
         self.time = 0.0  # s since the episode began
-        self.leg_targets = None  # (2,) rad, the servo targets at the end of the last step
+        self.leg_targets = None  # (2,) rad, the servo's reference at the end of the last step
+        self.leg_target_rates = None  # (2,) rad/s, its rate over the last step (task.step_targets)
         self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
         self._observation = None  # the last observation returned, float32
         self._upright = (None, None)  # (the state, its upright contact point (1, 2)), reused by the next step
@@ -221,6 +222,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.episode_target_direction = heading
         self.time = 0.0
         self.leg_targets = self.state[6:8].copy()
+        self.leg_target_rates = np.zeros(2)
         self.contact_lost = 0.0
         self._observation = observation
         if self.render_mode is not None:
@@ -234,7 +236,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             raise RuntimeError("RRRobotEnv.step() called before reset()")
         action = task.check_actions(action, (2,))
         before = self.state
-        after, observation, measures, contact_lost = self._advance(before, action)
+        held, targets, rates = task.step_targets(action, self.leg_targets, self.leg_target_rates, self.config)
+        after, observation, measures, contact_lost = self._advance(before, held)
         failed = after is None
         if failed:
             after, observation, measures = before, self._observation, task.failed_measures(1)
@@ -249,7 +252,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = after
         self._observation = observation
         if not failed:
-            self.leg_targets = task.action_to_leg_targets(action)
+            self.leg_targets, self.leg_target_rates = targets, rates
         self.time += self.dt
         info = {key: value.item() for key, value in infos.items()}  # Python floats and bools
         self._upright = (after, np.array([[info["x_upright"], info["y_upright"]]]))
@@ -259,15 +262,13 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self.render()
         return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
 
-    def _advance(self, state, action):
+    def _advance(self, state, held):
         """(new state, observation, step measures, contact_lost) after one control step, or Nones on a
         numerical failure."""
         try:
             # A (13,) state takes the simulator's Python-float path; from t = 0, as the vector env
             # steps, so the ramp's (t - t0) rounds alike and the two give the same states to the bit.
-            after, measures, contact_lost = task.advance_and_check(
-                state, action, 0.0, self.config, self.leg_targets, self.contact_lost
-            )
+            after, measures, contact_lost = task.advance_and_check(state, held, 0.0, self.config, self.contact_lost)
         except task.NUMERICAL_FAILURES:
             return None, None, None, None
         observation = self._observe(after, self.time + self.dt)

@@ -26,6 +26,7 @@ import difflib
 import inspect
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -101,6 +102,28 @@ def control_steps(label: str, duration: float, dt: float) -> int:
     return steps
 
 
+class Servo(NamedTuple):
+    """The leg servo of RRRobot-v0's defaults: a motor a robot of this size could carry."""
+
+    torque_limit: float | None
+    """N m, stall torque."""
+    leg_rate_limit: float | None
+    """rad/s, no-load speed: the torque falls linearly to 0 there."""
+    leg_accel_limit: float | None
+    """rad/s^2, the motion profile's largest change of the reference's rate."""
+
+
+SERVO = Servo(torque_limit=0.5, leg_rate_limit=10.0, leg_accel_limit=60.0)
+"""The env's servo: 0.5 N m stall and 10 rad/s no-load, a hobby servo's class (a standard one
+gives about 1 N m at 5-7 rad/s; each leg is a 57 g tip at 0.1 m), with a motion profile as smart
+servos set one (a limit on the reference's acceleration): at 60 rad/s^2 a random policy's
+episodes last about 2 s instead of 0.25 s, where the shell's reaction to full-torque swings
+makes it hop or slip."""
+IDEAL_SERVO = Servo(None, None, None)
+"""The paper's servo: the PD law unlimited, the target reached at once (``rrrobot figures``, Tables I
+and II)."""
+
+
 ACTION_HOLDS = ("linear", "zero_order")
 """How an action's leg targets act over its control step (``action_hold``)."""
 
@@ -157,10 +180,17 @@ class TaskConfig:
         "path to each target exactly (no stiff servo in the integration)",
     )
     torque_limit: float | None = _keyword(
-        None, "N m, the leg motors' stall torque (servo legs); None: unlimited, the paper's ideal servo"
+        SERVO.torque_limit,
+        "N m, the leg motors' stall torque (servo legs); None: unlimited, the paper's ideal servo",
     )
     leg_rate_limit: float | None = _keyword(
-        None, "rad/s, the leg motors' no-load speed (needs `torque_limit`); None: unlimited"
+        SERVO.leg_rate_limit,
+        "rad/s, the leg motors' no-load speed (needs `torque_limit`), also the profile's top speed; None: unlimited",
+    )
+    leg_accel_limit: float | None = _keyword(
+        SERVO.leg_accel_limit,
+        "rad/s^2, the servo's motion profile: its reference moves towards each action's target with its rate "
+        "changing by at most this much a second (`step_targets`); None: it goes straight to the target",
     )
     forward_reward_weight: float = _keyword(1.0, "reward per cm/s along the commanded heading")
     ctrl_cost_weight: float = _keyword(0.01, "cost per unit \\|action\\|^2 (>= 0)")
@@ -221,6 +251,8 @@ class TaskConfig:
         for name in ("torque_limit", "leg_rate_limit"):
             if getattr(self, name) is not None:
                 put(name, _real(name, getattr(self, name)))
+        if self.leg_accel_limit is not None:
+            put("leg_accel_limit", _real("leg_accel_limit", self.leg_accel_limit, positive=True))
         if self.target_direction is not None:
             put("target_direction", check_radians("target_direction", _real("target_direction", self.target_direction)))
         # SimConfig checks the model, the integrator, the timestep and the motor limits.
@@ -677,20 +709,52 @@ def failed_measures(num_robots: int) -> dict:
     return {key: np.full(num_robots, np.nan) for key in MEASURE_KEYS}
 
 
-def advance_and_check(states, actions, t: float, config: TaskConfig, previous_targets, contact_lost, workers=1):
-    """One control step of ``states`` ((13,) or (N, 13)) under ``actions``, the leg targets held
-    by ``config.action_hold`` from ``previous_targets`` (rad, the last step's). ``contact_lost``
-    (N,) s: how long each shell had been off the ground when the step began.
+def step_targets(actions, previous_targets, previous_rates, config: TaskConfig, t: float = 0.0):
+    """The servo's reference over one control step from ``t``: (the leg-target source the
+    integrator follows, the reference at the step's end (rad), its rate over the step (rad/s)),
+    each target and rate array shaped as ``actions`` ((2,) or (N, 2)).
+
+    Each action names a target angle (:func:`action_to_leg_targets`). With no
+    ``leg_accel_limit`` the reference ends the step there. With one, a motion profile moves it
+    from ``previous_targets`` at ``previous_rates``: its rate heads for the fastest that can
+    still stop at the target (sqrt(2 a |error|), at most ``leg_rate_limit`` and the error over a
+    step), changing by at most a dt per step, a the limit. ``action_hold`` "linear" ramps the
+    reference through the step at that rate; "zero_order" holds its end.
+    """
+    goal = action_to_leg_targets(actions)
+    dt = config.dt
+    if config.leg_accel_limit is None:
+        end = goal
+        rates = (goal - previous_targets) / dt
+    else:
+        error = goal - previous_targets
+        size = np.abs(error)
+        wanted = np.minimum(np.sqrt(2.0 * config.leg_accel_limit * size), size / dt)
+        if config.leg_rate_limit is not None:
+            wanted = np.minimum(wanted, config.leg_rate_limit)
+        change = config.leg_accel_limit * dt
+        rates = np.clip(np.copysign(wanted, error), previous_rates - change, previous_rates + change)
+        end = previous_targets + rates * dt
+    return held_targets(previous_targets, end, config, t), end, rates
+
+
+def held_targets(start, end, config: TaskConfig, t: float = 0.0):
+    """The leg-target source of a control step from ``t`` whose reference goes from ``start`` to
+    ``end`` (rad): a ramp (``action_hold`` "linear") or ``end`` held ("zero_order")."""
+    if config.action_hold == "linear":
+        return RampTargets(start, end, t, config.dt)
+    return HeldTargets(end)
+
+
+def advance_and_check(states, held, t: float, config: TaskConfig, contact_lost, workers=1):
+    """One control step of ``states`` ((13,) or (N, 13)) from ``t``, the legs' servo following
+    ``held`` (:func:`step_targets`). ``contact_lost`` (N,) s: how long each shell had been off the
+    ground when the step began.
 
     Returns (states after, measures: (N,) arrays keyed :data:`MEASURE_KEYS` from the step's
     :class:`rrrobot_gym.simulation.StepRecord`, contact_lost after); raises
     :data:`NUMERICAL_FAILURES`.
     """
-    leg_targets = action_to_leg_targets(actions)
-    if config.action_hold == "linear":
-        held = RampTargets(previous_targets, leg_targets, t, config.dt)
-    else:
-        held = HeldTargets(leg_targets)
     states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, workers=workers)
     with np.errstate(all="ignore"):
         measures, contact_lost = validity.step_measures(

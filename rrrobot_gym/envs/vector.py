@@ -43,7 +43,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
-    per_env_attributes = ("states", "leg_targets", "contact_lost", "episode_target_directions", "episode_steps")
+    per_env_attributes = ("states", "leg_targets", "leg_target_rates", "contact_lost", "episode_target_directions",
+                          "episode_steps")
     """Attributes that are arrays with one row per sub-env (what the SB3 adapter's ``get_attr`` indexes)."""
     per_env_settable = ("episode_target_directions",)
     """The per-env attributes a caller may write, row by row (the SB3 adapter's ``set_attr``); the
@@ -97,7 +98,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
         self.states = None
-        self.leg_targets = None  # (N, 2) rad, the servo targets at the end of the last step
+        self.leg_targets = None  # (N, 2) rad, the servo's reference at the end of the last step
+        self.leg_target_rates = None  # (N, 2) rad/s, its rate over the last step (task.step_targets)
         self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
@@ -151,6 +153,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         observations = task.observe(states, targets, self.config, np.zeros(self.num_envs))
         self.states = states
         self.leg_targets = self.states[:, 6:8].copy()
+        self.leg_target_rates = np.zeros((self.num_envs, 2))
         self.contact_lost = np.zeros(self.num_envs)
         self.episode_target_directions = targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
@@ -198,7 +201,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         # The headings' cos and sin and the new states' rotations, computed once for both
         # the observation and the step's outcome.
         heading = self.heading_vectors(targets)
-        after, measures, failed, contact_lost = self._advance(before, actions, self.leg_targets, self.contact_lost)
+        _, leg_targets, rates = task.step_targets(actions, self.leg_targets, self.leg_target_rates, self.config)
+        after, measures, failed, contact_lost = self._advance(before, self.leg_targets, leg_targets, self.contact_lost)
         rows = task.rotation_rows(after)
         observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt, rows, heading)
         failed |= ~task.finite_rows(after, observations)
@@ -219,7 +223,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         else:
             truncated = self.episode_steps >= self.max_episode_steps
         self.states = after
-        self.leg_targets = np.where(failed[:, None], self.leg_targets, task.action_to_leg_targets(actions))
+        self.leg_targets = np.where(failed[:, None], self.leg_targets, leg_targets)
+        self.leg_target_rates = np.where(failed[:, None], self.leg_target_rates, rates)
         self.contact_lost = np.where(failed, self.contact_lost, contact_lost)
         self._observations = observations
         if self._paths is not None:
@@ -243,15 +248,17 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             kept = self._headings = (targets, task.heading_vectors(targets))
         return kept[1]
 
-    def _advance(self, states, actions, previous_targets, contact_lost):
-        """(new states, step measures, failed mask, contact_lost) of one control step. ``advance``
-        raises for the whole batch on one robot's blow-up, so the batch is then split in halves
-        and each retried until the failed robots are isolated."""
+    def _advance(self, states, start_targets, end_targets, contact_lost):
+        """(new states, step measures, failed mask, contact_lost) of one control step, the servo's
+        reference going from ``start_targets`` to ``end_targets`` (N, 2). ``advance`` raises for
+        the whole batch on one robot's blow-up, so the batch is then split in halves and each
+        retried until the failed robots are isolated."""
         try:
             # Overflow in a blowing-up robot is expected here and reported per robot, not warned about.
             with np.errstate(all="ignore"):
                 after, measures, lost = task.advance_and_check(
-                    states, actions, 0.0, self.config, previous_targets, contact_lost, workers=self.workers
+                    states, task.held_targets(start_targets, end_targets, self.config), 0.0, self.config, contact_lost,
+                    workers=self.workers,
                 )
             return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
@@ -260,7 +267,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 return states.copy(), failed, np.ones(1, dtype=bool), contact_lost.copy()
         half = len(states) // 2
         (states_0, measures_0, failed_0, lost_0), (states_1, measures_1, failed_1, lost_1) = [
-            self._advance(states[rows], actions[rows], previous_targets[rows], contact_lost[rows])
+            self._advance(states[rows], start_targets[rows], end_targets[rows], contact_lost[rows])
             for rows in (slice(None, half), slice(half, None))
         ]
         measures = {key: np.concatenate([measures_0[key], measures_1[key]]) for key in measures_0}
@@ -281,6 +288,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         states, targets = self._draw_starts(indices)
         self.states[indices] = states
         self.leg_targets[indices] = states[:, 6:8]
+        self.leg_target_rates[indices] = 0.0
         self.contact_lost[indices] = 0.0
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
