@@ -35,7 +35,7 @@ from .agents.ppo import normalization_path
 from .agents.residual import FEATURES, RESIDUAL_FILE, check_scale, load_base, make_residual_vec_env, run_directory, save_residual
 from .agents.turn_then_run import load_turn_then_run_agent
 from .cli import env_keyword
-from .envs.task import config_to_json, make_task_config
+from .envs.task import SERVO, config_to_json, make_task_config
 from . import hyperparams as hp
 from .simulation import BACKENDS
 
@@ -74,10 +74,15 @@ class Args:
     clock_frequency: float | None = _option(
         None, "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none")
     torque_limit: float | None = _option(
-        None, "N m, the leg motors' stall torque (the env's torque_limit); default unlimited")
+        SERVO.torque_limit, "N m, the leg motors' stall torque (the env's torque_limit); none: unlimited")
     leg_rate_limit: float | None = _option(
-        None, "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); default "
-        "unlimited")
+        SERVO.leg_rate_limit, "rad/s, the leg motors' no-load speed (the env's leg_rate_limit, needs --torque-limit); "
+        "none: unlimited")
+    leg_accel_limit: float | None = _option(
+        SERVO.leg_accel_limit, "rad/s^2, the servo's motion profile (the env's leg_accel_limit); none: no profile")
+    randomize: str | None = _option(
+        "default", "domain randomization of the training robots (the env's randomize: a new robot each episode; "
+        "evaluations run the nominal robot); none: off")
     backend: str = _option(
         "auto", "simulator backend (the env's backend): auto (numba where installed), numba or numpy")
     env: list[str] | None = _option(
@@ -189,7 +194,7 @@ def parse_args(argv=None) -> Args:
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and value >= 0):
             parser.error(f"--{name.replace('_', '-')} must be a number >= 0, got {value}")
-    for name in ("torque_limit", "leg_rate_limit"):
+    for name in ("torque_limit", "leg_rate_limit", "leg_accel_limit"):
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and value > 0):
             parser.error(f"--{name.replace('_', '-')} must be a positive number, got {value}")
@@ -308,7 +313,8 @@ def _check_resumed_residual(parser, args):
 
 ENV_OPTIONS = {"model": "--model", "target_direction": "--direction-deg", "healthy_reward": "--healthy-reward",
                "clock_frequency": "--clock-frequency", "torque_limit": "--torque-limit",
-               "leg_rate_limit": "--leg-rate-limit", "backend": "--backend"}  # fmt: skip
+               "leg_rate_limit": "--leg-rate-limit", "leg_accel_limit": "--leg-accel-limit", "randomize": "--randomize",
+               "backend": "--backend"}  # fmt: skip
 """The env keywords train.py sets by options of their own (``--env`` refuses them)."""
 
 
@@ -329,7 +335,8 @@ def env_kwargs(args: Args) -> dict:
     direction = None if args.direction_deg is None else math.radians(args.direction_deg)
     return {"model": args.model, "target_direction": direction, "healthy_reward": args.healthy_reward,
             "clock_frequency": args.clock_frequency, "torque_limit": args.torque_limit,
-            "leg_rate_limit": args.leg_rate_limit, "backend": args.backend, **extra_env_kwargs(args.env)}
+            "leg_rate_limit": args.leg_rate_limit, "leg_accel_limit": args.leg_accel_limit,
+            "randomize": args.randomize, "backend": args.backend, **extra_env_kwargs(args.env)}
 
 
 def env_config(args: Args) -> dict:
@@ -402,7 +409,8 @@ def make_eval_env(args: Args, seed: int):
             return super().reset()
 
     venv = _FixedHeadings(
-        num_envs=len(headings), max_episode_steps=args.episode_steps, **{**env_kwargs(args), "reset_noise_scale": 0.0}
+        num_envs=len(headings), max_episode_steps=args.episode_steps,
+        **{**env_kwargs(args), "reset_noise_scale": 0.0, "randomize": None},
     )
     return _as_policy_sees(args, venv, seed)
 

@@ -43,7 +43,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     `action_hold="linear"` (default) the target ramps there from the last step's, and the PD servo
     (`kp`, `kd`) tracks the ramp and its rate: a new action steps only the rate term, by `kd` times
     the change of slope, never the angle term, whose torque step would make the shell hop or slip.
-    `"zero_order"` jumps to the target and holds it with target rate 0. Actions outside [-1, 1]
+    `"zero_order"` jumps to the target and holds it with target rate 0. What the servo tracks is
+    not the action's target itself but its motion profile's reference (see The Servo). Actions outside [-1, 1]
     are clipped (the control cost uses the clipped action); a wrong shape, NaN or inf raises a
     `ValueError`. `rrrobot_gym.envs.task.leg_targets_to_action` inverts the map (to script a gait).
 
@@ -128,6 +129,34 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     "target_direction": a})` starts from the exact (13,) state `s` (layout
     `rrrobot_gym.dynamics.STATE_FIELDS`; no noise; tilt below pi/2) and/or along heading `a`.
 
+    ## The Servo
+    By default each leg has a motor a robot of this size could carry (`task.SERVO`): the PD law
+    (`kp`, `kd`) limited to a torque falling linearly from 0.5 N m at rest (`torque_limit`) to 0 at
+    10 rad/s (`leg_rate_limit`), a hobby servo's class, and a motion profile (`leg_accel_limit`,
+    60 rad/s^2): each step the reference heads for the action's target at the fastest rate from
+    which it can still stop there, at most `leg_rate_limit`, its rate changing by at most
+    `leg_accel_limit` x `dt` (`task.step_targets`), as smart servos limit their profile's
+    acceleration. The registered id is the benchmark task, so its defaults are this robot; the
+    paper's ideal servo is `torque_limit=None, leg_rate_limit=None, leg_accel_limit=None`
+    (`task.IDEAL_SERVO`), which `rrrobot figures` and the Table I and II reproductions use.
+    A full-torque swing of a 57 g tip at 0.1 m pushes the 0.52 kg shell with about 5 N, its own
+    weight: without the profile, random actions (`env.action_space.sample()`) make the shell hop
+    or slip within 0.15-0.25 s and nearly every episode ends outside the model. With it a random
+    policy's plane episodes last about 2 s in median (pivot: about 8 s), and still end only by
+    the physical checks below.
+
+    ## Domain Randomization
+    `randomize="default"` draws a new robot at every reset, from the episode's own generator
+    (seeded by `reset(seed=...)`), uniformly in these ranges (a dict of some of the names,
+    `{name: (low, high)}`, varies only those):
+
+    {randomization_table}
+
+    The draws are in the reset's `info` as `randomized_<name>` (the vector env: at a sub-env's
+    autoreset too). Observation noise is Gaussian, per step, on entries 0-12; an action delay of
+    1 applies the previous step's action. `train.py` trains with the default ranges and evaluates
+    the nominal robot; `evaluate.py --randomize N` scores agents over N drawn robots per heading.
+
     ## Episode End
     ### Termination
     1. The tilt reaches pi/2 (`rrrobot_gym.dynamics.TILT_LIMIT`), checked after each control step:
@@ -197,6 +226,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.time = 0.0  # s since the episode began
         self.leg_targets = None  # (2,) rad, the servo's reference at the end of the last step
         self.leg_target_rates = None  # (2,) rad/s, its rate over the last step (task.step_targets)
+        self.robot_draws = {}  # {name: (1,) array}: this episode's randomized robot (task.draw_robots)
+        self._last_action = None  # (2,) the last action, for a randomized action delay
         self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
         self._observation = None  # the last observation returned, float32
         self._upright = (None, None)  # (the state, its upright contact point (1, 2)), reused by the next step
@@ -217,26 +248,30 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         noise, target = task.draw_start(self.np_random, self.config)
         state = task.start_states(noise[None])[0] if option_state is None else option_state
         heading = target if option_target is None else option_target
+        self.robot_draws = task.draw_robots([self.np_random], self.config)
         observation = task.observe(state[None], np.array([heading]), self.config, np.zeros(1))[0]
         self.state = state
         self.episode_target_direction = heading
         self.time = 0.0
         self.leg_targets = self.state[6:8].copy()
         self.leg_target_rates = np.zeros(2)
+        self._last_action = task.leg_targets_to_action(self.leg_targets).clip(-1.0, 1.0)
         self.contact_lost = 0.0
         self._observation = observation
         if self.render_mode is not None:
             self._path = [(float(self.state[0]), float(self.state[1]))]
         if self.render_mode == "human":
             self.render()
-        return self._observation.copy(), self._reset_info()
+        return self._noisy(self._observation), self._reset_info()
 
     def step(self, action):
         if self.state is None:
             raise RuntimeError("RRRobotEnv.step() called before reset()")
         action = task.check_actions(action, (2,))
         before = self.state
-        held, targets, rates = task.step_targets(action, self.leg_targets, self.leg_target_rates, self.config)
+        applied = task.delayed_actions(action, self._last_action, self.robot_draws)
+        self._last_action = action
+        held, targets, rates = task.step_targets(applied, self.leg_targets, self.leg_target_rates, self.config)
         after, observation, measures, contact_lost = self._advance(before, held)
         failed = after is None
         if failed:
@@ -260,7 +295,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self._path.append((info["x_position"], info["y_position"]))
         if self.render_mode == "human":
             self.render()
-        return observation.copy(), rewards[0].item(), terminations[0].item(), False, info
+        return self._noisy(observation), rewards[0].item(), terminations[0].item(), False, info
 
     def _advance(self, state, held):
         """(new state, observation, step measures, contact_lost) after one control step, or Nones on a
@@ -268,13 +303,18 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         try:
             # A (13,) state takes the simulator's Python-float path; from t = 0, as the vector env
             # steps, so the ramp's (t - t0) rounds alike and the two give the same states to the bit.
-            after, measures, contact_lost = task.advance_and_check(state, held, 0.0, self.config, self.contact_lost)
+            after, measures, contact_lost = task.advance_and_check(state, held, 0.0, self.config, self.contact_lost,
+                                                                   draws=self.robot_draws)
         except task.NUMERICAL_FAILURES:
             return None, None, None, None
         observation = self._observe(after, self.time + self.dt)
         if not task.finite_rows(after[None], observation[None])[0]:
             return None, None, None, None
         return after, observation, measures, contact_lost
+
+    def _noisy(self, observation):
+        """A copy of ``observation`` with this robot's observation noise, if randomized."""
+        return task.noisy(observation[None], self.robot_draws, self.np_random)[0].copy()
 
     def _targets_array(self):
         return np.array([self.episode_target_direction])
@@ -283,7 +323,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return task.observe(state[None], self._targets_array(), self.config, np.array([time]))[0]
 
     def _reset_info(self):
-        infos = task.reset_info(self.state[None], self._targets_array(), self.config)
+        infos = task.reset_info(self.state[None], self._targets_array(), self.config, draws=self.robot_draws)
         info = {key: value.item() for key, value in infos.items()}
         self._upright = (self.state, np.array([[info["x_upright"], info["y_upright"]]]))
         return info
@@ -323,4 +363,4 @@ RRRobotEnv.__init__.__signature__ = task.signature_with_keywords(
 if RRRobotEnv.__doc__:  # (python -OO strips docstrings)
     RRRobotEnv.__doc__ = RRRobotEnv.__doc__.replace(
         "{arguments_table}", task.arguments_table(RENDER_ARGUMENTS).replace("\n", "\n    ")
-    )
+    ).replace("{randomization_table}", task.randomization_table().replace("\n", "\n    "))

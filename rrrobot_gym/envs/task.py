@@ -124,6 +124,146 @@ IDEAL_SERVO = Servo(None, None, None)
 and II)."""
 
 
+class Range(NamedTuple):
+    """Where a randomized quantity is drawn from, uniformly: [low, high] times the env's own value
+    (``scale``) or [low, high] itself."""
+
+    low: float
+    high: float
+    scale: bool
+
+
+RANDOMIZATIONS = {
+    "default": {
+        "mass_bottom": Range(0.9, 1.1, True),
+        "mass_pin": Range(0.9, 1.1, True),
+        "mass_tip": Range(0.9, 1.1, True),
+        "leg_length": Range(0.9, 1.1, True),
+        "damping": Range(0.5, 1.5, True),
+        "kp": Range(0.85, 1.15, True),
+        "kd": Range(0.85, 1.15, True),
+        "torque_limit": Range(0.8, 1.2, True),
+        "leg_rate_limit": Range(0.8, 1.2, True),
+        "friction_coefficient": Range(0.7, 1.0, False),
+        "observation_noise": Range(0.0, 0.02, False),
+        "action_delay": Range(0, 1, False),
+    },
+}
+"""The named sets of ranges ``randomize`` takes (the env docstring's Domain Randomization table)."""
+PHYSICAL = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping", "kp", "kd", "torque_limit", "leg_rate_limit")
+"""The randomized quantities the integrator takes per robot (``advance(robots=...)``)."""
+RANDOMIZED = PHYSICAL + ("friction_coefficient", "observation_noise", "action_delay")
+NOISY_OBSERVATIONS = slice(0, 13)
+"""The observation entries ``observation_noise`` perturbs: attitude, rates and legs (not the commanded
+heading, which the task sets, nor positions or the clock)."""
+
+
+def randomization_ranges(randomize, config) -> dict:
+    """``randomize`` (None, a name of :data:`RANDOMIZATIONS` or {name: (low, high)}) as {name: Range},
+    checked; the motor limits vary only where the env has them."""
+    if randomize is None:
+        return {}
+    if isinstance(randomize, str):
+        ranges = dict(RANDOMIZATIONS[_choice("randomize", randomize, tuple(RANDOMIZATIONS))])
+    elif isinstance(randomize, dict):
+        unknown = [name for name in randomize if name not in RANDOMIZED]
+        if unknown:
+            raise ValueError(f"randomize: unknown quantity {unknown[0]!r}: expected some of {', '.join(RANDOMIZED)}")
+        default = RANDOMIZATIONS["default"]
+        ranges = {}
+        for name, bounds in randomize.items():
+            if isinstance(bounds, Range):
+                bounds = (bounds.low, bounds.high)
+            try:
+                low, high = (real_number(f"randomize[{name!r}]", b) for b in bounds)
+            except (TypeError, ValueError):
+                raise ValueError(f"randomize[{name!r}] must be a pair (low, high) of numbers, got {bounds!r}") from None
+            if not 0.0 <= low <= high:
+                raise ValueError(f"randomize[{name!r}] must have 0 <= low <= high, got ({low!r}, {high!r})")
+            ranges[name] = Range(low, high, default[name].scale)
+    else:
+        raise TypeError(f"randomize must be None, a name ({', '.join(RANDOMIZATIONS)}) or a dict, got {randomize!r}")
+    if config.torque_limit is None:
+        ranges.pop("torque_limit", None)
+    if config.leg_rate_limit is None:
+        ranges.pop("leg_rate_limit", None)
+    for name in ("torque_limit", "leg_rate_limit", "kp", "kd"):
+        if name in ranges and config.legs == "kinematic":
+            ranges.pop(name)
+    for name in ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "kp", "friction_coefficient"):
+        if name in ranges and ranges[name].low <= 0.0:
+            raise ValueError(f"randomize[{name!r}] must be above 0, got low {ranges[name].low!r}")
+    return ranges
+
+
+RANDOMIZATION_DOCS = {
+    "mass_bottom": "kg, the shell's bottom mass", "mass_pin": "kg, each leg pin's mass",
+    "mass_tip": "kg, each leg tip's mass", "leg_length": "m, both legs' length",
+    "damping": "N m s/rad, the body damping", "kp": "N m/rad, the servo's stiffness",
+    "kd": "N m s/rad, the servo's damping", "torque_limit": "N m, the motors' stall torque",
+    "leg_rate_limit": "rad/s, the motors' no-load speed", "friction_coefficient": "the floor's grip",
+    "observation_noise": "standard deviation of the observation noise",
+    "action_delay": "control steps an action waits (0 or 1)",
+}
+
+
+def randomization_table(name: str = "default") -> str:
+    """The Markdown table of a named set of :data:`RANDOMIZATIONS`."""
+    lines = ["| Quantity | Drawn from | Unit, meaning |", "|---|---|---|"]
+    for key, (low, high, scale) in RANDOMIZATIONS[name].items():
+        drawn = f"{low:g}-{high:g} x the env's" if scale else f"{low:g}-{high:g}"
+        lines.append(f"| `{key}` | {drawn} | {RANDOMIZATION_DOCS[key]} |")
+    return "\n".join(lines)
+
+
+def nominal(name: str, config) -> float:
+    """The env's own value of a randomized quantity (0 for observation noise and action delay)."""
+    if name in ("kp", "kd", "torque_limit", "leg_rate_limit", "friction_coefficient"):
+        return getattr(config, name)
+    if name in PHYSICAL:
+        return getattr(config.sim.robot, name)
+    return 0.0
+
+
+def draw_robots(generators, config) -> dict:
+    """One robot per generator (the sub-envs' own, in order): {name: (N,) array} of the quantities
+    ``config.ranges`` varies, drawn in :data:`RANDOMIZED` order; action delays are whole steps."""
+    draws = {name: np.empty(len(generators)) for name in config.ranges}
+    for i, rng in enumerate(generators):
+        for name, (low, high, scale) in config.ranges.items():
+            if name == "action_delay":
+                draws[name][i] = rng.integers(int(low), int(high) + 1)
+            else:
+                draws[name][i] = rng.uniform(low, high) * (nominal(name, config) if scale else 1.0)
+    return draws
+
+
+def delayed_actions(actions, previous, draws):
+    """The actions that reach the servo: last step's where a robot's ``action_delay`` is 1."""
+    delay = draws.get("action_delay")
+    if delay is None:
+        return actions
+    return np.where(delay.reshape(-1, 1).reshape(np.shape(actions)[:-1] + (1,)) > 0, previous, actions)
+
+
+def noisy(observations, draws, rng):
+    """``observations`` (N, size) with Gaussian noise of each robot's ``observation_noise``
+    (standard deviation) on :data:`NOISY_OBSERVATIONS`, from ``rng``."""
+    sigma = draws.get("observation_noise")
+    if sigma is None:
+        return observations
+    out = observations.copy()
+    part = out[:, NOISY_OBSERVATIONS]
+    part += (sigma[:, None] * rng.standard_normal(part.shape)).astype(out.dtype)
+    return out
+
+
+def robot_physics(draws):
+    """(the per-robot physics for ``advance(robots=...)`` or None, the floors' friction or None)."""
+    physics = {name: draws[name] for name in PHYSICAL if name in draws}
+    return physics or None, draws.get("friction_coefficient")
+
+
 ACTION_HOLDS = ("linear", "zero_order")
 """How an action's leg targets act over its control step (``action_hold``)."""
 
@@ -221,6 +361,10 @@ class TaskConfig:
     )
     terminate_outside_model: bool = _keyword(True, "end the episode when the robot leaves the model (see Episode End)")
     action_hold: str = _keyword("linear", '`"linear"`: targets ramp over each step; `"zero_order"`: jump and hold')
+    randomize: str | dict | None = _keyword(
+        None, 'domain randomization, a new robot drawn at every reset: `"default"` (the ranges of '
+        "`task.RANDOMIZATIONS`, see Domain Randomization), a dict of some of them {name: (low, high)}, or None"
+    )
 
     def __post_init__(self):
         def put(name, value):
@@ -282,6 +426,7 @@ class TaskConfig:
                     f"control step), got {self.clock_frequency!r}: seen once a step, a faster clock aliases to a slower one"
                 )
         _choice("action_hold", self.action_hold, ACTION_HOLDS)
+        put("_ranges", randomization_ranges(self.randomize, self))
         _choice("contact_quadrature", self.contact_quadrature, validity.QUADRATURES)
 
     @property
@@ -298,6 +443,11 @@ class TaskConfig:
     def observation_size(self) -> int:
         size = 15 if self.exclude_current_positions_from_observation else 17
         return size + (2 if self.clock_frequency is not None else 0)
+
+    @property
+    def ranges(self) -> dict:
+        """{name: :class:`Range`} of what :func:`draw_robots` varies ({} without ``randomize``)."""
+        return self._ranges
 
     def to_kwargs(self) -> dict:
         """The env keywords that rebuild this config (``make_task_config(**config.to_kwargs())``)."""
@@ -649,12 +799,14 @@ def upright_contact_points(states, radius, rows=None):
     return points
 
 
-def reset_info(states, targets, config: TaskConfig, rows=None):
+def reset_info(states, targets, config: TaskConfig, rows=None, draws=None):
     """The info of a start: (N,) arrays keyed as in :data:`RESET_INFO_KEYS` (``rows``: the
-    states' :func:`rotation_rows`, if already computed)."""
+    states' :func:`rotation_rows`, if already computed), and with ``draws`` (:func:`draw_robots`)
+    each drawn quantity as ``"randomized_" + name``."""
     rows = rotation_rows(states) if rows is None else rows
     upright = upright_contact_points(states, config.sim.robot.radius, rows)
     return {
+        **{"randomized_" + name: values.copy() for name, values in (draws or {}).items()},
         "x_position": states[:, 0].copy(),
         "y_position": states[:, 1].copy(),
         "x_upright": upright[:, 0],
@@ -746,19 +898,22 @@ def held_targets(start, end, config: TaskConfig, t: float = 0.0):
     return HeldTargets(end)
 
 
-def advance_and_check(states, held, t: float, config: TaskConfig, contact_lost, workers=1):
+def advance_and_check(states, held, t: float, config: TaskConfig, contact_lost, workers=1, draws=None):
     """One control step of ``states`` ((13,) or (N, 13)) from ``t``, the legs' servo following
     ``held`` (:func:`step_targets`). ``contact_lost`` (N,) s: how long each shell had been off the
     ground when the step began.
 
     Returns (states after, measures: (N,) arrays keyed :data:`MEASURE_KEYS` from the step's
     :class:`rrrobot_gym.simulation.StepRecord`, contact_lost after); raises
-    :data:`NUMERICAL_FAILURES`.
+    :data:`NUMERICAL_FAILURES`. ``draws``: the robots' randomized quantities (:func:`draw_robots`).
     """
-    states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, workers=workers)
+    physics, friction = robot_physics(draws or {})
+    kwargs = {} if physics is None else {"robots": physics}
+    states, record = advance(config.sim, states, t, config.dt, held, check=False, record=True, workers=workers, **kwargs)
     with np.errstate(all="ignore"):
         measures, contact_lost = validity.step_measures(
-            record, config.sim, config.friction_coefficient, contact_lost, config.contact_quadrature
+            record, config.sim, config.friction_coefficient if friction is None else friction, contact_lost,
+            config.contact_quadrature, **kwargs,
         )
     return states, measures, contact_lost
 

@@ -100,6 +100,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.states = None
         self.leg_targets = None  # (N, 2) rad, the servo's reference at the end of the last step
         self.leg_target_rates = None  # (N, 2) rad/s, its rate over the last step (task.step_targets)
+        self.robot_draws = {}  # {name: (N,) array}: each sub-env's randomized robot (task.draw_robots)
+        self._last_actions = None  # (N, 2), for a randomized action delay
         self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
@@ -154,16 +156,18 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.states = states
         self.leg_targets = self.states[:, 6:8].copy()
         self.leg_target_rates = np.zeros((self.num_envs, 2))
+        self._last_actions = task.leg_targets_to_action(self.leg_targets).clip(-1.0, 1.0)
         self.contact_lost = np.zeros(self.num_envs)
         self.episode_target_directions = targets
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = observations
+        self.robot_draws = task.draw_robots(self._generators, self.config)
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
         self._upright = _upright_points(info)
         masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
-        return self._observations.copy(), _with_masks(info, masks)
+        return task.noisy(self._observations, self.robot_draws, self.np_random).copy(), _with_masks(info, masks)
 
     def _seed_list(self, seed):
         if seed is None:
@@ -187,7 +191,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         return task.start_states(noise), targets
 
     def _reset_info(self, indices):
-        return task.reset_info(self.states[indices], self.episode_target_directions[indices], self.config)
+        return task.reset_info(self.states[indices], self.episode_target_directions[indices], self.config,
+                               draws={name: values[indices] for name, values in self.robot_draws.items()})
 
     # ------------------------------------------------------------------
     # step
@@ -201,8 +206,11 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         # The headings' cos and sin and the new states' rotations, computed once for both
         # the observation and the step's outcome.
         heading = self.heading_vectors(targets)
-        _, leg_targets, rates = task.step_targets(actions, self.leg_targets, self.leg_target_rates, self.config)
-        after, measures, failed, contact_lost = self._advance(before, self.leg_targets, leg_targets, self.contact_lost)
+        applied = task.delayed_actions(actions, self._last_actions, self.robot_draws)
+        self._last_actions = actions
+        _, leg_targets, rates = task.step_targets(applied, self.leg_targets, self.leg_target_rates, self.config)
+        after, measures, failed, contact_lost = self._advance(before, self.leg_targets, leg_targets, self.contact_lost,
+                                                              self.robot_draws)
         rows = task.rotation_rows(after)
         observations = task.observe(after, targets, self.config, (self.episode_steps + 1) * self.dt, rows, heading)
         failed |= ~task.finite_rows(after, observations)
@@ -237,6 +245,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             observations = self._autoreset(done, observations, info, masks)
         # (the next step's upright points before: a reset sub-env's info is its new start's)
         self._upright = _upright_points(info)
+        observations = task.noisy(observations, self.robot_draws, self.np_random)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
     def heading_vectors(self, targets):
@@ -248,7 +257,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             kept = self._headings = (targets, task.heading_vectors(targets))
         return kept[1]
 
-    def _advance(self, states, start_targets, end_targets, contact_lost):
+    def _advance(self, states, start_targets, end_targets, contact_lost, draws):
         """(new states, step measures, failed mask, contact_lost) of one control step, the servo's
         reference going from ``start_targets`` to ``end_targets`` (N, 2). ``advance`` raises for
         the whole batch on one robot's blow-up, so the batch is then split in halves and each
@@ -258,7 +267,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             with np.errstate(all="ignore"):
                 after, measures, lost = task.advance_and_check(
                     states, task.held_targets(start_targets, end_targets, self.config), 0.0, self.config, contact_lost,
-                    workers=self.workers,
+                    workers=self.workers, draws=draws,
                 )
             return after, measures, np.zeros(len(states), dtype=bool), lost
         except task.NUMERICAL_FAILURES:
@@ -267,7 +276,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
                 return states.copy(), failed, np.ones(1, dtype=bool), contact_lost.copy()
         half = len(states) // 2
         (states_0, measures_0, failed_0, lost_0), (states_1, measures_1, failed_1, lost_1) = [
-            self._advance(states[rows], start_targets[rows], end_targets[rows], contact_lost[rows])
+            self._advance(states[rows], start_targets[rows], end_targets[rows], contact_lost[rows],
+                          {name: values[rows] for name, values in draws.items()})
             for rows in (slice(None, half), slice(half, None))
         ]
         measures = {key: np.concatenate([measures_0[key], measures_1[key]]) for key in measures_0}
@@ -289,6 +299,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.states[indices] = states
         self.leg_targets[indices] = states[:, 6:8]
         self.leg_target_rates[indices] = 0.0
+        self._last_actions[indices] = task.leg_targets_to_action(states[:, 6:8]).clip(-1.0, 1.0)
+        for name, values in task.draw_robots([self._generators[i] for i in indices], self.config).items():
+            self.robot_draws[name][indices] = values
         self.contact_lost[indices] = 0.0
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
@@ -306,6 +319,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             else:
                 info[key][indices] = 0
                 masks[key][indices] = False
+        for key in reset_info.keys() - info.keys():  # (the randomized robot's draws: at resets only)
+            info[key], masks[key] = np.zeros(self.num_envs), done.copy()
+            info[key][indices] = reset_info[key]
         info["final_obs"] = final_obs
         masks["final_obs"] = done.copy()
         info["final_info"] = final_info
