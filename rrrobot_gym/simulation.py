@@ -658,7 +658,7 @@ def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
         if bad.any():
             i = int(np.argmax(bad))
             rule = {"damping": "<= 0 (the paper's sign: torque k*w with k < 0 dissipates)", "kd": ">= 0"}.get(name, "positive")
-            raise ValueError(f"robots[{name!r}] must be finite and {rule}, got {value[i]!r} for robot {i}")
+            raise ValueError(f"robots[{name!r}] must be finite and {rule}, got {float(value[i])!r} for robot {i}")
         values[name] = value
     return values
 
