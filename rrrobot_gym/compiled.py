@@ -97,6 +97,7 @@ robot_derivative_kernel = dynamics.derivative_kernel  # (compiled called, not in
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
+Constants = dynamics.Constants
 
 
 def _leg_targets(kind, p, shared, t):
@@ -341,6 +342,24 @@ def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, param
             _one_robot(y[i], t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
 
 
+def _per_robot(y, t, h, n_steps, constants, gains, torque_limits, rate_limits, kind, params, shared, rows, summary):
+    """Every robot of y (N, 13) in place on the one-robot stepper, each with its own constants of
+    the equations of motion (N, len(Constants)), gains (N, 2: kp, kd) and motor limits ((N,) or None)."""
+    shared_targets = params.shape[0] == 1
+    for i in prange(y.shape[0]):
+        c = constants[i]
+        k = Constants(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13], c[14],
+                      c[15], c[16], c[17], c[18], c[19])  # fmt: skip
+        g = _Gains(gains[i, 0], gains[i, 1])
+        p = params[0] if shared_targets else params[i]
+        if torque_limits is None:
+            _one_robot(y[i], t, h, n_steps, k, g, None, None, kind, p, shared, rows, summary, i)
+        elif rate_limits is None:
+            _one_robot(y[i], t, h, n_steps, k, g, torque_limits[i], None, kind, p, shared, rows, summary, i)
+        else:
+            _one_robot(y[i], t, h, n_steps, k, g, torque_limits[i], rate_limits[i], kind, p, shared, rows, summary, i)
+
+
 def _partition(n):
     """How _batch shares n robots among tasks: (whole blocks of LANES, robots left over, whether
     those take a padded block, the number of tasks: the blocks, then the padded block or each
@@ -448,9 +467,10 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool):
-    """The compiled :func:`_batch`, threaded over robots if ``parallel``: loaded from the disk cache
-    (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
+def _stepper(parallel: bool, per_robot: bool = False):
+    """The compiled :func:`_batch` (``per_robot``: :func:`_per_robot`), threaded over robots if
+    ``parallel``: loaded from the disk cache (:func:`cache_dir`) or compiled, with a line on
+    stderr, once a process."""
     import numba
 
     directory = cache_dir()
@@ -463,9 +483,10 @@ def _stepper(parallel: bool):
         _prune_stale_caches(directory)
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    name = "_batch" + ("_threaded" if parallel else "")
+    entry = _per_robot if per_robot else _batch
+    name = entry.__name__ + ("_threaded" if parallel else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
-        print(f"rrrobot_gym: compiling the numba stepper{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
+        print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
@@ -482,7 +503,7 @@ def _stepper(parallel: bool):
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         _copies(_LANE_INLINED, inline, namespace)
         _copies(_STEPPER, njit, namespace)
-        batch = types.FunctionType(_batch.__code__, namespace, _batch.__name__)
+        batch = types.FunctionType(entry.__code__, namespace, entry.__name__)
         batch.__qualname__ = name
         return njit(batch, parallel=parallel)
     finally:
@@ -496,13 +517,14 @@ def _scene(robot, depth, gains):
     return dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
 
 
-def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1):
+def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1, scene=None):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
     (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, the record's rows
     ((S, 11) for one robot, (S, 11, N) for a batch) or None, and the record's summary ((6,) or
     (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is what
     :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
-    shared among that many threads.
+    shared among that many threads. ``scene`` (constants, gains, torque limit, rate limit), fields
+    (N,) arrays or floats, gives each robot its own (``simulation.advance``'s ``robots``).
     """
     kind, params, shared = targets
     y = np.array(state, dtype=float, order="C").reshape(-1, dynamics.STATE_SIZE)
@@ -511,10 +533,19 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
-    step = _stepper(parallel)
-    k, kc, gains = _scene(config.robot, config.depth, config.gains)
-    args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind, params,
-            shared, rows, summary)  # fmt: skip
+    step = _stepper(parallel, scene is not None)
+    if scene is None:
+        k, kc, gains = _scene(config.robot, config.depth, config.gains)
+        args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind,
+                params, shared, rows, summary)  # fmt: skip
+    else:
+        k, gains, torque_limits, rate_limits = scene
+        n = y.shape[0]
+        constants = np.empty((n, len(k)))
+        for j, value in enumerate(k):
+            constants[:, j] = value
+        args = (y, float(t0), float(h), int(n_steps), constants, np.stack([gains.kp, gains.kd], axis=1), torque_limits,
+                rate_limits, kind, params, shared, rows, summary)  # fmt: skip
     if parallel:
         import numba
 

@@ -17,8 +17,11 @@ Python floats for one robot (several times faster than numpy at N = 1), (N,) arr
 from __future__ import annotations
 
 import cmath
+import difflib
 import functools
 import math
+import types
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -341,7 +344,7 @@ class SmoothStart:
 # ---------------------------------------------------------------------------
 # Fixed-step integration.
 
-def _stage_fns(config: SimConfig, targets, blend=None):
+def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
     """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
     components; first(t, c, contact_out=None) -> (the same, the two leg torques applied),
     filling ``contact_out`` when asked (:func:`rrrobot_gym.dynamics.derivative_kernel`).
@@ -349,9 +352,14 @@ def _stage_fns(config: SimConfig, targets, blend=None):
     The steppers call ``first`` (through the recorder) at the start of every substep and ``f``
     at the other stages, so the torques the integrator applied come from the evaluation it
     makes anyway. ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets
-    (kinematic legs).
+    (kinematic legs). ``scene`` = (constants, gains, torque limit, rate limit) replaces the config's
+    (per-robot parameters, :func:`_robot_scene`).
     """
-    k = dynamics.constants(config.robot, config.depth)
+    if scene is None:
+        k = dynamics.constants(config.robot, config.depth)
+        gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
+    else:
+        k, gains, torque_limit, rate_limit = scene
     kernel = dynamics.derivative_kernel
     leg_targets = targets.leg_targets
     if config.legs == "kinematic":
@@ -376,7 +384,6 @@ def _stage_fns(config: SimConfig, targets, blend=None):
             return kernel(c, None, k, accel(t), torque, contact_out), tuple(torque)
 
         return f, first
-    gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
 
     if torque_limit is None:
 
@@ -595,8 +602,94 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
     )
 
 
+# ---------------------------------------------------------------------------
+# Per-robot parameters (domain randomisation): advance's ``robots``.
+
+PER_ROBOT_FIELDS = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping", "kp", "kd", "torque_limit", "leg_rate_limit")
+"""What :func:`advance`'s ``robots`` may set per robot: fields of ``RobotParams`` (kg, m, N m s/rad),
+of ``PDGains`` (N m/rad, N m s/rad) and ``SimConfig``'s motor limits (N m, rad/s). The radius (the
+plane's contact depth) and gravity do not vary."""
+
+_SERVO_FIELDS = ("kp", "kd", "torque_limit", "leg_rate_limit")
+
+
+def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
+    """Every name of :data:`PER_ROBOT_FIELDS` to a (N,) float array (N = ``num_robots``, 1 for
+    None, one (13,) state): ``robots``' values, checked, the config's for names left out (the
+    limits None where the config has none). ``robots`` maps names to (N,) arrays or numbers.
+
+    Raises naming the problem: an unknown name, a wrong shape, NaN/inf, a mass, leg length, kp
+    or limit <= 0, kd < 0, damping > 0, a motor limit where the config has no torque_limit,
+    servo values with kinematic legs.
+    """
+    if not isinstance(robots, Mapping):
+        raise TypeError(f"robots must be a dict from names of PER_ROBOT_FIELDS to values, got {type(robots).__name__}")
+    for name in robots:
+        if name not in PER_ROBOT_FIELDS:
+            close = difflib.get_close_matches(str(name), PER_ROBOT_FIELDS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            if name in ("radius", "gravity"):
+                hint = " (the radius and gravity are the config's for every robot)"
+            raise ValueError(f"unknown per-robot parameter {name!r}{hint}: expected some of {', '.join(PER_ROBOT_FIELDS)}")
+    if config.legs == "kinematic" and any(name in robots for name in _SERVO_FIELDS):
+        raise ValueError(f"robots sets {', '.join(n for n in _SERVO_FIELDS if n in robots)}: servo values, and "
+                         "kinematic legs have no servo")  # fmt: skip
+    if config.torque_limit is None and ("torque_limit" in robots or "leg_rate_limit" in robots):
+        raise ValueError("robots sets a motor limit (torque_limit or leg_rate_limit), and the config has no torque_limit: "
+                         "give SimConfig a torque_limit to turn the motor model on")  # fmt: skip
+    n = 1 if num_robots is None else num_robots
+    defaults = {**{name: getattr(config.robot, name) for name in PER_ROBOT_FIELDS[:5]}, "kp": config.gains.kp,
+                "kd": config.gains.kd, "torque_limit": config.torque_limit, "leg_rate_limit": config.leg_rate_limit}  # fmt: skip
+    values = {}
+    for name, default in defaults.items():
+        if name not in robots:
+            values[name] = None if default is None else np.full(n, float(default))
+            continue
+        value = np.asarray(robots[name])
+        if value.dtype.kind not in "fiu":
+            raise TypeError(f"robots[{name!r}] must be real numbers, got {value.dtype} values")
+        if value.ndim > 1 or (value.ndim == 1 and len(value) != n):
+            wanted = "one robot's state (13,) takes a number or shape (1,)" if num_robots is None else f"(N,) = ({n},) for {n} robots"
+            raise ValueError(f"robots[{name!r}] has shape {value.shape}: {wanted}")
+        value = np.array(np.broadcast_to(value, (n,)), dtype=float)
+        bad = ~np.isfinite(value)
+        if not bad.any():
+            bad = value > 0.0 if name == "damping" else value < 0.0 if name == "kd" else ~(value > 0.0)
+        if bad.any():
+            i = int(np.argmax(bad))
+            rule = {"damping": "<= 0 (the paper's sign: torque k*w with k < 0 dissipates)", "kd": ">= 0"}.get(name, "positive")
+            raise ValueError(f"robots[{name!r}] must be finite and {rule}, got {float(value[i])!r} for robot {i}")
+        values[name] = value
+    return values
+
+
+def _robot_scene(config: SimConfig, values: dict):
+    """(constants, gains, torque limit, rate limit) of :func:`robot_values`' robots, each field an
+    (N,) array (the radius, depth and gravity the config's floats; a limit None where the config has none)."""
+    # what dynamics.constants reads of a RobotParams, the varied fields (N,) arrays
+    robot = types.SimpleNamespace(radius=config.robot.radius, gravity=config.robot.gravity, total_mass=total_mass(values),
+                                  **{name: values[name] for name in PER_ROBOT_FIELDS[:5]})  # fmt: skip
+    gains = compiled._Gains(values["kp"], values["kd"])
+    return dynamics.constants(robot, config.depth), gains, values["torque_limit"], values["leg_rate_limit"]
+
+def total_mass(values: dict) -> np.ndarray:
+    """kg, (N,): each robot's total mass, from :func:`robot_values`' values (RobotParams.total_mass's sum, to the bit)."""
+    return values["mass_bottom"] + 2.0 * values["mass_pin"] + 2.0 * values["mass_tip"]
+
+
+def _scene_row(scene, i: int):
+    """Robot i's part of a per-robot scene, on Python floats (None for None)."""
+    if scene is None:
+        return None
+    k, gains, torque_limit, rate_limit = scene
+    row = [v if isinstance(v, float) else float(v[i]) for v in k]
+    return (dynamics.Constants(*row), compiled._Gains(float(gains.kp[i]), float(gains.kd[i])),
+            None if torque_limit is None else float(torque_limit[i]), None if rate_limit is None else float(rate_limit[i]))  # fmt: skip
+
+
 def advance(
-    config: SimConfig, state, t0: float, duration: float, targets, *, check=True, record=False, workers: int = 1
+    config: SimConfig, state, t0: float, duration: float, targets, *, check=True, record=False, workers: int = 1,
+    robots=None,
 ):
     """Integrate ``state`` from time t0 over ``duration`` seconds with fixed steps.
 
@@ -614,6 +707,14 @@ def advance(
     ``check`` validates the state (:func:`check_state`) and the targets against it
     (:func:`check_targets`); callers that made both themselves, as the envs do, pass False.
     Raises :class:`NumericalFailure` if the result is not finite.
+
+    ``robots`` gives each robot parameters of its own: a dict from names of
+    :data:`PER_ROBOT_FIELDS` to (N,) arrays, one entry a robot (a (13,) state: N = 1), or numbers
+    (every robot); names left out take the config's values (always checked: :func:`robot_values`).
+    Each robot then steps exactly as it would alone with a config of its own values, record
+    included. The step is still the config's, checked against ``config.robot`` and
+    ``config.gains`` only: parameters that stiffen the servo (a larger kp or kd, a lighter leg)
+    need a step within their own :func:`stable_step_limit`.
     """
     t0 = real_number("t0", t0)
     duration = real_number("duration", duration)
@@ -643,7 +744,8 @@ def advance(
     if config.timestep == "auto":
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps, h = _substeps(duration, step)
-    out, rows, summary = _advance_rows(config, state, t0, targets, blend, record, workers, n_steps, h)
+    scene = None if robots is None else _robot_scene(config, robot_values(config, robots, None if state.ndim == 1 else len(state)))
+    out, rows, summary = _advance_rows(config, state, t0, targets, blend, record, workers, n_steps, h, scene)
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
         a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
@@ -683,12 +785,12 @@ def _substeps(duration: float, step: float):
     return n_steps, duration / n_steps
 
 
-def _advance_rows(config: SimConfig, state, t0, targets, blend, record, workers, n_steps, h):
+def _advance_rows(config: SimConfig, state, t0, targets, blend, record, workers, n_steps, h, scene=None):
     """The integration of :func:`advance`: (the states after n_steps of h, the record's rows or
-    None, the compiled stepper's summary or None)."""
+    None, the compiled stepper's summary or None); ``scene``: per-robot (:func:`_robot_scene`) or None."""
     described = _compiled_targets(config, targets)
     if described is not None:
-        return compiled.integrate(config, described, state, t0, h, n_steps, record, workers)
+        return compiled.integrate(config, described, state, t0, h, n_steps, record, workers, scene)
     if workers > 1:
         raise ValueError(
             f"advance(workers={workers}) shares robots among numba's threads, and this scene runs on numpy "
@@ -697,13 +799,13 @@ def _advance_rows(config: SimConfig, state, t0, targets, blend, record, workers,
         )
     if state.ndim == 1:
         try:
-            out, recorder = _integrate(config, targets, blend, state.tolist(), t0, h, n_steps, record)
+            out, recorder = _integrate(config, targets, blend, state.tolist(), t0, h, n_steps, record, _scene_row(scene, 0))
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
             raise NumericalFailure(_diagnose(config, state, t0, n_steps * h, h)) from None
         return np.array(out), None if recorder is None else recorder.rows, None
     if state.shape[0] <= ROW_BY_ROW_MAX:
-        return (*_integrate_rows(config, targets, blend, state, t0, h, n_steps, record), None)
-    return (*_integrate_batch(config, targets, blend, state, t0, h, n_steps, record), None)
+        return (*_integrate_rows(config, targets, blend, state, t0, h, n_steps, record, scene), None)
+    return (*_integrate_batch(config, targets, blend, state, t0, h, n_steps, record, scene), None)
 
 
 def takes_compiled(config: SimConfig) -> bool:
@@ -731,10 +833,10 @@ def _compiled_targets(config: SimConfig, targets):
     return None
 
 
-def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool):
+def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool, scene=None):
     """Run the configured integrator on the 13 components y (Python floats, or (N,) arrays):
-    (y after n_steps steps of h, the recorder or None)."""
-    f, first = _stage_fns(config, targets, blend)
+    (y after n_steps steps of h, the recorder or None); ``scene`` as :func:`_stage_fns` takes it."""
+    f, first = _stage_fns(config, targets, blend, scene)
     recorder = _Recorder(first, n_steps, None if isinstance(y[0], float) else len(y[0])) if record else None
     return INTEGRATORS[config.integrator].step(f, recorder or f, t0, y, h, n_steps), recorder
 
@@ -744,7 +846,7 @@ ROW_BY_ROW_MAX = 20
 numpy's per-call overhead costs more than the loop (docs/notes/layout.md). It depends on the size only."""
 
 
-def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
+def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool, scene=None):
     """:func:`_integrate` of a small batch (n, 13) robot by robot on floats: (the states (n, 13),
     [the record's rows (S, 11, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
     out = np.empty_like(state)
@@ -754,7 +856,7 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
     for i in range(len(state)):
         try:
             y, recorder = _integrate(config, one_robot(i), _blend_row(blend, i),
-                                     state[i].tolist(), t0, h, n_steps, record)  # fmt: skip
+                                     state[i].tolist(), t0, h, n_steps, record, _scene_row(scene, i))  # fmt: skip
             out[i] = y
             rows.append(None if recorder is None else recorder.rows)
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
@@ -771,11 +873,11 @@ def _blend_row(blend, i):
     return (t_blend, *(tuple(float(_take(v, i)) for v in c) for c in coeffs))
 
 
-def _integrate_batch(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool):
+def _integrate_batch(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool, scene=None):
     """:func:`_integrate` on a batch (n, 13) as 13 (n,) arrays: (the states (n, 13), the
     record's rows (S, 11, n) or None)."""
     with np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
-        y, recorder = _integrate(config, targets, blend, list(np.array(state.T)), t0, h, n_steps, record)
+        y, recorder = _integrate(config, targets, blend, list(np.array(state.T)), t0, h, n_steps, record, scene)
     return np.stack(y, axis=1), (None if recorder is None else recorder.rows)
 
 

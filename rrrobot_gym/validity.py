@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import dynamics
+from . import dynamics, simulation
 from .params import RobotParams, rotation_point_depth
 
 
@@ -67,11 +67,13 @@ second converges with the step, the first does not where the force spikes for le
 step: at a new ramp's kick, or a gait's brief peaks of grip (README, "Episode end")."""
 
 
-def step_measures(record, config, friction_coefficient, contact_lost=None, quadrature="rectangle"):
+def step_measures(record, config, friction_coefficient, contact_lost=None, quadrature="rectangle", robots=None):
     """Per robot, what a :class:`rrrobot_gym.simulation.StepRecord` says about the model's validity.
 
-    ``config`` is the :class:`rrrobot_gym.simulation.SimConfig` the record was made with;
-    ``friction_coefficient`` the floor's grip (None: unlimited); ``contact_lost`` (N,) s, how
+    ``config`` is the :class:`rrrobot_gym.simulation.SimConfig` the record was made with, and
+    ``robots`` the per-robot parameters it was made with (``simulation.advance``'s: each robot's
+    slip takes its own total mass); ``friction_coefficient`` the floor's grip, one for every
+    robot or an (N,) array (each robot's floor), None: unlimited; ``contact_lost`` (N,) s, how
     long the contact had been lost (normal force <= 0) at the record's start (0 if None);
     ``quadrature`` one of :data:`QUADRATURES`, how the lift-off and slip measures integrate
     the samples over time.
@@ -89,11 +91,12 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     """
     if quadrature not in QUADRATURES:
         raise ValueError(f"unknown quadrature {quadrature!r}: expected one of {', '.join(QUADRATURES)}")
-    if friction_coefficient is not None and not friction_coefficient > 0.0:  # (NaN too)
-        raise ValueError(f"friction_coefficient must be positive or None (unlimited), got {friction_coefficient!r}")
     samples = record.normal.shape[0]
     normal = record.normal.reshape(samples, -1)
     num_robots = normal.shape[1]
+    friction_coefficient = _friction(friction_coefficient, num_robots)
+    mass = config.robot.total_mass if robots is None else simulation.total_mass(
+        simulation.robot_values(config, robots, num_robots if record.normal.ndim > 1 else None))
     tangential = record.tangential.reshape(samples, num_robots)
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
     if not (lost >= 0.0).all():  # (NaN too)
@@ -139,13 +142,37 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     elif trapezoid:  # on the robots that lost contact or needed more grip (the rest: 0, as above)
         short = lifted | beyond
         slip = np.zeros(num_robots)
-        slip[short] = _unprovided_impulse(normal[:, short], tangential[:, short], friction_coefficient, record.step)
-        slip /= config.robot.total_mass
+        grip = friction_coefficient if np.ndim(friction_coefficient) == 0 else friction_coefficient[short]
+        slip[short] = _unprovided_impulse(normal[:, short], tangential[:, short], grip, record.step)
+        slip /= mass
     else:
         missing = unprovided_force(normal, tangential, friction_coefficient)
-        slip = missing.sum(axis=0) * record.step / config.robot.total_mass
+        slip = _sample_sum(missing) * record.step / mass
     measures.update(liftoff_fraction=fraction, liftoff_time=longest, slip_velocity=slip)
     return measures, lost
+
+
+def _friction(friction_coefficient, num_robots: int):
+    """``step_measures``' friction coefficient checked: None, a number > 0 (every robot's floor) or
+    an (N,) array of finite numbers > 0 (each robot's)."""
+    if friction_coefficient is None or np.ndim(friction_coefficient) == 0:
+        if friction_coefficient is not None and not friction_coefficient > 0.0:  # (NaN too)
+            raise ValueError(f"friction_coefficient must be positive or None (unlimited), got {friction_coefficient!r}")
+        return friction_coefficient
+    mu = np.asarray(friction_coefficient, dtype=float)
+    if mu.shape != (num_robots,):
+        raise ValueError(f"friction_coefficient must be a number or one per robot, shape ({num_robots},), got shape {mu.shape}")
+    bad = ~(np.isfinite(mu) & (mu > 0.0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"friction_coefficient must be finite and positive for every robot, got {float(mu[i])!r} for robot {i}")
+    return mu
+
+
+def _sample_sum(values):
+    """The sum over samples of (S, N) values, sample by sample: the same numbers whatever N (numpy's
+    sum pairs the samples of one robot's (S, 1), not those of a batch's (S, N))."""
+    return np.add.accumulate(values, axis=0)[-1] if len(values) else np.zeros(values.shape[1:])
 
 
 def _positive_part(a, b):
@@ -171,7 +198,7 @@ def _unprovided_impulse(normal, tangential, friction_coefficient, step):
         beyond = tangential - friction_coefficient * np.maximum(normal, 0.0)
         inner = inner + _positive_part(beyond[:-1], beyond[1:])
     last = unprovided_force(normal[-1], tangential[-1], friction_coefficient)
-    return (inner.sum(axis=0) + last) * step
+    return (_sample_sum(inner) + last) * step
 
 
 def _interpolated_spells(normal, carried, step):
