@@ -155,7 +155,7 @@ PHYSICAL = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping", "kp"
 RANDOMIZED = PHYSICAL + ("friction_coefficient", "observation_noise", "action_delay")
 NOISY_OBSERVATIONS = slice(0, 13)
 """The observation entries ``observation_noise`` perturbs: attitude, rates and legs (not the commanded
-heading, which the task sets, nor positions or the clock)."""
+heading, which the task sets, nor positions or the clock); the unit vectors' stay within [-1, 1]."""
 
 
 def randomization_ranges(randomize, config) -> dict:
@@ -255,6 +255,7 @@ def noisy(observations, draws, rng):
     out = observations.copy()
     part = out[:, NOISY_OBSERVATIONS]
     part += (sigma[:, None] * rng.standard_normal(part.shape)).astype(out.dtype)
+    out[:, 0:6].clip(-1.0, 1.0, out=out[:, 0:6])  # (unit vectors' entries stay in the observation space)
     return out
 
 
