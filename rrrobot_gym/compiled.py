@@ -533,7 +533,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
-    step = _stepper(parallel, scene is not None)
+    step = _stepper(parallel) if scene is None else _stepper(parallel, True)  # (one lru_cache key for each stepper)
     if scene is None:
         k, kc, gains = _scene(config.robot, config.depth, config.gains)
         args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind,

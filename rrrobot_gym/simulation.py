@@ -672,6 +672,7 @@ def _robot_scene(config: SimConfig, values: dict):
     gains = compiled._Gains(values["kp"], values["kd"])
     return dynamics.constants(robot, config.depth), gains, values["torque_limit"], values["leg_rate_limit"]
 
+
 def total_mass(values: dict) -> np.ndarray:
     """kg, (N,): each robot's total mass, from :func:`robot_values`' values (RobotParams.total_mass's sum, to the bit)."""
     return values["mass_bottom"] + 2.0 * values["mass_pin"] + 2.0 * values["mass_tip"]
@@ -722,6 +723,7 @@ def advance(
         state = check_state(state)
         check_targets(targets, state, t0)
     workers = whole_number("workers", workers)
+    values = None if robots is None else robot_values(config, robots, None if np.ndim(state) == 1 else len(state))
     if duration < 0.0:
         raise ValueError(f"duration must be a non-negative finite number of seconds, got {duration}")
     if duration == 0.0:
@@ -744,7 +746,7 @@ def advance(
     if config.timestep == "auto":
         step = min(step, _rate_limited_step(state, path_rate))
     n_steps, h = _substeps(duration, step)
-    scene = None if robots is None else _robot_scene(config, robot_values(config, robots, None if state.ndim == 1 else len(state)))
+    scene = None if values is None else _robot_scene(config, values)
     out, rows, summary = _advance_rows(config, state, t0, targets, blend, record, workers, n_steps, h, scene)
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
