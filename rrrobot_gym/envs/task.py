@@ -124,6 +124,13 @@ IDEAL_SERVO = Servo(None, None, None)
 and II)."""
 
 
+def with_servo(env_kwargs) -> dict:
+    """``env_kwargs`` with every servo keyword (:class:`Servo`) an env built from them runs under,
+    the defaults' where not given: what a searched file records, so that it names its servo
+    whatever the defaults become."""
+    return {**SERVO._asdict(), **env_kwargs}
+
+
 ACTION_HOLDS = ("linear", "zero_order")
 """How an action's leg targets act over its control step (``action_hold``)."""
 
