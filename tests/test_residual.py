@@ -17,8 +17,8 @@ BASE = ROOT / "agents" / "searched" / "turn_then_run.json"
 HEADINGS = np.radians([0.0, 90.0, 135.0, 200.0])
 
 
-def _wrapped(scale=0.05, episode_steps=30):
-    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0)
+def _wrapped(scale=0.05, episode_steps=30, **env_kwargs):
+    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0, **env_kwargs)
     venv.set_options({"target_direction": HEADINGS})
     venv.seed(0)  # the next episodes' headings are drawn: as the plain envs below draw them
     return make_residual_vec_env(venv, load_turn_then_run_agent(BASE), scale)
@@ -57,7 +57,8 @@ def test_a_zero_residual_runs_the_base_agent_exactly_across_an_episode_end():
 
 
 def test_the_policy_moves_the_leg_targets_by_at_most_the_scale():
-    wrapped = _wrapped(scale=0.05)
+    # the ideal servo, the base's (its file's env_kwargs): its reference ends each step on the action's target
+    wrapped = _wrapped(scale=0.05, **load_turn_then_run_agent(BASE).search_env_kwargs)
     wrapped.reset()
     before = wrapped.base_actions.copy()
     wrapped.step(np.tile([5.0, -0.5], (len(HEADINGS), 1)).astype(np.float32))  # clipped to 1, then 0.05 x
