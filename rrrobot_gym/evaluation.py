@@ -33,8 +33,8 @@ from .envs.task import action_to_leg_targets, control_steps, make_task_config
 from .envs.vector import RRRobotVectorEnv
 from .simulation import DEFAULT_TIMESTEP
 
-PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
-                    "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
+PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit", "kp", "kd", "robot", "damping", "legs",
+                    "timestep", "integrator", "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
 """Env keywords that change what any agent can do: a policy's apply to every agent on its model."""
 COMPASS_DEG = tuple(range(0, 360, 45))
@@ -145,13 +145,12 @@ def score(run, headings_deg, duration=None):
 
 
 def physics_of(agents) -> dict:
-    """The :data:`PHYSICS_KEYWORDS` the agents were trained under that differ from the env's
-    defaults; agents that disagree are an error."""
-    defaults = make_task_config().to_kwargs()
+    """The :data:`PHYSICS_KEYWORDS` the agents were trained under, as their env_kwargs give them
+    (the defaults' values too); agents that disagree are an error."""
     chosen = {}
     for name, agent in agents.items():
         for key, value in getattr(agent, "env_kwargs", {}).items():
-            if key in PHYSICS_KEYWORDS and value != defaults[key]:
+            if key in PHYSICS_KEYWORDS:
                 if key in chosen and chosen[key][1] != value:
                     raise ValueError(f"agents {chosen[key][0]!r} and {name!r} were trained with different {key}: "
                                      f"{chosen[key][1]!r} and {value!r}; score them in separate evaluations")  # fmt: skip
@@ -193,9 +192,11 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     displacement in a first episode). ``per_model`` ({model: {name: agent}}) adds or replaces
     agents on one model. On each model every agent runs under the physics keywords its policies
     were trained with (:func:`physics_of`) plus ``physics`` ({keyword: value}; one that differs
-    from a policy's is an error); each record names them under ``physics``.
+    from a policy's is an error); each record names them under ``physics``, less the policies' that
+    are the env's defaults.
     """
     records, runs = [], {}
+    defaults = make_task_config().to_kwargs()
     for model in models:
         on_model = agents_on(model, agents, per_model)
         trained = physics_of(on_model)
@@ -203,7 +204,7 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
         if clash:
             raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
                              f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
-        imposed = {**trained, **(physics or {})}
+        imposed = {**{key: value for key, value in trained.items() if value != defaults[key]}, **(physics or {})}
         # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
         first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}

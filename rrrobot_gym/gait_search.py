@@ -27,7 +27,8 @@ Output JSON (:meth:`SearchResult.to_json`, schema ``rrrobot_gym.gait_search/1``)
 ---------------------------------------------------------------------------------
 - ``schema``, ``family`` ("sinusoid"), ``parameter_names``, ``bounds`` ({name: [lo, hi]})
 - ``model``, ``objective``, ``heading_deg`` (null for "own"), ``env_kwargs`` (the env
-  keywords besides ``model`` and ``reset_noise_scale``), ``reset_noise_scale``, ``ramp_s``
+  keywords besides ``model`` and ``reset_noise_scale``, every servo keyword among them:
+  :func:`rrrobot_gym.envs.task.with_servo`), ``reset_noise_scale``, ``ramp_s``
   (s, :func:`ramp_factor`; absent means 0), ``duration_s`` (episode length scored), ``start_seeds``
 - ``seed``, ``budget`` ({"evaluations", "seconds"}, null if not limited),
   ``used`` ({"evaluations", "seconds", "generations", "restarts"}), ``popsize``,
@@ -56,7 +57,8 @@ import numpy as np
 
 from . import dynamics
 from .analysis import json_safe
-from .envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action, upright_contact_points
+from .envs.task import (LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action, upright_contact_points,
+                         with_servo)
 from .control import TARGETS_SINUSOID, sinusoid_targets
 from .params import real_number, whole_number
 
@@ -722,7 +724,7 @@ def search(
     label = f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
     gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits[:keep], start=1)]
     settings = {
-        "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": dict(env_kwargs),
+        "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": with_servo(env_kwargs),
         "reset_noise_scale": reset_noise_scale, "ramp_s": ramp_s, "duration_s": float(scored),
         "start_seeds": list(start_seeds),
         "seed": int(seed), "budget": {"evaluations": budget_evaluations, "seconds": budget_seconds},

@@ -86,7 +86,8 @@ class SimConfig:
                 "from the stall torque (torque_limit) to 0 at the no-load speed (leg_rate_limit)"
             )
         if self.legs == "kinematic" and self.torque_limit is not None:
-            raise ValueError("SimConfig.torque_limit applies to servo legs; kinematic legs follow their path whatever it takes")
+            raise ValueError("SimConfig.torque_limit applies to servo legs; kinematic legs follow their path whatever it takes: "
+                             "give torque_limit=None and leg_rate_limit=None with legs='kinematic'")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {self.integrator!r}: expected one of {', '.join(INTEGRATORS)}")
         if self.legs not in LEG_MODES:
@@ -126,6 +127,7 @@ class SimConfig:
                     f"{self.robot.mass_tip} kg, model {self.model!r}; fastest servo pole "
                     f"{servo_fastest_rate(self.model, self.robot, self.gains):.4g} 1/s): the run would blow up. "
                     + "Use a smaller timestep, timestep='auto', or legs='kinematic'"
+                    + (" with torque_limit=None and leg_rate_limit=None" if self.torque_limit is not None else "")
                 )
 
     @property

@@ -21,7 +21,7 @@ tasks. :func:`tune_steering` then tunes the heading correction's gains on a grid
         --limit 0.05 0.1 --out agents/searched/turn_then_run.json
 
 Every env gets the running gait file's ``env_kwargs`` updated by ``env_kwargs``; the agent's
-file records them as ``env_kwargs``.
+file records them as ``env_kwargs``, every servo keyword among them (:func:`rrrobot_gym.envs.task.with_servo`).
 """
 from __future__ import annotations
 
@@ -382,8 +382,7 @@ def agent_spec(maneuver, gait, run_gaits, out_path, offset_deg, dt, model, env_k
         "run_gait_file": os.path.relpath(run_gaits.resolve(), folder), "run_gait": gait.name,
         "direction_offset_deg": float(offset_deg), "window_steps": WINDOW_STEPS, "dt": float(dt), "model": model,
     }  # fmt: skip
-    if env_kwargs:
-        spec["env_kwargs"] = dict(env_kwargs)
+    spec["env_kwargs"] = task.with_servo(env_kwargs)
     spec["run_at_once_below_deg"] = float(run_at_once_below_deg)
     spec["made_by"] = [command] if command else []
     spec["parameter_names"] = {"turn_gait": list(PARAMETER_NAMES)}
@@ -438,6 +437,7 @@ def tune_steering(agent_file, grid: dict, *, seeds=(None, 1, 2), duration=50.0, 
     out = dict(trials[ranked[0]])
     if out_path is not None:
         out["run_gait_file"] = os.path.relpath((folder / spec["run_gait_file"]).resolve(), Path(out_path).resolve().parent)
+    out["env_kwargs"] = task.with_servo(env_kwargs)  # (what the runs ran under, --env included)
     out["made_by"] = list(spec.get("made_by") or []) + ([command] if command else [])
     out["steer_tune"] = {"grid": grid, "seeds": seeds, "headings_deg": list(headings_deg), "duration_s": duration,
                          "seconds": round(time.perf_counter() - began, 1), "rows": [rows[r] for r in ranked]}  # fmt: skip

@@ -19,10 +19,12 @@ from rrrobot_gym import dynamics
 from rrrobot_gym.analysis import travel_summary
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.envs import RRRobotEnv
-from rrrobot_gym.envs.task import RESET_INFO_KEYS, STEP_INFO_KEYS, action_to_leg_targets, leg_targets_to_action
+from rrrobot_gym.envs.task import IDEAL_SERVO, RESET_INFO_KEYS, STEP_INFO_KEYS, leg_targets_to_action
 from rrrobot_gym.simulation import SimConfig, initial_state, simulate
 
 REPO_ROOT = pathlib.Path(__file__).resolve().parents[1]
+IDEAL = IDEAL_SERVO._asdict()
+"""The paper's servo, whose target jumps reach the ground, kick and slip the shell within a step."""
 
 # Rates, leg angles and positions have no natural bound, so those Box bounds are infinite
 # (as in the MuJoCo envs); Gymnasium's checker reports that as a style warning only.
@@ -112,6 +114,7 @@ def test_same_seed_same_actions_give_identical_episodes_and_other_seeds_differ()
 
 def test_reward_is_the_sum_of_its_terms_and_the_terms_follow_their_definitions():
     env = RRRobotEnv(
+        **IDEAL,  # (its wild kicks slip and lift the shell: every branch of the forward term)
         forward_reward_weight=1.5,
         ctrl_cost_weight=0.2,
         healthy_reward=0.3,
@@ -170,10 +173,11 @@ def test_a_state_set_by_hand_is_the_one_the_next_steps_velocity_starts_from():
     moved = env.state.copy()
     moved[0] += 0.5  # half a metre along the heading: no robot travels 10 m/s
     env.state = moved
+    servo = env.leg_targets.copy(), env.leg_target_rates.copy()  # the servo's reference and its rate
     _, _, _, _, info = env.step(action)
     twin = RRRobotEnv(terminate_outside_model=False, target_direction=0.0)
     twin.reset(options={"state": moved})
-    twin.time, twin.leg_targets = 5 * env.dt, action_to_leg_targets(action)  # the first env's clock and targets
+    twin.time, (twin.leg_targets, twin.leg_target_rates) = 5 * env.dt, servo  # the first env's clock and servo
     _, _, _, _, expected = twin.step(action)
     assert abs(info["forward_velocity"]) < 0.5
     assert info["forward_velocity"] == expected["forward_velocity"]
@@ -255,8 +259,13 @@ def test_bad_actions_raise_value_error_naming_the_problem(action, message):
         ({"legs": "wheels"}, ValueError, "legs"),
         ({"timestep": "fast"}, ValueError, "timestep"),
         ({"torque_limit": 0.0}, ValueError, "torque_limit"),
-        ({"leg_rate_limit": 5.0}, ValueError, "leg_rate_limit"),  # needs a torque_limit
+        ({"torque_limit": None, "leg_rate_limit": 5.0}, ValueError, "leg_rate_limit"),  # needs a torque_limit
         ({"legs": "kinematic", "torque_limit": 0.1}, ValueError, "torque_limit"),
+        ({"legs": "kinematic"}, ValueError, "torque_limit=None and leg_rate_limit=None"),  # the default servo's limits
+        ({"leg_accel_limit": 0.0}, ValueError, "leg_accel_limit"),
+        ({"leg_accel_limit": -60.0}, ValueError, "leg_accel_limit"),
+        ({"leg_accel_limit": float("nan")}, ValueError, "leg_accel_limit"),
+        ({"leg_accel_limit": "fast"}, TypeError, "leg_accel_limit"),
     ],
 )
 @pytest.mark.filterwarnings("ignore:.*render_mode='video'")
@@ -277,7 +286,8 @@ def short_episode(steps=20, **kwargs):
     return np.array([(i["x_position"], i["y_position"]) for i in rows]), rows
 
 
-@pytest.mark.parametrize("kwargs", [{"legs": "kinematic"}, {"timestep": "auto"}, {"timestep": 1 / 600, "frame_skip": 30}])
+@pytest.mark.parametrize("kwargs", [{"legs": "kinematic", "torque_limit": None, "leg_rate_limit": None},  # (no motor)
+                                    {"timestep": "auto"}, {"timestep": 1 / 600, "frame_skip": 30}])
 def test_simulator_keywords_run_an_episode_that_differs_from_the_default(kwargs):
     default, _ = short_episode()
     other, _ = short_episode(**kwargs)
@@ -294,11 +304,12 @@ def test_torque_limit_caps_the_leg_torque_the_step_reports():
 
 
 def test_a_stiff_servo_refused_at_the_default_step_runs_as_the_error_suggests():
-    """SimConfig's message recommends timestep='auto' or legs='kinematic': both are env keywords."""
+    """SimConfig's message recommends timestep='auto' or legs='kinematic', the latter without the
+    default servo's motor limits: all are env keywords."""
     stiff = {"kp": 200.0, "kd": 5.0}
-    with pytest.raises(ValueError, match="timestep='auto', or legs='kinematic'"):
+    with pytest.raises(ValueError, match="timestep='auto', or legs='kinematic' with torque_limit=None and leg_rate_limit=None"):
         gymnasium.make("RRRobot-v0", **stiff)
-    for fix in ({"timestep": "auto"}, {"legs": "kinematic"}):
+    for fix in ({"timestep": "auto"}, {"legs": "kinematic", "torque_limit": None, "leg_rate_limit": None}):
         env = gymnasium.make("RRRobot-v0", **stiff, **fix)
         env.reset(seed=0)
         assert env.step(np.zeros(2, dtype=np.float32))[-1]["numerical_failure"] is False
@@ -514,8 +525,8 @@ def test_a_leg_reaching_the_ground_ends_the_episode_outside_the_model():
     from rrrobot_gym.envs import task
 
     down = task.leg_targets_to_action([-0.25 * math.pi, 0.5 * math.pi]).astype(np.float32)
-    for terminate in (True, False):
-        env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=terminate)
+    for terminate in (True, False):  # (the ideal servo swings the leg down within the step)
+        env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=terminate, **IDEAL)
         env.reset(seed=0, options={"state": start})
         obs, reward, terminated, truncated, info = env.step(down)
         assert info["leg_clearance"] <= 0.0 and info["outside_model"]
@@ -546,7 +557,7 @@ def test_table2_gaits_stay_inside_the_model_for_a_whole_episode():
 
 
 def test_a_kick_that_would_slip_the_shell_earns_no_forward_reward_and_ends_the_episode():
-    env = RRRobotEnv(reset_noise_scale=0.0, target_direction=0.0)
+    env = RRRobotEnv(reset_noise_scale=0.0, target_direction=0.0, **IDEAL)  # (the ideal servo's full-range kick)
     env.reset(seed=0)
     for _ in range(3):  # past the 0.1 s start-up grace, legs still
         _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rrrobot_gym import gait_search
-from rrrobot_gym.envs.task import LEG_TARGET_MAX, LEG_TARGET_MIN, action_to_leg_targets
+from rrrobot_gym.envs.task import IDEAL_SERVO, LEG_TARGET_MAX, LEG_TARGET_MIN, action_to_leg_targets
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
 from rrrobot_gym.gait_search import (
     PARAMETER_NAMES,
@@ -29,6 +29,7 @@ from rrrobot_gym.gait_search import (
 pytest.importorskip("cma")
 REPO = Path(__file__).resolve().parents[1]
 GAIT1 = SinusoidGait(0.3, 0.3, 0.5 * math.pi, 0.5 * math.pi, 8.0, 0.5 * math.pi, name="gait1-as-sinusoid")
+IDEAL = IDEAL_SERVO._asdict()
 TINY = dict(duration=1.0, start_seeds=(0, 1), popsize=6, robustness_seeds=2, robustness_duration=1.0, progress=False)
 
 
@@ -102,6 +103,8 @@ def test_json_round_trips_into_agents_whose_predict_reproduces_the_gaits(tiny_re
     assert data["budget"] == {"evaluations": 25, "seconds": None} and data["seed"] == 3
     assert set(data["gaits"][0]["robustness"]) >= {"speeds_mps", "terminated", "paper_start_speed_mps"}
     assert data["ramp_s"] == gait_search.DEFAULT_RAMP_S  # the search's default: the agents must ramp alike
+    # searched under the default servo, and saying so: its file replays alike whatever the defaults become
+    assert data["env_kwargs"] == {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": 60.0}
     agents = load_gait_agents(path)
     assert list(agents) == [g["name"] for g in data["gaits"]]
     for gait in data["gaits"]:
@@ -130,13 +133,12 @@ def test_evaluate_py_scores_a_searched_gait_like_the_search(tiny_result, tmp_pat
     runs = evaluation.run_episodes(agents, "plane", [best["direction_deg"]], duration=1.0)
     run = runs[best["name"]]
     # every heading runs the same open-loop gait from the paper's start: one effort, whatever the
-    # heading scored, and the one the search's population run saw (its peaks sampled otherwise:
-    # 0.05 % and 0.4 % apart)
+    # heading scored, and the one the search's population run saw (its swing ramped in alike)
     effort = evaluate_population(np.array([agents[best["name"]].gait.as_array()]), duration=1.0, start_seeds=(0,),
-                                 reset_noise_scale=0.0).runs  # fmt: skip
+                                 reset_noise_scale=0.0, ramp_s=tiny_result.settings["ramp_s"]).runs  # fmt: skip
     assert len({(r["peak_torque_nm"], r["peak_leg_rate_radps"]) for r in mine}) == 1
-    assert mine[0]["peak_torque_nm"] == pytest.approx(effort.torque_peak.max(), rel=1e-2)
-    assert mine[0]["peak_leg_rate_radps"] == pytest.approx(effort.leg_rate_peak.max(), rel=1e-2)
+    assert mine[0]["peak_torque_nm"] == pytest.approx(effort.torque_peak.max(), rel=1e-12)
+    assert mine[0]["peak_leg_rate_radps"] == pytest.approx(effort.leg_rate_peak.max(), rel=1e-12)
     travel = (run["xy"][-1, 0] - run["xy"][0, 0]) @ [math.cos(math.radians(best["direction_deg"])),
                                                        math.sin(math.radians(best["direction_deg"]))]
     assert travel / 1.0 == pytest.approx(best["robustness"]["paper_start_speed_mps"], abs=1e-12)
@@ -148,14 +150,15 @@ def test_evaluate_py_gives_a_gait_that_leaves_the_model_its_direction_up_to_then
     inside the model), instead of a NaN heading that the env rejects."""
     from rrrobot_gym import evaluation
 
-    # From agents/searched/plane_own.json: from the paper's start it leaves the model at 1.05 s.
+    # From agents/searched/plane_own.json: from the paper's start, under the ideal servo it was
+    # searched under, it leaves the model at 1.05 s.
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
     from rrrobot_gym.agents import GaitAgent
 
     agents = {"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}
-    first = evaluation.run_episodes(agents, "plane", [0.0], duration=1.5)["leaves"]
+    first = evaluation.run_episodes(agents, "plane", [0.0], duration=1.5, **IDEAL)["leaves"]
     assert first["terminated"][0], "the gait no longer leaves the model: pick another for this test"
-    records, _ = evaluation.evaluate(agents, ["plane"], duration=1.5)
+    records, _ = evaluation.evaluate(agents, ["plane"], duration=1.5, physics=IDEAL)
     own = [r for r in records if "leaves" in r["own_direction_of"]]
     assert len(own) == 1 and math.isfinite(own[0]["heading_deg"]) and own[0]["terminated"]
 
@@ -167,12 +170,14 @@ def test_evaluate_py_scores_a_robot_that_left_the_model_by_its_last_position_ins
     from rrrobot_gym.agents import GaitAgent
 
     leaves = SinusoidGait(1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792, name="leaves")
-    run = evaluation.run_episodes({"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}, "plane", [0.0], duration=3.0)["leaves"]
+    run = evaluation.run_episodes({"leaves": GaitAgent(leaves, dt=0.05, name="leaves")}, "plane", [0.0], duration=3.0,
+                                  **IDEAL)["leaves"]  # fmt: skip (the servo of the file it is from: it leaves at 1.05 s)
     path = run["xy"][:, 0]
     last = np.flatnonzero(np.all(np.isfinite(path), axis=1))
     assert np.all(np.diff(last) == 1), "the path must be finite up to the episode's end, NaN after"
     [record] = evaluation.score(run, [0.0], 3.0)
-    scores = evaluate_population(np.array([leaves.as_array()]), duration=3.0, start_seeds=(0,), reset_noise_scale=0.0)
+    scores = evaluate_population(np.array([leaves.as_array()]), duration=3.0, start_seeds=(0,), reset_noise_scale=0.0,
+                                 **IDEAL)  # fmt: skip
     np.testing.assert_allclose(record["displacement_m"], scores.runs.displacement[0, 0], atol=1e-12)
     assert record["terminated"] and abs(record["displacement_m"][0]) > 0.01
 
@@ -206,7 +211,7 @@ def test_cli_search_writes_its_json_with_the_command(tmp_path):
     assert result.returncode == 0, result.stderr
     data = json.loads(out.read_text())
     assert data["objective"] == "heading" and data["heading_deg"] == 90.0
-    assert data["env_kwargs"] == {"max_slip_velocity": 0.05}
+    assert data["env_kwargs"] == {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": 60.0, "max_slip_velocity": 0.05}
     assert data["command"].startswith("rrrobot gait-search --model plane")
     assert "gait search" not in result.stderr  # --no-progress
 

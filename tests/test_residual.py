@@ -15,10 +15,12 @@ from tests.test_training import ROOT, TINY, evaluate_here, train_here
 
 BASE = ROOT / "agents" / "searched" / "turn_then_run.json"
 HEADINGS = np.radians([0.0, 90.0, 135.0, 200.0])
+BASE_SERVO = json.loads(BASE.read_text())["env_kwargs"]
+"""The servo the base was searched under (the ideal one), under which it stays in the model."""
 
 
 def _wrapped(scale=0.05, episode_steps=30):
-    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0)
+    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0, **BASE_SERVO)
     venv.set_options({"target_direction": HEADINGS})
     venv.seed(0)  # the next episodes' headings are drawn: as the plain envs below draw them
     return make_residual_vec_env(venv, load_turn_then_run_agent(BASE), scale)
@@ -30,7 +32,7 @@ def test_a_zero_residual_runs_the_base_agent_exactly_across_an_episode_end():
     observation of a truncated episode (PPO bootstraps its value from it)."""
     wrapped = _wrapped(episode_steps=30)
     base = load_turn_then_run_agent(BASE)
-    plain = RRRobotVectorEnv(num_envs=len(HEADINGS), max_episode_steps=30, reset_noise_scale=0.0)
+    plain = RRRobotVectorEnv(num_envs=len(HEADINGS), max_episode_steps=30, reset_noise_scale=0.0, **BASE_SERVO)
     obs = wrapped.reset()
     raw, _ = plain.reset(seed=list(range(len(HEADINGS))), options={"target_direction": HEADINGS})
     state, start = None, np.ones(len(HEADINGS), dtype=bool)
@@ -57,7 +59,7 @@ def test_a_zero_residual_runs_the_base_agent_exactly_across_an_episode_end():
 
 
 def test_the_policy_moves_the_leg_targets_by_at_most_the_scale():
-    wrapped = _wrapped(scale=0.05)
+    wrapped = _wrapped(scale=0.05)  # (the ideal servo: its reference ends each step on the action's target)
     wrapped.reset()
     before = wrapped.base_actions.copy()
     wrapped.step(np.tile([5.0, -0.5], (len(HEADINGS), 1)).astype(np.float32))  # clipped to 1, then 0.05 x
@@ -84,7 +86,7 @@ def test_the_agent_shows_its_policy_what_training_showed_it():
     residual = np.array([0.7, -0.3], dtype=np.float32)  # what SB3 sends
     wrapped = _wrapped(scale=0.05)
     agent = ResidualAgent(_Recorder(residual), load_turn_then_run_agent(BASE), 0.05)
-    plain = RRRobotVectorEnv(num_envs=len(HEADINGS), max_episode_steps=30, reset_noise_scale=0.0)
+    plain = RRRobotVectorEnv(num_envs=len(HEADINGS), max_episode_steps=30, reset_noise_scale=0.0, **BASE_SERVO)
     obs = wrapped.reset()
     raw, _ = plain.reset(seed=list(range(len(HEADINGS))), options={"target_direction": HEADINGS})
     state, start = None, np.ones(len(HEADINGS), dtype=bool)

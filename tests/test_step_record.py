@@ -12,6 +12,7 @@ import pytest
 import rrrobot_gym  # noqa: F401  (registers the env)
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import Gait, RampTargets
+from rrrobot_gym.envs.task import IDEAL_SERVO
 from rrrobot_gym.simulation import SimConfig, advance, initial_state, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,7 +128,8 @@ def test_kinematic_legs_record_the_torque_their_motion_takes():
 
 
 def _env_after_grace(**kwargs):
-    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, **kwargs)
+    """The ideal servo (unless ``kwargs`` name another), whose target jumps kick the shell."""
+    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, **{**IDEAL_SERVO._asdict(), **kwargs})
     env.reset(seed=0)
     for _ in range(2):  # 0.1 s at rest, legs vertical: past the start-up grace
         _, _, terminated, _, info = env.step(np.zeros(2, dtype=np.float32))
@@ -185,17 +187,25 @@ def test_the_pivot_joint_holds_any_force_so_nothing_lifts_off_or_slips():
     assert info["liftoff_time"] == 0.0 and info["slip_velocity"] == 0.0 and not terminated
 
 
-def test_the_env_measures_come_from_the_same_step_the_env_integrated():
-    """The env's info equals the record of an independent `advance` of the same ramp."""
-    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=False)
+@pytest.mark.parametrize("servo", ["ideal", "default"])
+def test_the_env_measures_come_from_the_same_step_the_env_integrated(servo):
+    """The env's info equals the record of an independent `advance` of the same ramp: to the
+    action's target under the ideal servo, to the motion profile's first reference from rest
+    under the default one."""
+    servo_kwargs = IDEAL_SERVO._asdict() if servo == "ideal" else {}
+    env = gymnasium.make("RRRobot-v0", reset_noise_scale=0.0, terminate_outside_model=False, **servo_kwargs)
     env.reset(seed=0)
     action = np.array([0.2, -0.1], dtype=np.float32)
     before = env.unwrapped.state.copy()
     _, _, _, _, info = env.step(action)
-    from rrrobot_gym.envs.task import action_to_leg_targets
+    from rrrobot_gym.envs.task import SERVO, action_to_leg_targets
 
     config = env.unwrapped.config
-    ramp = RampTargets(before[dynamics.LEG_ANGLES], action_to_leg_targets(action), 0.0, config.dt)
+    start, end = before[dynamics.LEG_ANGLES], action_to_leg_targets(action)
+    if servo == "default":  # from rest the reference's rate rises by a dt: it moves a dt^2 (a = 60 rad/s^2)
+        assert config.leg_accel_limit == SERVO.leg_accel_limit == 60.0
+        end = start + np.sign(end - start) * 60.0 * config.dt**2
+    ramp = RampTargets(start, end, 0.0, config.dt)
     after, record = advance(config.sim, before, 0.0, config.dt, ramp, record=True)
     np.testing.assert_allclose(env.unwrapped.state, after, rtol=0, atol=1e-15)
     assert info["torque_rms"] == pytest.approx(float(np.sqrt(np.mean(record.torque**2))), rel=1e-12)
@@ -305,14 +315,15 @@ def test_a_record_of_no_samples_has_no_summary():
         empty.summary()
 
 
-def _largest_measures(agent, substeps, quadrature, duration, headings=(0.0, 90.0)):
+def _largest_measures(agent, substeps, quadrature, duration, headings=(0.0, 90.0), **env_kwargs):
     """The largest slip velocity (m/s) and lift-off spell (s) of any step after the start-up
     grace, per heading, of ``agent`` in the env at ``substeps`` integration steps a control step."""
     from rrrobot_gym.evaluation import run_episodes
     from rrrobot_gym.envs.task import STARTUP_GRACE
 
     run = run_episodes({"agent": agent}, "plane", list(headings), duration, info_keys=("slip_velocity", "liftoff_time"),
-                       timestep=0.05 / substeps, frame_skip=substeps, contact_quadrature=quadrature)["agent"]  # fmt: skip
+                       timestep=0.05 / substeps, frame_skip=substeps, contact_quadrature=quadrature,
+                       **env_kwargs)["agent"]  # fmt: skip
     first = math.ceil(STARTUP_GRACE / 0.05 - 1e-9)
     assert not run["terminated"].any()
     return run["slip_velocity"][first:].max(axis=0), run["liftoff_time"][first:].max(axis=0)
@@ -327,12 +338,13 @@ def test_the_trapezoid_measures_of_a_searched_gait_converge_with_the_step():
 
     gait = load_gait_agents(ROOT / "agents" / "searched" / "plane_own_robust.json")["searched-plane-own-1"]
     heading = (90.0,)  # (an open-loop gait: every heading the same motion)
-    fine_slip, fine_spell = _largest_measures(gait, 120, "trapezoid", 3.0, heading)
+    servo = gait.search_env_kwargs  # (the ideal servo it was searched under)
+    fine_slip, fine_spell = _largest_measures(gait, 120, "trapezoid", 3.0, heading, **servo)
     for substeps in (13, 15):
-        slip, spell = _largest_measures(gait, substeps, "trapezoid", 3.0, heading)
+        slip, spell = _largest_measures(gait, substeps, "trapezoid", 3.0, heading, **servo)
         np.testing.assert_allclose(slip, fine_slip, rtol=0.15)
         np.testing.assert_allclose(spell, fine_spell, rtol=0, atol=2e-4)  # s, of max_liftoff_time's 5e-3
-    slip, spell = _largest_measures(gait, 15, "rectangle", 3.0, heading)  # the default, for scale
+    slip, spell = _largest_measures(gait, 15, "rectangle", 3.0, heading, **servo)  # the default, for scale
     assert (slip > 1.6 * fine_slip).all() and (spell > fine_spell + 2e-3).all()
 
 

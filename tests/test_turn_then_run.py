@@ -55,7 +55,8 @@ def test_it_turns_the_body_towards_the_heading_and_then_runs_along_it():
     quarter turn clockwise: after 12 s the yaw has turned about -90 deg and the robot travels
     along 0 deg; along 90 deg it runs at once, without turning."""
     agent = load_turn_then_run_agent(FILE)
-    start, end, ended_end, _, after, ended, state = _run(agent, [0.0, 90.0], 24.0, halfway=True)
+    start, end, ended_end, _, after, ended, state = _run(agent, [0.0, 90.0], 24.0, halfway=True,
+                                                         **agent.search_env_kwargs)  # (its servo: the ideal one)
     assert not ended.any()
     assert state["mode"][1] == 2 and np.isnan(state["switched"][1])  # ran at once
     turned = np.degrees((_yaw(after) - _yaw(start) + math.pi) % (2 * math.pi) - math.pi)
@@ -65,16 +66,16 @@ def test_it_turns_the_body_towards_the_heading_and_then_runs_along_it():
 
 
 def test_on_the_pivot_it_turns_a_quarter_anticlockwise_and_then_runs_along_the_heading():
-    """Pivot model, under evaluate.py's pivot motors (0.5 N m, 10 rad/s). The running gait
-    (searched-pivot-own-1) travels at the body's yaw - 90 deg, so along 0 deg from the paper's
+    """Pivot model, under evaluate.py's pivot motors (its file's: 0.5 N m, 10 rad/s, no motion
+    profile). The running gait (searched-pivot-own-1) travels at the body's yaw - 90 deg, so along 0 deg from the paper's
     start it needs a quarter turn anticlockwise (the turning gait's mirror): after 8 s the yaw
     has turned about +90 deg and it runs; from 8 to 16 s it travels along +x at well over half
     the gait's ~90 mm/s (the experiment: 89.7 mm/s over 50 s), and no episode ends."""
     agent = load_turn_then_run_agent(PIVOT_FILE)
     assert agent.model == "pivot" and agent.direction_offset == pytest.approx(-0.5 * math.pi)
-    start, end, ended_end, _, after, ended, state = _run(
-        agent, [0.0], 16.0, halfway=True, model="pivot", torque_limit=0.5, leg_rate_limit=10.0
-    )
+    assert agent.search_env_kwargs == {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": None}
+    start, end, ended_end, _, after, ended, state = _run(agent, [0.0], 16.0, halfway=True, model="pivot",
+                                                         **agent.search_env_kwargs)  # fmt: skip
     assert not ended.any() and not ended_end.any()
     assert state["mode"][0] == 2 and 1.0 < state["switched"][0] < 5.0  # turned, blended, running
     turned = np.degrees((_yaw(after) - _yaw(start) + math.pi) % (2 * math.pi) - math.pi)
@@ -208,7 +209,7 @@ def test_the_heading_correction_holds_the_pivot_on_its_heading():
                                steer_gain=-spec["steer_gain"], steer_integral=-spec["steer_integral"],
                                steer_limit=spec["steer_limit"])  # fmt: skip
     off, ended = _heading_of_travel([plain, corrected, flipped, plain, corrected], [90.0] * 3 + [270.0] * 2, 30.0, 10.0,
-                                    model="pivot", torque_limit=0.5, leg_rate_limit=10.0)  # fmt: skip
+                                    model="pivot", **corrected.search_env_kwargs)  # fmt: skip
     assert not ended.any()
     assert abs(off[1]) < 5.0 and abs(off[4]) < 5.0, off
     assert abs(off[0]) > 12.0 and abs(off[2]) > 12.0 and abs(off[3]) > 12.0, off
@@ -307,7 +308,7 @@ def test_a_start_that_runs_at_once_keeps_the_running_gaits_own_ramp(tmp_path):
     unramped = load_turn_then_run_agent(tmp_path / "ttr.json")
     unramped.run_ramp = 0.0
 
-    env = RRRobotVectorEnv(num_envs=2, max_episode_steps=None, reset_noise_scale=0.0)
+    env = RRRobotVectorEnv(num_envs=2, max_episode_steps=None, reset_noise_scale=0.0, **agent.search_env_kwargs)
     obs, _ = env.reset(seed=0, options={"target_direction": np.radians([90.0, 0.0])})
     state = gait_state = plain_state = None
     for k in range(100):  # 5 s: the correction's weight is 0 up to there

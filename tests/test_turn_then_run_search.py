@@ -49,8 +49,10 @@ def test_a_tiny_search_writes_an_agent_that_turns_to_the_heading_and_travels_alo
     assert spec["made_by"][0].startswith("rrrobot turn-then-run-search --model plane")
     # the running gait travels at the body's yaw + 90 deg (measured, to the whole degree)
     assert spec["direction_offset_deg"] == 90.0 and abs(spec["search"]["direction"]["direction_offset_deg"] - 90.0) < 1.0
+    # the running gait's file was searched under the ideal servo: the search ran, and its file says so
+    assert spec["env_kwargs"] == {"torque_limit": None, "leg_rate_limit": None, "leg_accel_limit": None}
     agent = load_turn_then_run_agent(tiny_agent_file)
-    speed, ended, _, runs = ttr.run_agents([agent], [0.0], [None], 20.0, model="plane", env_kwargs={},
+    speed, ended, _, runs = ttr.run_agents([agent], [0.0], [None], 20.0, model="plane", env_kwargs=spec["env_kwargs"],
                                            reset_noise_scale=0.0, record=True)  # fmt: skip
     assert not ended.any()
     # from the paper's start (yaw 0) the body turns a quarter turn clockwise, to point the gait along +X ...
@@ -69,7 +71,7 @@ def test_the_search_record_matches_what_the_agent_file_runs(tiny_agent_file):
     spec = json.loads(tiny_agent_file.read_text())
     found = spec["search"]["maneuver"]
     # the recorded fitness is the written maneuver's, re-scored the same way
-    settings = dict(model="plane", env_kwargs={}, seeds=[None], headings_deg=[0.0], duration=10.0, dt=spec["dt"],
+    settings = dict(model="plane", env_kwargs=spec["env_kwargs"], seeds=[None], headings_deg=[0.0], duration=10.0, dt=spec["dt"],
                     run_gait=gait_search.load_gaits(SEARCHED / "plane_own.json")[0].as_array(), run_ramp=0.0,
                     direction_offset_deg=spec["direction_offset_deg"], run_at_once_below_deg=10.0,
                     reset_noise_scale=0.01)  # fmt: skip
@@ -115,6 +117,7 @@ def test_the_steering_tune_keeps_the_combination_whose_runs_end_least(tmp_path, 
     assert steered["ended"] > uncorrected["ended"] == 0, rows
     assert rows[0] is not steered and rows[0]["combo"] == {}
     assert not any(key in spec for key in ttr.STEER_KEYS)  # (the file's own correction is left out too)
+    assert spec["env_kwargs"] == {"torque_limit": None, "leg_rate_limit": None, "leg_accel_limit": None}  # the file's
     load_turn_then_run_agent(out)
     assert "turn-then-run-steer" in spec["made_by"][-1]
     _one_line_error(capsys, argv[:3] + ["--out", str(out)], "give the values to try")

@@ -69,7 +69,10 @@ def test_make_vec_with_workers_steps_exactly_as_with_one():
 
     import rrrobot_gym  # noqa: F401
 
-    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=9, workers=workers) for workers in (1, 2)]
+    from rrrobot_gym.envs.task import IDEAL_SERVO
+
+    # the ideal servo: its bang-bang kicks end episodes within the 30 steps (the default's mostly last longer)
+    envs = [gymnasium.make_vec("RRRobot-v0", num_envs=9, workers=workers, **IDEAL_SERVO._asdict()) for workers in (1, 2)]
     observations = [env.reset(seed=3)[0] for env in envs]
     rng = np.random.default_rng(0)
     for _ in range(30):  # bang-bang actions: some robots leave the model and are reset in the step

@@ -265,6 +265,13 @@ def robot_physics(draws):
     return physics or None, draws.get("friction_coefficient")
 
 
+def with_servo(env_kwargs) -> dict:
+    """``env_kwargs`` with every servo keyword (:class:`Servo`) an env built from them runs under,
+    the defaults' where not given: what a searched file records, so that it names its servo
+    whatever the defaults become."""
+    return {**SERVO._asdict(), **env_kwargs}
+
+
 ACTION_HOLDS = ("linear", "zero_order")
 """How an action's leg targets act over its control step (``action_hold``)."""
 
@@ -870,9 +877,10 @@ def step_targets(actions, previous_targets, previous_rates, config: TaskConfig, 
     Each action names a target angle (:func:`action_to_leg_targets`). With no
     ``leg_accel_limit`` the reference ends the step there. With one, a motion profile moves it
     from ``previous_targets`` at ``previous_rates``: its rate heads for the fastest that can
-    still stop at the target (sqrt(2 a |error|), at most ``leg_rate_limit`` and the error over a
-    step), changing by at most a dt per step, a the limit. ``action_hold`` "linear" ramps the
-    reference through the step at that rate; "zero_order" holds its end.
+    still stop at the target, steps of dt slowing it by a dt each (sqrt(2 a |error| + (a dt / 2)^2)
+    - a dt / 2; at most ``leg_rate_limit`` and the error over a step), changing by at most a dt
+    per step, a the limit. ``action_hold`` "linear" ramps the reference through the step at that
+    rate; "zero_order" holds its end.
     """
     goal = action_to_leg_targets(actions)
     dt = config.dt
@@ -882,7 +890,8 @@ def step_targets(actions, previous_targets, previous_rates, config: TaskConfig, 
     else:
         error = goal - previous_targets
         size = np.abs(error)
-        wanted = np.minimum(np.sqrt(2.0 * config.leg_accel_limit * size), size / dt)
+        half = 0.5 * config.leg_accel_limit * dt  # (the continuous sqrt(2 a e) overshoots by up to half a step)
+        wanted = np.minimum(np.sqrt(2.0 * config.leg_accel_limit * size + half * half) - half, size / dt)
         if config.leg_rate_limit is not None:
             wanted = np.minimum(wanted, config.leg_rate_limit)
         change = config.leg_accel_limit * dt
