@@ -272,10 +272,9 @@ def robot_seeds(seed: int, slot: int, n: int) -> list:
 
 
 def rows_of(run: dict, rows) -> dict:
-    """The part of a run (:func:`run_episodes`) of its robots ``rows``."""
+    """The paths and step summaries of a run (:func:`run_episodes`) of its robots ``rows``."""
     out = {key: value[:, rows] for key, value in run.items() if key not in ("times", "terminated", "draws")}
-    return out | {"times": run["times"], "terminated": run["terminated"][rows],
-                  "draws": {key: values[rows] for key, values in run["draws"].items()}}
+    return out | {"times": run["times"], "terminated": run["terminated"][rows]}
 
 
 def spread(run, heading_deg: float) -> dict:
@@ -312,10 +311,10 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
         headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
         seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
         own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}
-        section = {"model": model, "robots_per_heading": n, "ranges": ranges, "seed": seed, "physics": physics_shown(imposed),
-                   "searched_gaits": [name for name, agent in on_model.items() if name not in GAIT_AGENT_NAMES
-                                      and name != "ppo" and not getattr(agent, "closed_loop", False)],
-                   "robots": [], "agents": {}}  # fmt: skip
+        searched = [name for name, agent in on_model.items()
+                    if name not in GAIT_AGENT_NAMES and name != "ppo" and not getattr(agent, "closed_loop", False)]
+        section = {"model": model, "robots_per_heading": n, "ranges": ranges, "seed": seed,
+                   "physics": physics_shown(imposed), "searched_gaits": searched, "robots": [], "agents": {}}
         for name, agent in on_model.items():
             run = run_episodes({name: agent}, model, headings, duration, seed, randomize=ranges, robot_seeds=seeds,
                                **env_kwargs)[name]  # fmt: skip
@@ -324,9 +323,10 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
             per_heading = [spread(rows_of(run, r), h) for h, r in zip(COMPASS_DEG, rows)]
             worst = min(per_heading, key=lambda x: x["p10_mps"])
             summary = section["agents"][name] = {
-                "headings": per_heading, "worst_heading_deg": worst["heading_deg"], "worst_median_mps": worst["median_mps"],
-                "worst_p10_mps": worst["p10_mps"], "share_ended": float(np.mean([e for x in per_heading for e in x["ended"]])),
-            }  # fmt: skip
+                "headings": per_heading, "worst_heading_deg": worst["heading_deg"],
+                "worst_median_mps": worst["median_mps"], "worst_p10_mps": worst["p10_mps"],
+                "share_ended": float(np.mean([e for x in per_heading for e in x["ended"]])),
+            }
             if not section["robots"]:
                 section["robots"] = [{"heading_deg": float(h), "seeds": seeds[r],
                                       "draws": {key: values[r].tolist() for key, values in run["draws"].items()}}
@@ -347,7 +347,8 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
 def gait_p10(summary: dict) -> float:
     """A gait's 10th-percentile speed under randomization, what PPO's must reach: the larger of
     its best compass heading's and its own direction's."""
-    return max([x["p10_mps"] for x in summary["headings"]] + [summary.get("own_direction", {}).get("p10_mps", -math.inf)])
+    own = summary.get("own_direction", {}).get("p10_mps", -math.inf)
+    return max([x["p10_mps"] for x in summary["headings"]] + [own])
 
 
 def randomized_targets(section: dict, records) -> dict | None:
@@ -357,7 +358,7 @@ def randomized_targets(section: dict, records) -> dict | None:
     gaits), and at most 5 % of its episodes ended. ``qualifies``: at least 16 robots per heading
     and the default ranges, as the targets ask."""
     ppo = section["agents"].get("ppo")
-    nominal = [r["speed_mps"] for r in records if (r["model"], r["agent"]) == (section["model"], "ppo") and r["compass"]]
+    nominal = [r["speed_mps"] for r in records if r["compass"] and (r["model"], r["agent"]) == (section["model"], "ppo")]
     if ppo is None or not nominal:
         return None
     gaits = {name: gait_p10(section["agents"][name]) for name in section["searched_gaits"]}
@@ -366,9 +367,9 @@ def randomized_targets(section: dict, records) -> dict | None:
            "searched_gait_p10_mps": gaits, "share_ended": ppo["share_ended"],
            "qualifies": section["robots_per_heading"] >= 16 and section["ranges"] == "default"}  # fmt: skip
     out["p10_at_least_0.8_nominal_worst"] = bool(ppo["worst_p10_mps"] >= 0.8 * min(nominal))
-    out["p10_at_least_every_searched_gait"] = bool(all(ppo["worst_p10_mps"] >= v for v in gaits.values())) if gaits else None
+    out["p10_at_least_every_searched_gait"] = all(ppo["worst_p10_mps"] >= v for v in gaits.values()) if gaits else None
     out["share_ended_at_most_5pct"] = bool(ppo["share_ended"] <= 0.05)
-    checks = [out[k] for k in ("p10_at_least_0.8_nominal_worst", "p10_at_least_every_searched_gait", "share_ended_at_most_5pct")]
+    checks = [out["p10_at_least_0.8_nominal_worst"], out["p10_at_least_every_searched_gait"], out["share_ended_at_most_5pct"]]
     out["all_hold"] = None if None in checks else all(checks)
     return out
 
@@ -381,8 +382,8 @@ def randomized_markdown(sections, records) -> str:
         ranges = section["ranges"] if isinstance(section["ranges"], str) else "custom"
         lines.append(f"### {model}, {n} randomized robots per heading: median / P10 of the speed along the commanded "
                      f"heading (mm/s), {seconds_text(section['duration_s'])} from rest\n")  # fmt: skip
-        lines.append(f"Robots drawn with the {ranges!r} ranges of the env's domain randomization, robot j of a heading the "
-                     f"same for every agent (seed {section['seed']}); {physics_text(section['physics'])[len('Every agent on the nominal robot, '):]}. "
+        lines.append(f"Robots drawn with the {ranges!r} ranges of the env's domain randomization, robot j of a heading "
+                     f"the same for every agent (seed {section['seed']}), {physics_text(section['physics'])}. "
                      "P10: the 10th percentile (numpy's, linear interpolation). Worst heading: the compass heading of "
                      "lowest P10. Own direction: an open-loop gait's nominal one, on robots of its own. Ended: the "
                      "share of the compass episodes that ended early (left the model or tipped over); such a robot "
@@ -394,7 +395,8 @@ def randomized_markdown(sections, records) -> str:
             cells.append(f"{summary['worst_median_mps'] * 1e3:.1f} / {summary['worst_p10_mps'] * 1e3:.1f} at "
                          f"{summary['worst_heading_deg']:.0f} deg")  # fmt: skip
             own = summary.get("own_direction")
-            cells.append(f"{own['median_mps'] * 1e3:.1f} / {own['p10_mps'] * 1e3:.1f} at {own['heading_deg']:.0f} deg" if own else "")
+            cells.append(f"{own['median_mps'] * 1e3:.1f} / {own['p10_mps'] * 1e3:.1f} at {own['heading_deg']:.0f} deg"
+                         if own else "")
             cells.append(f"{summary['share_ended']:.1%}")
             lines.append(f"| {name} | " + " | ".join(cells) + " |")
         lines.append("")
@@ -474,8 +476,8 @@ def seconds_text(seconds: float) -> str:
 
 
 def physics_text(physics: dict) -> str:
-    """The line under a table naming what its agents ran under (a record's ``physics``)."""
-    return ("Every agent on the nominal robot, under " + ", ".join(f"{k} = {v}" for k, v in physics.items())
+    """What a table's agents ran under (a record's ``physics``), as words."""
+    return ("under " + ", ".join(f"{k} = {v}" for k, v in physics.items())
             + " (a policy's training keywords and --physics; the rest the env's defaults)")
 
 
@@ -485,7 +487,7 @@ def markdown(records, ratio_list, duration: float = 50.0):
     for model in sorted({r["model"] for r in records}):
         lines.append(f"### {model}: mean speed along the commanded heading (mm/s), {seconds_text(duration)} from rest\n")
         physics = next(r["physics"] for r in records if r["model"] == model)
-        lines.append(physics_text(physics) + "\n")
+        lines.append(f"Every agent on the nominal robot, {physics_text(physics)}\n")
         agents = list(dict.fromkeys(r["agent"] for r in records if r["model"] == model))  # some score on one model only
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
         lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
@@ -608,9 +610,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the dynamic models to evaluate on (default: both)")
     parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
     parser.add_argument("--seed", type=int, default=0,
-                        help="seed of the envs' reset (default 0; every episode starts from the paper's start, "
-                             "without noise)")
-    parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
+                        help="seed of the envs' reset and of the --randomize robots (default 0; every episode "
+                             "starts from the paper's start, without noise)")
+    parser.add_argument("--json", type=Path, help="write the records (ratios, randomized robots) as JSON here")
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
@@ -626,12 +628,13 @@ def build_parser() -> argparse.ArgumentParser:
                              "(its env_kwargs.json; default plane); repeatable")
     parser.add_argument("--randomize", type=int, default=0, metavar="N",
                         help="also score every agent over N robots per compass heading drawn with the env's domain "
-                             "randomization (the same N robots for every agent, seeded by --seed; open-loop gaits also "
-                             "along their own direction), reporting per heading the median and 10th-percentile speed "
-                             "and the share of episodes that ended, and whether PPO's targets hold (a searched gait's "
-                             "P10: the larger of its best compass heading's and its own direction's). The full run: "
-                             "python evaluate.py --gaits agents/searched/plane_own.json --turn-then-run "
-                             "agents/searched/turn_then_run.json --randomize 16 (default 0: off)")
+                             "randomization, e.g. python evaluate.py --gaits agents/searched/plane_own.json --randomize "
+                             "16: the same N robots for every agent (seeded by --seed; open-loop gaits also along their "
+                             "own direction), per heading the median and 10th-percentile (P10) speed and the share of "
+                             "episodes that ended, and whether PPO's targets hold: P10 on its worst heading at least "
+                             "0.8 x its nominal worst heading and at least every searched gait's P10 (the larger of "
+                             "the gait's best compass heading's and its own direction's), at most 5 %% of its "
+                             "episodes ended (default 0: off)")
     parser.add_argument("--randomize-ranges", default="default", choices=sorted(RANDOMIZATIONS),
                         help="the named set of ranges --randomize draws from (the env docstring's Domain "
                              "Randomization table; default: default)")
