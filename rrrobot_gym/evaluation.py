@@ -10,61 +10,87 @@ loop over the batched env and the same ``predict`` interface (:mod:`rrrobot_gym.
     python evaluate.py --turn-then-run agents/searched/turn_then_run.json \
         --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
     python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
+    python evaluate.py --gaits agents/searched/plane_own.json --randomize 16   # and over 16 drawn robots per heading
 
+Every agent runs the nominal robot, whatever a policy was trained on; ``--randomize N`` also
+scores every agent over N robots per compass heading drawn with the env's domain randomization.
 Writes Markdown tables to stdout (``--markdown FILE`` too), records with ``--json FILE`` (keys:
-agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...) and plots with
-``--plots DIR``. Loading a policy unpickles it: load only files you trust.
+agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...; the randomized
+robots under "randomized") and plots with ``--plots DIR``. Loading a policy unpickles it: load
+only files you trust.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
 from pathlib import Path
 
 import numpy as np
+from gymnasium.utils import seeding
 
 from .agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
 from .agents.turn_then_run import load_turn_then_run_agent
 from .cli import UsageError, check_output_path, keyword_value
-from .envs.task import action_to_leg_targets, control_steps, make_task_config
+from .envs.task import RANDOMIZATIONS, action_to_leg_targets, control_steps, make_task_config
 from .envs.vector import RRRobotVectorEnv
 from .simulation import DEFAULT_TIMESTEP
 
-PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit", "kp", "kd", "robot", "damping", "legs",
-                    "timestep", "integrator", "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
+PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
+                    "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
                     "contact_quadrature", "action_hold")  # fmt: skip
 """Env keywords that change what any agent can do: a policy's apply to every agent on its model."""
+SERVO_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit")
+"""The servo's keywords: every record names them, default or not."""
 COMPASS_DEG = tuple(range(0, 360, 45))
 EFFORT_KEYS = ("torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction")
 """The step record's summaries (env info keys) the evaluation keeps."""
 
 
-def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS, **env_kwargs):
-    """Run every agent (``agents``: {name: agent}) once along each heading (degrees), all in one
-    batched env.
+def shared_env_kwargs(agents, **env_kwargs) -> dict:
+    """The keywords of one env for all ``agents``: each agent's training keywords (the first
+    agent's where two differ; gaits have none) under ``env_kwargs``."""
+    for agent in agents.values():  # (the observation a learned policy was trained with)
+        env_kwargs = {**getattr(agent, "env_kwargs", {}), **env_kwargs}
+    return env_kwargs
 
-    Returns {name: run}, each run a dict of arrays: ``times`` (T+1,) s, ``xy`` (T+1, H, 2) contact
-    path (m), ``leg_angles`` (T+1, H, 2) and ``leg_targets`` (T, H, 2) rad, ``terminated`` (H,),
-    and per control step (T, H) the env info's step summaries named by ``info_keys``. After a
-    robot's episode ends its path holds its last position, then NaN (and its summaries NaN).
+
+def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS,
+                 randomize=None, robot_seeds=None, **env_kwargs):
+    """Run every agent (``agents``: {name: agent}) once along each heading (degrees), all in one
+    batched env, from the paper's start, on the nominal robot unless ``randomize`` (the env
+    keyword; a policy's own is not used) draws one per episode.
+
+    ``seed`` seeds the env: sub-env i gets ``seed + i``, unless ``robot_seeds`` (one per heading,
+    the same for every agent) seeds heading i's robot; the env's own generator (observation noise)
+    gets ``seed`` either way. Returns {name: run}, each run a dict of arrays: ``times`` (T+1,) s,
+    ``xy`` (T+1, H, 2) contact path (m), ``leg_angles`` (T+1, H, 2) and ``leg_targets`` (T, H, 2)
+    rad, ``terminated`` (H,), ``draws`` ({name: (H,)}, the randomized robots of the reset info) and
+    per control step (T, H) the env info's step summaries named by ``info_keys``. After a robot's
+    episode ends its path holds its last position, then NaN (and its summaries NaN).
     """
     names = list(agents)
     n_head = len(headings_deg)
-    for agent in agents.values():  # the observation a learned policy was trained with (gaits ignore it)
-        env_kwargs = {**getattr(agent, "env_kwargs", {}), **env_kwargs}
+    env_kwargs = {**shared_env_kwargs(agents, **env_kwargs), "randomize": randomize}
     headings = np.tile(np.radians(np.asarray(headings_deg, dtype=float)), len(names))
     env = RRRobotVectorEnv(
         num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
     )
     try:  # (the nearest whole number of control steps: score divides by their time)
         steps = control_steps("duration", duration, env.dt)
+        if robot_seeds is not None and len(robot_seeds) != n_head:
+            raise ValueError(f"robot_seeds: expected one per heading ({n_head}), got {len(robot_seeds)}")
     except ValueError:
         env.close()
         raise
-    obs, _ = env.reset(seed=seed, options={"target_direction": headings})
+    if robot_seeds is not None:  # (a seed list leaves the env's own generator unseeded: seed it here)
+        env.np_random = seeding.np_random(seed)[0]
+    obs, reset_info = env.reset(seed=seed if robot_seeds is None else list(robot_seeds) * len(names),
+                                options={"target_direction": headings})
+    draws = {key[len("randomized_"):]: reset_info[key] for key in reset_info if key.startswith("randomized_")}
     xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
     effort = {key: [] for key in info_keys}
     agent_states = {name: None for name in names}
@@ -110,6 +136,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         runs[name] = {key: value[:, rows] for key, value in arrays.items()}
         runs[name]["times"] = np.arange(steps + 1) * env.dt
         runs[name]["terminated"] = ended[rows]
+        runs[name]["draws"] = {key: values[rows] for key, values in draws.items()}
     return runs
 
 
@@ -145,8 +172,8 @@ def score(run, headings_deg, duration=None):
 
 
 def physics_of(agents) -> dict:
-    """The :data:`PHYSICS_KEYWORDS` the agents were trained under, as their env_kwargs give them
-    (the defaults' values too); agents that disagree are an error."""
+    """The :data:`PHYSICS_KEYWORDS` the agents were trained under (their ``env_kwargs``); agents
+    that disagree are an error, whether or not one of them has the env's default."""
     chosen = {}
     for name, agent in agents.items():
         for key, value in getattr(agent, "env_kwargs", {}).items():
@@ -156,6 +183,27 @@ def physics_of(agents) -> dict:
                                      f"{chosen[key][1]!r} and {value!r}; score them in separate evaluations")  # fmt: skip
                 chosen.setdefault(key, (name, value))
     return {key: value for key, (_, value) in chosen.items()}
+
+
+def physics_on(model: str, agents: dict, physics=None) -> dict:
+    """The physics keywords every agent on ``model`` runs under: the ones its policies were
+    trained with (:func:`physics_of`) and ``physics`` ({keyword: value}; one that contradicts a
+    policy's is an error)."""
+    trained = physics_of(agents)
+    clash = sorted(key for key, value in (physics or {}).items() if key in trained and trained[key] != value)
+    if clash:
+        raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
+                         f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
+    return {**trained, **(physics or {})}
+
+
+def physics_shown(imposed: dict) -> dict:
+    """What a record says its agents ran under: the servo (:data:`SERVO_KEYWORDS`) and the other
+    ``imposed`` keywords that differ from the env's defaults."""
+    defaults = make_task_config().to_kwargs()
+    effective = {**{key: defaults[key] for key in SERVO_KEYWORDS}, **imposed}
+    return {key: dataclasses.asdict(value) if key == "robot" else value for key, value in effective.items()
+            if key in SERVO_KEYWORDS or value != defaults[key]}
 
 
 def parse_physics(specs) -> dict:
@@ -190,21 +238,14 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
 
     Headings: the 8 compass directions and each open-loop gait's own direction (of its net
     displacement in a first episode). ``per_model`` ({model: {name: agent}}) adds or replaces
-    agents on one model. On each model every agent runs under the physics keywords its policies
-    were trained with (:func:`physics_of`) plus ``physics`` ({keyword: value}; one that differs
-    from a policy's is an error); each record names them under ``physics``, less the policies' that
-    are the env's defaults.
+    agents on one model. On each model every agent runs the nominal robot (no randomization) under
+    :func:`physics_on` (its policies' training physics and ``physics``); each record names them
+    under ``physics`` (:func:`physics_shown`).
     """
     records, runs = [], {}
-    defaults = make_task_config().to_kwargs()
     for model in models:
         on_model = agents_on(model, agents, per_model)
-        trained = physics_of(on_model)
-        clash = sorted(key for key, value in (physics or {}).items() if key in trained and trained[key] != value)
-        if clash:
-            raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
-                             f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
-        imposed = {**{key: value for key, value in trained.items() if value != defaults[key]}, **(physics or {})}
+        imposed = physics_on(model, on_model, physics)
         # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
         first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}
@@ -217,10 +258,173 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
         for name, run in run_episodes(on_model, model, headings, duration, seed, **imposed).items():
             runs[(name, model)] = (headings, run)
             for record in score(run, headings):
-                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG, physics=imposed)
+                record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG,
+                              physics=physics_shown(imposed))
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
     return records, runs
+
+
+def robot_seeds(seed: int, slot: int, n: int) -> list:
+    """The seeds of the ``n`` randomized robots of heading slot ``slot`` (the compass headings in
+    order, then the gaits' own directions), the same for every agent; other ``seed``s, other robots."""
+    return [int(s) for s in np.random.SeedSequence([seed, slot]).generate_state(n)]
+
+
+def rows_of(run: dict, rows) -> dict:
+    """The paths and step summaries of a run (:func:`run_episodes`) of its robots ``rows``."""
+    out = {key: value[:, rows] for key, value in run.items() if key not in ("times", "terminated", "draws")}
+    return out | {"times": run["times"], "terminated": run["terminated"][rows]}
+
+
+def spread(run, heading_deg: float) -> dict:
+    """A run's robots (all along ``heading_deg``): their speeds along it (m/s), which ended early,
+    the median, the 10th percentile (numpy's, linear interpolation) and the share that ended."""
+    records = score(run, [heading_deg] * len(run["terminated"]))
+    speeds = np.array([r["speed_mps"] for r in records])
+    ended = [r["terminated"] for r in records]
+    return {"heading_deg": float(heading_deg), "speeds_mps": speeds.tolist(), "ended": ended,
+            "median_mps": float(np.median(speeds)), "p10_mps": float(np.percentile(speeds, 10)),
+            "share_ended": float(np.mean(ended))}
+
+
+def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, seed: int = 0, per_model=None,
+                        physics=None, ranges="default", own=None):
+    """Every agent over ``n`` randomized robots per compass heading, on each model.
+
+    The robots are drawn with the env's ``randomize=ranges`` (a name of ``task.RANDOMIZATIONS`` or
+    {name: (low, high)}), robot j of a heading seeded by :func:`robot_seeds`: every agent meets
+    the same robots and, run alone in an env seeded alike, the same observation noise. Each
+    open-loop gait named in ``own`` ({model: {name: heading_deg}}, its nominal own direction)
+    also runs ``n`` robots along it. Agents, ``per_model`` and ``physics`` as in :func:`evaluate`.
+    Returns (one section per model: {"model", "robots_per_heading", "ranges", "seed",
+    "duration_s", "physics", "robots": per heading its seeds and draws, "searched_gaits",
+    "agents": {name: {"headings": [:func:`spread`...], "own_direction" (gaits), "worst_heading_deg"
+    (lowest P10), "worst_median_mps", "worst_p10_mps", "share_ended"}}}, {(name, model): {heading
+    "compass": run, "own_direction": run}}).
+    """
+    sections, runs = [], {}
+    for model in models:
+        on_model = agents_on(model, agents, per_model)
+        imposed = physics_on(model, on_model, physics)
+        env_kwargs = shared_env_kwargs(on_model, **imposed)  # (one env's keywords for all, as in evaluate)
+        headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
+        seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
+        own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}
+        searched = [name for name, agent in on_model.items()
+                    if name not in GAIT_AGENT_NAMES and name != "ppo" and not getattr(agent, "closed_loop", False)]
+        section = {"model": model, "robots_per_heading": n, "ranges": ranges, "seed": seed,
+                   "physics": physics_shown(imposed), "searched_gaits": searched, "robots": [], "agents": {}}
+        for name, agent in on_model.items():
+            run = run_episodes({name: agent}, model, headings, duration, seed, randomize=ranges, robot_seeds=seeds,
+                               **env_kwargs)[name]  # fmt: skip
+            runs[(name, model)] = {"compass": run}
+            rows = [slice(k * n, (k + 1) * n) for k in range(len(COMPASS_DEG))]
+            per_heading = [spread(rows_of(run, r), h) for h, r in zip(COMPASS_DEG, rows)]
+            worst = min(per_heading, key=lambda x: x["p10_mps"])
+            summary = section["agents"][name] = {
+                "headings": per_heading, "worst_heading_deg": worst["heading_deg"],
+                "worst_median_mps": worst["median_mps"], "worst_p10_mps": worst["p10_mps"],
+                "share_ended": float(np.mean([e for x in per_heading for e in x["ended"]])),
+            }
+            if not section["robots"]:
+                section["robots"] = [{"heading_deg": float(h), "seeds": seeds[r],
+                                      "draws": {key: values[r].tolist() for key, values in run["draws"].items()}}
+                                     for h, r in zip(COMPASS_DEG, rows)]  # fmt: skip
+            if name in own_here:
+                slot = len(COMPASS_DEG) + list(own_here).index(name)
+                own_seeds = robot_seeds(seed, slot, n)
+                own_run = run_episodes({name: agent}, model, [own_here[name]] * n, duration, seed, randomize=ranges,
+                                       robot_seeds=own_seeds, **env_kwargs)[name]  # fmt: skip
+                runs[(name, model)]["own_direction"] = own_run
+                summary["own_direction"] = spread(own_run, own_here[name]) | {
+                    "seeds": own_seeds, "draws": {key: values.tolist() for key, values in own_run["draws"].items()}}
+        section["duration_s"] = float(run["times"][-1]) if on_model else float(duration)
+        sections.append(section)
+    return sections, runs
+
+
+def gait_p10(summary: dict) -> float:
+    """A gait's 10th-percentile speed under randomization, what PPO's must reach: the larger of
+    its best compass heading's and its own direction's."""
+    own = summary.get("own_direction", {}).get("p10_mps", -math.inf)
+    return max([x["p10_mps"] for x in summary["headings"]] + [own])
+
+
+def randomized_targets(section: dict, records) -> dict | None:
+    """PPO's targets under randomization on ``section``'s model, computed from the numbers (None
+    without a PPO agent): its P10 on its worst heading at least 0.8 x its nominal worst heading
+    (``records``) and at least every searched gait's (:func:`gait_p10`; None without searched
+    gaits), and at most 5 % of its episodes ended. ``qualifies``: at least 16 robots per heading
+    and the default ranges, as the targets ask."""
+    ppo = section["agents"].get("ppo")
+    nominal = [r["speed_mps"] for r in records if r["compass"] and (r["model"], r["agent"]) == (section["model"], "ppo")]
+    if ppo is None or not nominal:
+        return None
+    gaits = {name: gait_p10(section["agents"][name]) for name in section["searched_gaits"]}
+    out = {"ppo_worst_p10_mps": ppo["worst_p10_mps"], "ppo_worst_heading_deg": ppo["worst_heading_deg"],
+           "nominal_worst_mps": min(nominal),
+           "searched_gait_p10_mps": gaits, "share_ended": ppo["share_ended"],
+           "qualifies": section["robots_per_heading"] >= 16 and section["ranges"] == "default"}  # fmt: skip
+    out["p10_at_least_0.8_nominal_worst"] = bool(ppo["worst_p10_mps"] >= 0.8 * min(nominal))
+    out["p10_at_least_every_searched_gait"] = all(ppo["worst_p10_mps"] >= v for v in gaits.values()) if gaits else None
+    out["share_ended_at_most_5pct"] = bool(ppo["share_ended"] <= 0.05)
+    checks = [out["p10_at_least_0.8_nominal_worst"], out["p10_at_least_every_searched_gait"], out["share_ended_at_most_5pct"]]
+    out["all_hold"] = None if None in checks else all(checks)
+    return out
+
+
+def randomized_markdown(sections, records) -> str:
+    """The randomized evaluation's tables (mm/s), one per model, and PPO's targets."""
+    lines = []
+    for section in sections:
+        model, n = section["model"], section["robots_per_heading"]
+        ranges = section["ranges"] if isinstance(section["ranges"], str) else "custom"
+        lines.append(f"### {model}, {n} randomized robots per heading: median / P10 of the speed along the commanded "
+                     f"heading (mm/s), {seconds_text(section['duration_s'])} from rest\n")  # fmt: skip
+        lines.append(f"Robots drawn with the {ranges!r} ranges of the env's domain randomization, robot j of a heading "
+                     f"the same for every agent (seed {section['seed']}), {physics_text(section['physics'])}. "
+                     "P10: the 10th percentile (numpy's, linear interpolation). Worst heading: the compass heading of "
+                     "lowest P10. Own direction: an open-loop gait's nominal one, on robots of its own. Ended: the "
+                     "share of the compass episodes that ended early (left the model or tipped over); such a robot "
+                     "counts with its displacement up to then over the whole duration.\n")  # fmt: skip
+        lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | worst heading | own direction | ended |")
+        lines.append("|---" * (len(COMPASS_DEG) + 4) + "|")
+        for name, summary in section["agents"].items():
+            cells = [f"{x['median_mps'] * 1e3:.1f} / {x['p10_mps'] * 1e3:.1f}" for x in summary["headings"]]
+            cells.append(f"{summary['worst_median_mps'] * 1e3:.1f} / {summary['worst_p10_mps'] * 1e3:.1f} at "
+                         f"{summary['worst_heading_deg']:.0f} deg")  # fmt: skip
+            own = summary.get("own_direction")
+            cells.append(f"{own['median_mps'] * 1e3:.1f} / {own['p10_mps'] * 1e3:.1f} at {own['heading_deg']:.0f} deg"
+                         if own else "")
+            cells.append(f"{summary['share_ended']:.1%}")
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append("")
+        target = randomized_targets(section, records)
+        if target is not None:
+            lines.append(targets_text(model, target))
+            lines.append("")
+    return "\n".join(lines)
+
+
+def targets_text(model: str, target: dict) -> str:
+    """:func:`randomized_targets` as a sentence."""
+    def verdict(holds):
+        return "not checked" if holds is None else "holds" if holds else "FAILS"
+
+    gaits = target["searched_gait_p10_mps"]
+    best = max(gaits, key=gaits.get) if gaits else None
+    text = (f"PPO's targets under randomization, {model}: P10 on its worst heading ({target['ppo_worst_heading_deg']:.0f} deg) "
+            f"{target['ppo_worst_p10_mps'] * 1e3:.1f} mm/s, at least 0.8 x its nominal worst heading's "
+            f"{target['nominal_worst_mps'] * 1e3:.1f} ({0.8e3 * target['nominal_worst_mps']:.1f}): "
+            f"{verdict(target['p10_at_least_0.8_nominal_worst'])}; "
+            "at least every searched gait's P10 (a gait's: the larger of its best compass heading's and its own "
+            f"direction's{f'; the highest {best}, {gaits[best] * 1e3:.1f}' if best else ', no searched gait scored'}): "
+            f"{verdict(target['p10_at_least_every_searched_gait'])}; episodes ended {target['share_ended']:.1%} <= 5 %: "
+            f"{verdict(target['share_ended_at_most_5pct'])}.")  # fmt: skip
+    if not target["qualifies"]:
+        text += " Not the targets' run: they ask for at least 16 robots per heading and the default ranges."
+    return text
 
 
 def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = 10):
@@ -271,15 +475,19 @@ def seconds_text(seconds: float) -> str:
     return f"{round(float(seconds), 3):g} s"
 
 
+def physics_text(physics: dict) -> str:
+    """What a table's agents ran under (a record's ``physics``), as words."""
+    return ("under " + ", ".join(f"{k} = {v}" for k, v in physics.items())
+            + " (a policy's training keywords and --physics; the rest the env's defaults)")
+
+
 def markdown(records, ratio_list, duration: float = 50.0):
     """The evaluation's Markdown tables; ``duration`` (s) is the episodes' simulated time."""
     lines = []
     for model in sorted({r["model"] for r in records}):
         lines.append(f"### {model}: mean speed along the commanded heading (mm/s), {seconds_text(duration)} from rest\n")
         physics = next(r["physics"] for r in records if r["model"] == model)
-        if physics:
-            lines.append("Every agent under the policy's training keywords: "
-                         + ", ".join(f"{k} = {v}" for k, v in physics.items()) + "\n")  # fmt: skip
+        lines.append(f"Every agent on the nominal robot, {physics_text(physics)}\n")
         agents = list(dict.fromkeys(r["agent"] for r in records if r["model"] == model))  # some score on one model only
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
         lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
@@ -402,9 +610,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the dynamic models to evaluate on (default: both)")
     parser.add_argument("--duration", type=float, default=50.0, help="episode length in s (default 50, the paper's)")
     parser.add_argument("--seed", type=int, default=0,
-                        help="seed of the envs' reset (default 0; every episode starts from the paper's start, "
-                             "without noise)")
-    parser.add_argument("--json", type=Path, help="write the records (and ratios) as JSON here")
+                        help="seed of the envs' reset and of the --randomize robots (default 0; every episode "
+                             "starts from the paper's start, without noise)")
+    parser.add_argument("--json", type=Path, help="write the records (ratios, randomized robots) as JSON here")
     parser.add_argument("--markdown", type=Path, help="write the Markdown tables here too")
     parser.add_argument("--plots", type=Path, help="write path and leg-angle plots into this directory")
     parser.add_argument("--gaits", type=Path, action="append", default=[], metavar="FILE",
@@ -418,6 +626,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--also-policy", action="append", default=[], metavar="NAME=FILE",
                         help="also score the PPO model zip FILE as agent NAME, on the model it was trained on "
                              "(its env_kwargs.json; default plane); repeatable")
+    parser.add_argument("--randomize", type=int, default=0, metavar="N",
+                        help="also score every agent over N robots per compass heading drawn with the env's domain "
+                             "randomization, e.g. python evaluate.py --gaits agents/searched/plane_own.json --randomize "
+                             "16: the same N robots for every agent (seeded by --seed; open-loop gaits also along their "
+                             "own direction), per heading the median and 10th-percentile (P10) speed and the share of "
+                             "episodes that ended, and whether PPO's targets hold: P10 on its worst heading at least "
+                             "0.8 x its nominal worst heading and at least every searched gait's P10 (the larger of "
+                             "the gait's best compass heading's and its own direction's), at most 5 %% of its "
+                             "episodes ended (default 0: off)")
+    parser.add_argument("--randomize-ranges", default="default", choices=sorted(RANDOMIZATIONS),
+                        help="the named set of ranges --randomize draws from (the env docstring's Domain "
+                             "Randomization table; default: default)")
     parser.add_argument("--check-accuracy", action="store_true",
                         help="also run each model's policy with a 10x finer integration step and compare its speeds")
     return parser
@@ -453,6 +673,8 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         parser.error(f"--plots: {args.plots} is a file, not a directory")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
+    if args.randomize < 0:
+        parser.error(f"--randomize must be a number of robots >= 0, got {args.randomize}")
     if len(set(args.models)) < len(args.models):  # (each was evaluated, and reported, as often as named)
         parser.error(f"--models names a model twice: {' '.join(args.models)}")
     try:
@@ -534,11 +756,26 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         text += "|---" * (len(checked) + 1) + "|\n"
         text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
         text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
+    randomized = []
+    if args.randomize:
+        own = {}
+        for r in records:
+            for name in r["own_direction_of"]:
+                own.setdefault(r["model"], {})[name] = r["heading_deg"]
+        try:
+            randomized, _ = evaluate_randomized(agents, args.models, args.randomize, args.duration, args.seed, per_model,
+                                                physics, args.randomize_ranges, own)  # fmt: skip
+        except ValueError as exc:
+            parser.error(str(exc))
+        text += "\n" + randomized_markdown(randomized, records)
+        for section in randomized:
+            section["targets"] = randomized_targets(section, records)
     print(text)
     if args.markdown:
         args.markdown.write_text(text + "\n")
     if args.json:
-        payload = {"records": records, "ratios": ratio_list, "accuracy_check": accuracy, "command": " ".join(sys.argv)}
+        payload = {"records": records, "ratios": ratio_list, "accuracy_check": accuracy, "randomized": randomized,
+                   "command": " ".join(sys.argv)}
         args.json.write_text(json.dumps(payload, indent=1))
     if args.plots:
         plot(runs, args.plots, args.models, simulated)

@@ -12,8 +12,8 @@ from rrrobot_gym.agents import gait_agent
 from rrrobot_gym.evaluation import run_episodes, score
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import RampTargets
-from rrrobot_gym.envs import task
-from rrrobot_gym.simulation import advance, initial_state
+from rrrobot_gym.envs.task import IDEAL_SERVO, SERVO
+from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 AGENTS = Path(__file__).resolve().parents[1] / "agents"
 SHIPPED = {"default_policy": AGENTS / "pretrained" / "best_model.zip",
@@ -21,32 +21,21 @@ SHIPPED = {"default_policy": AGENTS / "pretrained" / "best_model.zip",
 """evaluate.py's defaults: the policies shipped in the repository's agents/."""
 
 
-@pytest.mark.parametrize("servo", ["ideal", "default"])
-def test_effort_figures_are_the_torques_the_integrator_applied(servo):
-    """Gait 1 through evaluate.py for 1 s, against the same steps replayed through `advance`
-    by hand: the RMS and peak torque per step agree. Under the ideal servo each step ramps to the
-    action's target, and the servo law without the ramp's rate (what evaluate.py used to rebuild)
-    is several times larger; under the default servo each step ramps to the motion profile's
-    reference (task.step_targets), and no torque exceeds the stall torque."""
+def test_effort_figures_are_the_torques_the_integrator_applied():
+    """Gait 1 through evaluate.py for 1 s on the paper's ideal servo, against the same ramps
+    replayed through `advance` by hand: the RMS and peak torque per step agree; the servo law
+    without the ramp's rate (what evaluate.py used to rebuild) is several times larger."""
     duration = 1.0
-    servo_kwargs = task.IDEAL_SERVO._asdict() if servo == "ideal" else {}
-    run = run_episodes({"gait1": gait_agent("gait1")}, "plane", [0.0], duration, **servo_kwargs)["gait1"]
-    config, dt = task.make_task_config(**servo_kwargs), 0.05
+    run = run_episodes({"gait1": gait_agent("gait1")}, "plane", [0.0], duration, **IDEAL_SERVO._asdict())["gait1"]
+    config, dt = SimConfig(), 0.05
     state = initial_state()
-    previous, rate = state[dynamics.LEG_ANGLES].copy(), np.zeros(2)
-    agent, agent_state = gait_agent("gait1"), None
+    previous = state[dynamics.LEG_ANGLES].copy()
     rms, peak, rebuilt = [], [], []
-    for k, target in enumerate(run["leg_targets"][:, 0]):  # rad, the actions' targets
-        if servo == "ideal":
-            held, end = RampTargets(previous, target, k * dt, dt), target
-        else:  # (the gait ignores its observation)
-            action, agent_state = agent.predict(np.zeros((1, 15), np.float32), state=agent_state,
-                                                episode_start=np.array([k == 0]))  # fmt: skip
-            held, end, rate = task.step_targets(action[0], previous, rate, config, k * dt)
-        state, record = advance(config.sim, state, k * dt, dt, held, record=True)
+    for k, target in enumerate(run["leg_targets"][:, 0]):  # rad, what the env ramped to
+        state, record = advance(config, state, k * dt, dt, RampTargets(previous, target, k * dt, dt), record=True)
         rms.append(np.sqrt(np.mean(record.torque**2)))
         peak.append(np.abs(record.torque).max())
-        previous = end
+        previous = target
         legs = run["leg_angles"][k + 1, 0]
         np.testing.assert_allclose(state[dynamics.LEG_ANGLES], legs, rtol=0, atol=1e-12)
         rebuilt.append(np.sqrt(np.mean((2.0 * (target - legs) - 0.05 * state[dynamics.LEG_RATES]) ** 2)))
@@ -55,39 +44,36 @@ def test_effort_figures_are_the_torques_the_integrator_applied(servo):
     record = score(run, [0.0], duration)[0]
     assert record["effort_rms_torque_nm"] == pytest.approx(np.sqrt(np.mean(np.square(rms))), rel=1e-9)
     assert record["peak_torque_nm"] == pytest.approx(max(peak), rel=1e-9)
-    if servo == "ideal":
-        assert np.sqrt(np.mean(np.square(rebuilt[4:]))) > 2.0 * np.sqrt(np.mean(np.square(rms[4:])))
-    else:
-        assert 0.1 < record["peak_torque_nm"] <= task.SERVO.torque_limit + 1e-12
+    assert np.sqrt(np.mean(np.square(rebuilt[4:]))) > 2.0 * np.sqrt(np.mean(np.square(rms[4:])))
 
 
-def test_a_policy_s_motor_limits_hold_every_agent_scored_beside_it_on_its_model_only():
-    """A pivot policy trained under the ideal servo is compared with the gaits under it: Gait 2,
-    whose servo peaks at about 1.6 N m unlimited, runs so on the pivot model, and is held to the
-    default servo's 0.5 N m on the plane, where no policy asked for another servo."""
+def test_a_policy_s_servo_holds_every_agent_scored_beside_it_on_its_model_only():
+    """A pivot policy trained on the paper's ideal servo is compared with the gaits on that
+    servo: Gait 2's torque peaks at about 1.6 N m on the pivot model, while on the plane, where
+    no policy asked for another, the env's default servo (0.5 N m) holds it."""
     from rrrobot_gym.evaluation import evaluate
 
     ideal = gait_agent("gait1")
-    ideal.env_kwargs = {**task.IDEAL_SERVO._asdict(), "healthy_reward": 2.0}
+    ideal.env_kwargs = {**IDEAL_SERVO._asdict(), "healthy_reward": 2.0}
     records, _ = evaluate({"gait2": gait_agent("gait2")}, ["plane", "pivot"], duration=1.0,
                           per_model={"pivot": {"ppo": ideal}})  # fmt: skip
     peak = {(r["model"], r["agent"]): max(x["peak_torque_nm"] for x in records
                                           if (x["model"], x["agent"]) == (r["model"], r["agent"])) for r in records}
     assert {r["agent"] for r in records if r["model"] == "plane"} == {"gait2"}
-    assert peak[("pivot", "gait2")] > 1.0
-    assert peak[("plane", "gait2")] <= 0.5 + 1e-9
-    ideal_physics = {"torque_limit": None, "leg_rate_limit": None, "leg_accel_limit": None}
-    assert all(r["physics"] == (ideal_physics if r["model"] == "pivot" else {})
+    assert peak[("pivot", "gait2")] > 1.0 and peak[("plane", "gait2")] <= SERVO.torque_limit + 1e-9
+    assert all(r["physics"] == (IDEAL_SERVO if r["model"] == "pivot" else SERVO)._asdict()
                for r in records)  # fmt: skip (healthy_reward changes the reward, not the motors: not imposed)
 
 
-def test_agents_trained_under_different_motors_are_not_scored_together():
-    # (0.5 N m is the default's: a policy that names it still disagrees with one trained otherwise)
+@pytest.mark.parametrize("key, values", [("torque_limit", (0.5, 0.8)), ("torque_limit", (0.5, None)),
+                                         ("leg_accel_limit", (60.0, None))])  # fmt: skip
+def test_agents_trained_under_different_motors_are_not_scored_together(key, values):
+    # (one of them with the env's default: the other's was imposed on both, silently)
     from rrrobot_gym.evaluation import evaluate
 
     a, b = gait_agent("gait1"), gait_agent("gait3")
-    a.env_kwargs, b.env_kwargs = {"torque_limit": 0.5}, {"torque_limit": 0.8}
-    with pytest.raises(ValueError, match="torque_limit"):
+    a.env_kwargs, b.env_kwargs = {key: values[0]}, {key: values[1]}
+    with pytest.raises(ValueError, match=key):
         evaluate({"a": a, "b": b}, ["pivot"], duration=0.5)
 
 
@@ -147,7 +133,8 @@ def test_physics_holds_gaits_to_motor_limits_without_a_policy():
 
     records = main(["--no-policy", "--models", "plane", "pivot", "--duration", "1", "--physics", "torque_limit=0.3",
                     "--physics", "leg_rate_limit=8"])  # fmt: skip
-    assert records and all(r["physics"] == {"torque_limit": 0.3, "leg_rate_limit": 8} for r in records)
+    assert records and all(r["physics"] == {"torque_limit": 0.3, "leg_rate_limit": 8, "leg_accel_limit": 60.0}
+                           for r in records)  # fmt: skip
     assert max(r["peak_torque_nm"] for r in records if r["agent"] == "gait2") <= 0.3 + 1e-9
 
 
@@ -159,7 +146,7 @@ def test_physics_takes_the_integration_schedule_and_the_gaits_speeds_barely_move
     graded = {"timestep": 0.05 / 13, "frame_skip": 13}
     plain = main(["--no-policy", "--models", "plane", "--duration", "2"])
     records = main(["--no-policy", "--models", "plane", "--duration", "2"] + [a for k, v in graded.items() for a in ("--physics", f"{k}={v!r}")])
-    assert records and all(r["physics"] == graded for r in records)
+    assert records and all(r["physics"] == {**SERVO._asdict(), **graded} for r in records)
     default = {(r["agent"], r["heading_deg"]): r["speed_mps"] for r in plain if r["compass"]}
     moved = [abs(r["speed_mps"] - default[(r["agent"], r["heading_deg"])]) for r in records if r["compass"]]
     assert len(moved) == len(default) == 6 * 8 and 0.0 < max(moved) < 1e-4
@@ -174,7 +161,7 @@ def test_physics_that_contradicts_a_policy_or_is_not_physics_is_named():
         evaluate({}, ["pivot"], duration=0.5, per_model={"pivot": {"ppo": limited}}, physics={"torque_limit": 0.3})
     records, _ = evaluate({}, ["pivot"], duration=0.5, per_model={"pivot": {"ppo": limited}},
                           physics={"torque_limit": 0.5, "leg_rate_limit": 9.0})  # fmt: skip
-    assert {tuple(sorted(r["physics"].items())) for r in records} == {(("leg_rate_limit", 9.0), ("torque_limit", 0.5))}
+    assert all(r["physics"] == {"torque_limit": 0.5, "leg_rate_limit": 9.0, "leg_accel_limit": 60.0} for r in records)
     for spec, named in (("healthy_reward=2", "KEY one of"), ("torque_limit", "KEY=VALUE"), ("torque_limit=-1", "torque_limit"),
                         ("integrator=euler", "integrator"), ("robot=1", "KEY one of")):
         with pytest.raises(ValueError, match=named):
@@ -257,8 +244,8 @@ def test_a_physics_number_json_does_not_read_is_still_a_number():
 
 def test_the_tables_and_plots_name_the_duration_scored_and_explain_an_ended_episode(tmp_path, monkeypatch):
     """--duration 1.5: the tables and the gaits' plot say 1.5 s, not the default 50 s; a gait that
-    leaves the model (from plane_own.json, under the ideal servo it was searched under: at 1.05 s
-    from the paper's start) is marked (T), and the table says what (T) means."""
+    leaves the model (from plane_own.json: at 1.05 s from the paper's start, on the ideal servo)
+    is marked (T), and the table says what (T) means."""
     pytest.importorskip("matplotlib")
     from matplotlib.figure import Figure
 
@@ -273,9 +260,8 @@ def test_the_tables_and_plots_name_the_duration_scored_and_explain_an_ended_epis
     data["gaits"] = [dict(first, name="leaves", parameters=leaves)]
     gaits.write_text(json.dumps(data))
     table = tmp_path / "table.md"
-    ideal = [a for k in task.IDEAL_SERVO._fields for a in ("--physics", f"{k}=None")]  # (the file's servo)
     main(["--no-policy", "--models", "plane", "--duration", "1.5", "--gaits", str(gaits), "--markdown", str(table),
-          "--plots", str(tmp_path / "plots")] + ideal)
+          "--plots", str(tmp_path / "plots")] + [a for key in IDEAL_SERVO._fields for a in ("--physics", f"{key}=none")])
     text = table.read_text()
     assert "mean speed along the commanded heading (mm/s), 1.5 s from rest" in text and "50 s" not in text
     assert "Table II gaits, 1.5 s (plane)" in titles and not any("50 s" in t for t in titles)

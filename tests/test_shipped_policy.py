@@ -85,7 +85,8 @@ def test_evaluate_uses_the_shipped_policies_by_default(tmp_path):
     records = json.loads(out.read_text())["records"]
     agents = {r["agent"] for r in records}
     assert "ppo" in agents and "gait1" in agents
-    # the pivot model's ppo is the pivot policy: every agent there runs under its motor limits
-    assert {json.dumps(r["physics"], sort_keys=True) for r in records if r["model"] == "pivot"} == {
-        json.dumps({"leg_rate_limit": 10.0, "torque_limit": 0.5}, sort_keys=True)}
-    assert all(r["physics"] == {} for r in records if r["model"] == "plane")
+    # each model's ppo is its shipped policy: every agent there runs under the servo it was trained with
+    for model, policy in (("plane", SHIPPED), ("pivot", SHIPPED_PIVOT)):
+        trained = json.loads((policy.parent / "env_kwargs.json").read_text())
+        servo = {key: trained[key] for key in ("torque_limit", "leg_rate_limit", "leg_accel_limit")}
+        assert all(r["physics"] == servo for r in records if r["model"] == model)
