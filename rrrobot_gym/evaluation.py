@@ -29,7 +29,7 @@ import numpy as np
 from .agents import GAIT_AGENT_NAMES, gait_agent, load_gait_agents, load_ppo_agent
 from .agents.turn_then_run import load_turn_then_run_agent
 from .cli import UsageError, check_output_path, keyword_value
-from .envs.task import action_to_leg_targets, control_steps, make_task_config
+from .envs.task import Servo, action_to_leg_targets, control_steps, make_task_config
 from .envs.vector import RRRobotVectorEnv
 from .simulation import DEFAULT_TIMESTEP
 
@@ -192,8 +192,9 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     displacement in a first episode). ``per_model`` ({model: {name: agent}}) adds or replaces
     agents on one model. On each model every agent runs under the physics keywords its policies
     were trained with (:func:`physics_of`) plus ``physics`` ({keyword: value}; one that differs
-    from a policy's is an error); each record names them under ``physics``, less the policies' that
-    are the env's defaults.
+    from a policy's is an error); each record names them under ``physics``: the policies' servo
+    keywords (:class:`rrrobot_gym.envs.task.Servo`), their others that differ from the env's
+    defaults, and ``physics``.
     """
     records, runs = [], {}
     defaults = make_task_config().to_kwargs()
@@ -204,7 +205,8 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
         if clash:
             raise ValueError(f"--physics sets {', '.join(f'{k}={physics[k]!r}' for k in clash)} on the {model} model, "
                              f"where a policy was trained with {', '.join(f'{k}={trained[k]!r}' for k in clash)}")
-        imposed = {**{key: value for key, value in trained.items() if value != defaults[key]}, **(physics or {})}
+        imposed = {**{key: value for key, value in trained.items() if value != defaults[key] or key in Servo._fields},
+                   **(physics or {})}  # fmt: skip
         # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
         first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}
