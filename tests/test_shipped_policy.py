@@ -86,6 +86,8 @@ def test_evaluate_uses_the_shipped_policies_by_default(tmp_path):
     agents = {r["agent"] for r in records}
     assert "ppo" in agents and "gait1" in agents
     # the pivot model's ppo is the pivot policy: every agent there runs under its motor limits
+    # (without the default's motion profile); on the plane under the plane policy's ideal servo
     assert {json.dumps(r["physics"], sort_keys=True) for r in records if r["model"] == "pivot"} == {
-        json.dumps({"leg_rate_limit": 10.0, "torque_limit": 0.5}, sort_keys=True)}
-    assert all(r["physics"] == {} for r in records if r["model"] == "plane")
+        json.dumps({"leg_rate_limit": 10.0, "torque_limit": 0.5, "leg_accel_limit": None}, sort_keys=True)}
+    assert all(r["physics"] == {"torque_limit": None, "leg_rate_limit": None, "leg_accel_limit": None}
+               for r in records if r["model"] == "plane")  # fmt: skip
