@@ -77,6 +77,17 @@ def test_agents_trained_under_different_motors_are_not_scored_together(key, valu
         evaluate({"a": a, "b": b}, ["pivot"], duration=0.5)
 
 
+def test_the_records_name_the_servo_a_policy_pinned_even_when_it_is_the_default():
+    # (the tables then say which motors held every agent; other keywords at their defaults are left out)
+    from rrrobot_gym.evaluation import evaluate
+
+    pinned = gait_agent("gait1")
+    pinned.env_kwargs = {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": 60.0, "kp": 2.0}
+    records, _ = evaluate({}, ["pivot"], duration=0.05, per_model={"pivot": {"ppo": pinned}})
+    assert records and all(r["physics"] == {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": 60.0}
+                           for r in records)  # fmt: skip
+
+
 @pytest.mark.slow
 def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself(capsys):
     """--also-policy NAME=FILE: the shipped pivot policy under a second name scores exactly what
