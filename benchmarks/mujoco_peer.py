@@ -234,25 +234,12 @@ class MujocoRobot:
         self._shell = self.mujoco.mj_name2id(m, body, "shell")
         self.reset()
 
-    def reset(self, quat=None, phi=None, omega=None, phidot=None):
-        """Upright at rest at the origin, legs vertical (or the given values: ``omega`` is the
-        body-frame angular velocity; on the plane the centre then rolls without slip). The plane
-        model's centre is lowered to the soft contact's equilibrium (:func:`settle_height`)."""
+    def reset(self):
+        """Upright at rest at the origin, legs vertical (the paper's start). The plane model's
+        centre is lowered to the soft contact's equilibrium (:func:`settle_height`)."""
         mj = self.mujoco
         mj.mj_resetData(self.model, self.data)
         d = self.data
-        if quat is not None:
-            q = np.asarray(quat, dtype=float)
-            d.qpos[self._qs] = q / np.linalg.norm(q)
-        if phi is not None:
-            d.qpos[self._ps] = phi
-        if omega is not None:
-            d.qvel[self._ws] = omega
-            if self.name == "plane":  # v_centre = w x (0, 0, r)
-                w = _quat_to_mat(d.qpos[self._qs]) @ np.asarray(omega, dtype=float)
-                d.qvel[0:3] = np.cross(w, [0.0, 0.0, self.radius])
-        if phidot is not None:
-            d.qvel[self._vs] = phidot
         d.ctrl[:] = 0.0
         if self.model.nu == 4:  # the PD actuators: hold the legs where they are
             d.ctrl[:2] = d.qpos[self._ps]
