@@ -32,7 +32,7 @@ def _import_mujoco():
     return mujoco
 
 
-def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0) -> str:
+def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0, servo: str = "pd") -> str:
     """The MJCF XML of the RRRobot (the paper's robot and PD gains), ``model`` "pivot" or "plane".
 
     Point masses: ``inertiafromgeom="false"``; each is a welded body with an ``<inertial>`` of a
@@ -47,6 +47,8 @@ def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0) -
     ``velocity`` actuator (kd) per leg; ``ctrl = (phi_d1, phi_d2, phid_d1, phid_d2)``, held over a
     whole ``mj_step`` (so :func:`gait_controls` samples each step's midpoint). The plane model's
     legs are light (effective inertia ~1.2e-4 kg m^2): RK4 at 1e-3 s goes unstable for kd >~ 0.3.
+    ``servo="torque"`` instead: a ``motor`` actuator per leg, ``ctrl = (tau1, tau2)`` in N m, set at
+    every RK4 stage by :meth:`MujocoRobot.run_servo` (any servo law, the motor limits included).
 
     Plane contact, sphere on floor only, tuned for rolling without slip: ``condim=3`` (no torsional
     or rolling friction); ``friction`` far above what the motion needs (the env's floor is 1.0); an
@@ -56,6 +58,8 @@ def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0) -
     solver tolerance 1e-10. With RK4 MuJoCo re-runs collision and the solvers at every stage.
     """
     check_model(model)
+    if servo not in ("pd", "torque"):
+        raise ValueError(f"unknown servo {servo!r}: expected 'pd' or 'torque'")
     robot, gains = RobotParams(), PDGains()
     r, l = robot.radius, robot.leg_length
     d = -robot.damping
@@ -113,6 +117,18 @@ def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0) -
         {point_mass(f"tip{k}", (0, 0, l), robot.mass_tip)}
       </body>"""
 
+    if servo == "pd":
+        actuators = f"""
+    <!-- ctrl = (phi_d1, phi_d2, phid_d1, phid_d2); tau = kp (phi_d - phi) + kd (phid_d - phidot) -->
+    <position name="pos1" joint="phi1" kp="{gains.kp!r}"/>
+    <position name="pos2" joint="phi2" kp="{gains.kp!r}"/>
+    <velocity name="vel1" joint="phi1" kv="{gains.kd!r}"/>
+    <velocity name="vel2" joint="phi2" kv="{gains.kd!r}"/>"""
+    else:
+        actuators = """
+    <!-- ctrl = (tau1, tau2), N m, set at every RK4 stage (MujocoRobot.run_servo) -->
+    <motor name="tau1" joint="phi1" gear="1"/>
+    <motor name="tau2" joint="phi2" gear="1"/>"""
     return f"""<mujoco model="rrrobot_{model}">
   <!-- RRRobot ({model} model), see benchmarks/mujoco_peer.py:build_mjcf -->
   <compiler angle="radian" inertiafromgeom="false" autolimits="true"/>
@@ -130,12 +146,7 @@ def build_mjcf(model: str, *, timestep: float = 0.001, friction: float = 10.0) -
       {point_mass("pin2", (0, r, 0), robot.mass_pin)}{leg(1, -1)}{leg(2, +1)}
     </body>
   </worldbody>
-  <actuator>
-    <!-- ctrl = (phi_d1, phi_d2, phid_d1, phid_d2); tau = kp (phi_d - phi) + kd (phid_d - phidot) -->
-    <position name="pos1" joint="phi1" kp="{gains.kp!r}"/>
-    <position name="pos2" joint="phi2" kp="{gains.kp!r}"/>
-    <velocity name="vel1" joint="phi1" kv="{gains.kd!r}"/>
-    <velocity name="vel2" joint="phi2" kv="{gains.kd!r}"/>
+  <actuator>{actuators}
   </actuator>
 </mujoco>
 """
@@ -203,7 +214,7 @@ def settle_height(m, d, *, depth: float = 1e-4, iters: int = 50) -> float:
 
 
 class MujocoRobot:
-    """One RRRobot in MuJoCo; keyword arguments go to :func:`build_mjcf` (timestep, friction)."""
+    """One RRRobot in MuJoCo; keyword arguments go to :func:`build_mjcf` (timestep, friction, servo)."""
 
     def __init__(self, model: str = "pivot", **kwargs):
         self.mujoco = _import_mujoco()
@@ -218,29 +229,20 @@ class MujocoRobot:
         m = self.model
         self._act_dof = m.jnt_dofadr[m.actuator_trnid[:, 0]]
         self._act_gain = m.actuator_gainprm[:, 0] * m.actuator_gear[:, 0]
+        body = self.mujoco.mjtObj.mjOBJ_BODY
+        self._tips = [self.mujoco.mj_name2id(m, body, f"tip{k}") for k in (1, 2)]
+        self._shell = self.mujoco.mj_name2id(m, body, "shell")
         self.reset()
 
-    def reset(self, quat=None, phi=None, omega=None, phidot=None):
-        """Upright at rest at the origin, legs vertical (or the given values: ``omega`` is the
-        body-frame angular velocity; on the plane the centre then rolls without slip). The plane
-        model's centre is lowered to the soft contact's equilibrium (:func:`settle_height`)."""
+    def reset(self):
+        """Upright at rest at the origin, legs vertical (the paper's start). The plane model's
+        centre is lowered to the soft contact's equilibrium (:func:`settle_height`)."""
         mj = self.mujoco
         mj.mj_resetData(self.model, self.data)
         d = self.data
-        if quat is not None:
-            q = np.asarray(quat, dtype=float)
-            d.qpos[self._qs] = q / np.linalg.norm(q)
-        if phi is not None:
-            d.qpos[self._ps] = phi
-        if omega is not None:
-            d.qvel[self._ws] = omega
-            if self.name == "plane":  # v_centre = w x (0, 0, r)
-                w = _quat_to_mat(d.qpos[self._qs]) @ np.asarray(omega, dtype=float)
-                d.qvel[0:3] = np.cross(w, [0.0, 0.0, self.radius])
-        if phidot is not None:
-            d.qvel[self._vs] = phidot
-        d.ctrl[:2] = d.qpos[self._ps]
-        d.ctrl[2:] = 0.0
+        d.ctrl[:] = 0.0
+        if self.model.nu == 4:  # the PD actuators: hold the legs where they are
+            d.ctrl[:2] = d.qpos[self._ps]
         if self.name == "plane":
             settle_height(self.model, d)
         self._xy = np.zeros(2)
@@ -254,6 +256,46 @@ class MujocoRobot:
         if self.name == "plane":
             return self.data.qpos[0:2].copy()
         return self._xy.copy()
+
+    def state(self) -> np.ndarray:
+        """The robot's state (13,) in rrrobot_gym's layout (:data:`rrrobot_gym.dynamics.STATE_FIELDS`):
+        contact point (:meth:`contact_xy`), quaternion, leg angles, body-frame angular velocity (as
+        MuJoCo's ball and free joints give it), leg rates."""
+        d = self.data
+        return np.concatenate([self.contact_xy(), d.qpos[self._qs], d.qpos[self._ps], d.qvel[self._ws], d.qvel[self._vs]])
+
+    def run_servo(self, torque, duration: float):
+        """Advance ``duration`` s (whole steps) with the leg torques ``torque(t, angles, rates)`` ->
+        (tau1, tau2), N m, t in s since this call, evaluated at every RK4 stage (``servo="torque"``).
+        Returns the lowest leg-tip height above the floor (m) and the largest tilt (rad) at any stage."""
+        mj, m, d = self.mujoco, self.model, self.data
+        if m.nu != 2:
+            raise ValueError("run_servo needs a model built with servo='torque'")
+        n = int(round(duration / float(m.opt.timestep)))
+        (p1, p2), (v1, v2) = range(self._ps.start, self._ps.stop), range(self._vs.start, self._vs.stop)
+        (tip1, tip2), shell = self._tips, self._shell
+        t0, q, v, ctrl, xpos, xmat = d.time, d.qpos, d.qvel, d.ctrl, d.xpos, d.xmat  # (views: fetched once)
+        seen = [math.inf, 1.0]  # lowest tip, least cos(tilt)
+
+        def control(m, d):
+            ctrl[0], ctrl[1] = torque(d.time - t0, (float(q[p1]), float(q[p2])), (float(v[v1]), float(v[v2])))
+            seen[0] = min(seen[0], xpos[tip1, 2], xpos[tip2, 2])
+            seen[1] = min(seen[1], xmat[shell, 8])
+
+        mj.set_mjcb_control(control)
+        try:
+            if self.name == "pivot":
+                mj.mj_forward(m, d)  # the contact's rate under this call's servo
+                self._v0, self._a0 = self._contact_rates()
+                for _ in range(n):
+                    self._step_pivot()
+            else:
+                for _ in range(n):
+                    mj.mj_step(m, d)
+        finally:
+            mj.set_mjcb_control(None)
+        floor = -self.radius if self.name == "pivot" else 0.0  # the pivot's centre is the origin
+        return seen[0] - floor, math.acos(max(-1.0, min(1.0, seen[1])))
 
     def _contact_rates(self):
         """(v, a): the contact point's velocity r (w_y, -w_x) and its rate, from ``data.qacc``
@@ -295,16 +337,13 @@ class MujocoRobot:
         self._xy += 0.5 * dt * (v0 + v1) + dt * dt / 12.0 * (a0 - a1)
         self._v0, self._a0 = v1, a1
 
-    def step_gait(self, gait, duration: float, *, record_every: int = 1, controls=None) -> dict:
-        """Run Table II gait ``gait`` (or ``controls`` (n_steps, 4), one row a step) for ``duration``
-        s from ``data.time``; returns the contact point ``x``, ``y`` (n,) every ``record_every``
-        steps, the first row before the first step."""
+    def step_gait(self, gait, duration: float, *, record_every: int = 1) -> dict:
+        """Run Table II gait ``gait`` for ``duration`` s from ``data.time``; returns the contact
+        point ``x``, ``y`` (n,) every ``record_every`` steps, the first row before the first step."""
         m, d = self.model, self.data
         dt = float(m.opt.timestep)
         n = int(round(duration / dt))
-        if controls is None:
-            controls = gait_controls(gait, n, dt, t0=d.time)
-        controls = np.asarray(controls, dtype=float)
+        controls = gait_controls(gait, n, dt, t0=d.time)
         xy = [self.contact_xy()]
         for k in range(n):
             if self.name == "pivot":

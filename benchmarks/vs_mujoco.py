@@ -1,6 +1,6 @@
 """The same robot and leg targets in rrrobot_gym and in MuJoCo, side by side in one run.
 
-    python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--policy]
+    python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--closed-loop | --policy [--model MODEL]]
 
 Needs ``mujoco`` (the ``bench`` extra); the MuJoCo model is ``benchmarks.mujoco_peer``.
 1. Accuracy against cost, N = 1: the three Table II gaits (50 s; --quick 10 s) at several steps in
@@ -8,21 +8,30 @@ Needs ``mujoco`` (the ``bench`` extra); the MuJoCo model is ``benchmarks.mujoco_
 2. Batched throughput, one thread each: N robots under gait 1, our ``advance`` against
    ``mujoco.rollout``; env steps/s = N x (T / 0.05 s) / wall time.
 3. Equal accuracy: MuJoCo's cheapest swept step no worse than our default, and the throughput ratio.
-``--policy`` instead (needs the ``train`` extra too) replays the shipped plane policy's leg targets
-from its ``RRRobot-v0`` rollouts along 0, 90 and 180 deg open loop in MuJoCo (friction 1.0 as the
-env's, RK4 at 0.5 ms, each step holding the ramp at its midpoint): the speed along the heading in
-both, and the largest distance between the two contact paths.
+``--closed-loop`` instead (needs the ``train`` extra too) runs each shipped PPO policy (plane,
+pivot; ``--model`` one of them) from the paper's start along the 8 compass headings (--quick: 0 and
+180 deg, 10 s) here, as evaluate.py does, and closed loop in MuJoCo: every control step the
+observation of MuJoCo's state (``task.observe``), the policy's action, the env's own leg targets
+(``task.step_targets``), and the env's servo (PD law and motor limits, from the policy's env
+keywords) at every RK4 stage (0.5 ms; the plane on a floor of the env's friction). Reported: the
+speed along the heading in both, their ratio, whether either left the model (here the env's
+termination; in MuJoCo a leg tip at the floor or the tilt pi/2) and the largest distance between
+the contact paths. ``--policy``: the same, MuJoCo replaying our env's actions open loop.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 
-from rrrobot_gym.control import table2_gait
-from rrrobot_gym.envs.task import make_task_config
+from rrrobot_gym import dynamics
+from rrrobot_gym.control import HeldTargets, RampTargets, limit_torque, pd_torque, table2_gait
+from rrrobot_gym.envs import task
+from rrrobot_gym.evaluation import COMPASS_DEG, run_episodes, score
+from rrrobot_gym.params import RobotParams
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
 from ._common import contact_error, fmt, machine, markdown_table, median_time, parser, reference, write_json
@@ -33,8 +42,18 @@ OUR_SETTINGS = {
     "pivot": [("rk4 1/140 s (auto)", "auto"), ("rk4 1/300 s (default)", 1 / 300), ("rk4 1/600 s", 1 / 600)],
 }
 MUJOCO_STEPS = (1 / 300, 1 / 1000, 1 / 3000)
-POLICY_HEADINGS_DEG = (0.0, 90.0, 180.0)
+ROOT = Path(__file__).resolve().parent.parent
+POLICIES = {"plane": ROOT / "agents" / "pretrained" / "best_model.zip",
+            "pivot": ROOT / "agents" / "pretrained_pivot" / "best_model.zip"}
+"""The shipped policies."""
 POLICY_MUJOCO_STEP = 0.0005
+
+
+def step_targets(actions, previous_targets, previous_rates, config, t: float = 0.0):
+    """Stand-in for ``task.step_targets`` until it lands: the env's ramp (or hold) to the action's targets."""
+    end = task.action_to_leg_targets(actions)
+    held = RampTargets(previous_targets, end, t, config.dt) if config.action_hold == "linear" else HeldTargets(end)
+    return held, end, (end - previous_targets) / config.dt
 
 
 def mujoco_run(model: str, gait: int, duration: float, dt: float):
@@ -73,67 +92,114 @@ def mujoco_batched(model: str, num_robots: int, duration: float, dt: float, repe
     return float(np.median([wall for wall, _ in runs])), runs[-1][1]
 
 
-def policy_rows(duration: float) -> list:
-    """The shipped plane policy's open-loop replay in MuJoCo against its rollout here, per heading."""
+def servo(sim, held):
+    """The leg torques (t, angles, rates) -> (tau1, tau2) of rrrobot_gym's servo following the leg-target
+    source ``held``: the PD law, then the motor's limits (``sim``'s torque_limit and leg_rate_limit)."""
+    gains, limit, rate_limit = sim.gains, sim.torque_limit, sim.leg_rate_limit
+    return lambda t, angles, rates: limit_torque(pd_torque(gains, angles, rates, held.leg_targets(t)), rates, limit, rate_limit)
+
+
+def mujoco_episode(agent, config, heading_deg: float, steps: int, actions=None):
+    """(contact path (k + 1, 2) every control step, s at which it left the model or None) of one
+    MuJoCo episode from the paper's start. Each step's action comes from the policy on the
+    observation of MuJoCo's state (``task.observe``; closed loop) or from ``actions`` (open loop);
+    the env's own ``step_targets`` turns it into the step's leg targets, and the servo acts at
+    every RK4 stage. It leaves the model where a leg tip reaches the floor or the tilt pi/2."""
+    from .mujoco_peer import MujocoRobot
+
+    if config.sim.robot != RobotParams() or config.sim.legs != "servo":
+        raise ValueError(f"the MuJoCo peer is the paper's robot with servo legs, not {config.sim!r}")
+    robot = MujocoRobot(config.model, timestep=POLICY_MUJOCO_STEP, friction=config.friction_coefficient, servo="torque")
+    heading = np.array([math.radians(heading_deg)])
+    targets, rates = robot.state()[dynamics.LEG_ANGLES], np.zeros(2)  # as the env's reset
+    path = [robot.contact_xy()]
+    for i in range(steps):
+        if actions is None:
+            obs = task.observe(robot.state()[None], heading, config, np.array([i * config.dt]))
+            action = agent.predict(obs, deterministic=True)[0][0]
+        else:
+            action = actions[i]
+        held, targets, rates = step_targets(task.check_actions(action, (2,)), targets, rates, config)
+        lowest_tip, tilt = robot.run_servo(servo(config.sim, held), config.dt)
+        path.append(robot.contact_xy())
+        if lowest_tip <= 0.0 or tilt >= dynamics.TILT_LIMIT:
+            return np.array(path), (i + 1) * config.dt
+    return np.array(path), None
+
+
+def policy_rows(duration: float, headings, closed_loop: bool, models=("plane", "pivot")) -> list:
+    """Each shipped policy along each heading (deg), here (``evaluation.run_episodes``, as evaluate.py
+    runs it) and in MuJoCo (:func:`mujoco_episode`, closed loop or replaying our actions)."""
     from rrrobot_gym.agents.ppo import load_ppo_agent
 
-    from .mujoco_peer import MujocoRobot
-    from .policy_replay import MODEL, rollout
-
-    agent = load_ppo_agent(MODEL)
-    friction = make_task_config(**agent.env_config).friction_coefficient
     rows = []
-    for heading in POLICY_HEADINGS_DEG:
-        states, starts, ends, dt, _ = rollout(agent, heading, round(duration / ENV_STEP))
-        per_step = round(dt / POLICY_MUJOCO_STEP)
-        middle = (np.arange(per_step) + 0.5) / per_step
-        targets = starts[:, None] + (ends - starts)[:, None] * middle[None, :, None]
-        rates = np.broadcast_to(((ends - starts) / dt)[:, None], targets.shape)
-        controls = np.concatenate([targets, rates], axis=-1).reshape(-1, 4)
-        start = states[0]
-        robot = MujocoRobot("plane", timestep=POLICY_MUJOCO_STEP, friction=friction)
-        robot.reset(quat=start[2:6], phi=start[6:8], omega=start[8:11], phidot=start[11:13])
-        out = robot.step_gait(None, len(starts) * dt, record_every=per_step, controls=controls)
-        theirs = np.stack([out["x"], out["y"]], axis=-1) - [out["x"][0], out["y"][0]]
-        ours = states[:, :2] - start[:2]
-        direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
-        seconds = len(starts) * dt
-        rows.append({"heading_deg": heading, "friction": friction, "mujoco_step_s": POLICY_MUJOCO_STEP,
-                     "ours_speed_mps": float(ours[-1] @ direction / seconds),
-                     "mujoco_speed_mps": float(theirs[-1] @ direction / seconds),
-                     "max_path_distance_m": float(np.max(np.hypot(*(theirs - ours).T))),
-                     "distance_travelled_m": float(np.hypot(*ours[-1]))})  # fmt: skip
-        rows[-1]["speed_difference"] = rows[-1]["mujoco_speed_mps"] / rows[-1]["ours_speed_mps"] - 1.0
-        print(rows[-1], flush=True)
+    for model in models:
+        path = POLICIES[model]
+        agent = load_ppo_agent(path)
+        config = task.make_task_config(**agent.env_config)
+        steps = task.control_steps("duration", duration, config.dt)
+        run = run_episodes({"ppo": agent}, config.model, headings, duration)["ppo"]
+        for i, ours in enumerate(score(run, headings)):
+            heading = ours["heading_deg"]
+            ours_path = run["xy"][:, i][np.isfinite(run["xy"][:, i, 0])]
+            actions = None if closed_loop else task.leg_targets_to_action(run["leg_targets"][: len(ours_path) - 1, i])
+            start = time.perf_counter()
+            theirs, ended = mujoco_episode(agent, config, heading, steps if closed_loop else len(actions), actions)
+            wall = time.perf_counter() - start
+            direction = np.array([math.cos(math.radians(heading)), math.sin(math.radians(heading))])
+            n = min(len(theirs), len(ours_path))
+            row = {"model": config.model, "heading_deg": heading, "policy": str(path.relative_to(ROOT)),
+                   "torque_limit": config.torque_limit, "leg_rate_limit": config.leg_rate_limit,
+                   "friction": config.friction_coefficient, "mujoco_step_s": POLICY_MUJOCO_STEP,
+                   "ours_speed_mps": ours["speed_mps"],
+                   "ours_ended_s": (len(ours_path) - 1) * config.dt if ours["terminated"] else None,
+                   "mujoco_speed_mps": float((theirs[-1] - theirs[0]) @ direction / (steps * config.dt)),
+                   "mujoco_ended_s": ended, "max_path_distance_m": float(np.max(np.hypot(*(theirs[:n] - ours_path[:n]).T))),
+                   "distance_travelled_m": float(np.hypot(*(ours_path[-1] - ours_path[0]))), "mujoco_wall_s": wall}  # fmt: skip
+            row["speed_ratio"] = row["mujoco_speed_mps"] / row["ours_speed_mps"] if row["ours_speed_mps"] else math.nan
+            rows.append(row)
+            print(row, flush=True)
     return rows
 
 
-def policy_main(args, duration: float):
-    policy = policy_rows(duration)
+def policy_main(args, closed_loop: bool):
+    duration = 10.0 if args.quick else 50.0
+    headings = (0.0, 180.0) if args.quick else COMPASS_DEG
+    rows = policy_rows(duration, headings, closed_loop, args.model or tuple(POLICIES))
+
+    def ended(when):
+        return "no" if when is None else f"at {when:.2f} s"
+
     text = markdown_table(
-        ["heading (deg)", "rrrobot_gym (mm/s)", f"MuJoCo, friction {policy[0]['friction']:g} (mm/s)", "difference",
-         f"largest distance between the paths, {duration:g} s (mm)", "distance travelled (m)"],
-        [[fmt(r["heading_deg"]), f"{r['ours_speed_mps'] * 1e3:.2f}", f"{r['mujoco_speed_mps'] * 1e3:.2f}",
-          f"{r['speed_difference']:+.2%}", fmt(r["max_path_distance_m"] * 1e3), fmt(r["distance_travelled_m"])]
-         for r in policy],
+        ["model", "heading (deg)", "rrrobot_gym (mm/s)", "MuJoCo (mm/s)", "ratio", "ended (ours / MuJoCo)",
+         f"largest distance between the paths, {duration:g} s (mm)"],
+        [[r["model"], fmt(r["heading_deg"]), f"{r['ours_speed_mps'] * 1e3:.2f}", f"{r['mujoco_speed_mps'] * 1e3:.2f}",
+          f"{r['speed_ratio']:.4f}", f"{ended(r['ours_ended_s'])} / {ended(r['mujoco_ended_s'])}",
+          fmt(r["max_path_distance_m"] * 1e3)] for r in rows],
     )  # fmt: skip
     print()
     print(text)
-    write_json(args.json, {"machine": machine(), "duration_s": duration, "policy": policy, "table": text})
+    write_json(args.json, {"machine": machine(), "duration_s": duration, "loop": "closed" if closed_loop else "open",
+                           "rows": rows, "table": text})  # fmt: skip
 
 
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
-    p.add_argument("--policy", action="store_true",
-                   help="replay the shipped plane policy's leg targets in MuJoCo instead of the gaits")  # fmt: skip
+    loop = p.add_mutually_exclusive_group()
+    loop.add_argument("--closed-loop", action="store_true",
+                      help="run the shipped policies closed loop in MuJoCo instead of the gaits")  # fmt: skip
+    loop.add_argument("--policy", action="store_true",
+                      help="replay the shipped policies' actions from our env open loop in MuJoCo instead of the gaits")  # fmt: skip
+    p.add_argument("--model", choices=tuple(POLICIES), action="append",
+                   help="with --closed-loop or --policy: this model's policy only (repeatable; default both)")  # fmt: skip
     args = p.parse_args(argv)
     try:
         import mujoco  # noqa: F401
     except ImportError:
         raise SystemExit("benchmarks.vs_mujoco needs the optional dependency mujoco: pip install mujoco")
+    if args.closed_loop or args.policy:
+        return policy_main(args, args.closed_loop)
     duration = 10.0 if args.quick else 50.0
-    if args.policy:
-        return policy_main(args, duration)
     gaits = (1, 2, 3)
     mj_steps = MUJOCO_STEPS[:2] if args.quick else MUJOCO_STEPS
     accuracy = []
