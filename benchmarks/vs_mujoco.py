@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from rrrobot_gym import dynamics
-from rrrobot_gym.control import HeldTargets, RampTargets, limit_torque, pd_torque, table2_gait
+from rrrobot_gym.control import limit_torque, pd_torque, table2_gait
 from rrrobot_gym.envs import task
 from rrrobot_gym.evaluation import COMPASS_DEG, run_episodes, score
 from rrrobot_gym.params import RobotParams
@@ -47,13 +47,6 @@ POLICIES = {"plane": ROOT / "agents" / "pretrained" / "best_model.zip",
             "pivot": ROOT / "agents" / "pretrained_pivot" / "best_model.zip"}
 """The shipped policies."""
 POLICY_MUJOCO_STEP = 0.0005
-
-
-def step_targets(actions, previous_targets, previous_rates, config, t: float = 0.0):
-    """Stand-in for ``task.step_targets`` until it lands: the env's ramp (or hold) to the action's targets."""
-    end = task.action_to_leg_targets(actions)
-    held = RampTargets(previous_targets, end, t, config.dt) if config.action_hold == "linear" else HeldTargets(end)
-    return held, end, (end - previous_targets) / config.dt
 
 
 def mujoco_run(model: str, gait: int, duration: float, dt: float):
@@ -119,7 +112,7 @@ def mujoco_episode(agent, config, heading_deg: float, steps: int, actions=None):
             action = agent.predict(obs, deterministic=True)[0][0]
         else:
             action = actions[i]
-        held, targets, rates = step_targets(task.check_actions(action, (2,)), targets, rates, config)
+        held, targets, rates = task.step_targets(task.check_actions(action, (2,)), targets, rates, config)
         lowest_tip, tilt = robot.run_servo(servo(config.sim, held), config.dt)
         path.append(robot.contact_xy())
         if lowest_tip <= 0.0 or tilt >= dynamics.TILT_LIMIT:
