@@ -13,6 +13,16 @@ checkpoints, ``final_model.zip`` (also on Ctrl-C), each model's VecNormalize sta
 it, ``env_kwargs.json`` (every env keyword, from which ``rrrobot_gym.agents.load_ppo_agent``
 rebuilds the env), ``args.json`` and ``command.txt``. ``--total-timesteps`` is rounded up to
 whole rollouts of ``num_envs x n_steps``. Loading a model unpickles it: trusted files only.
+
+``evaluations.npz`` holds SB3's ``timesteps``, ``results`` (each evaluation's returns) and
+``ep_lengths``, plus ``wall_time_s`` (s from ``main()``'s start to each evaluation's end) and
+``heading_speeds_mm_s`` (evaluations x headings: speed along each heading in
+``speed_headings_deg``, scored by :func:`rrrobot_gym.evaluation.score`: the nominal robot from the
+paper's start, over ``--episode-steps``; a mirrored policy's headings towards -Y are its +Y
+headings' mirror images, the same episodes).
+
+``--seeds K`` runs K such runs instead (seeds ``--seed`` ... ``--seed`` + K - 1) into one folder
+and summarises them (:mod:`rrrobot_gym.seeds`).
 """
 
 from __future__ import annotations
@@ -107,7 +117,21 @@ class Args:
     torch_threads: int = _option(
         2, "torch CPU threads for PPO's updates; the model's construction, the rollouts and the evaluations run on one "
         "(the env steps between updates, so its core is free then)")
+    seeds: int | None = _option(
+        None, "run this many runs (seeds --seed, --seed + 1, ...; every other option as given) into one folder and "
+        "write summary.json and summary.md there (rrrobot_gym/seeds.py); each run on --torch-threads 1 unless given")
+    bar: float | None = _option(
+        None, "with --seeds: mm/s, the worst heading's speed a run must reach (its time to the bar)")
+    bar_from: str | None = _option(
+        None, "with --seeds, instead of --bar: a gait-search JSON (rrrobot gait-search) searched under this run's "
+        "servo; the bar is its best gait's speed along its own direction from the paper's start")
+    ray_address: str | None = _option(
+        None, "with --seeds: run each run as a Ray task on this cluster (host:port, or local), its files gathered here")
+    bootstrap_reps: int = _option(50_000, "with --seeds: bootstrap replications of the IQM's confidence interval")
 
+
+SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps")
+"""The options of ``--seeds`` (:mod:`rrrobot_gym.seeds`), which its runs are not given."""
 
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
 """PPO settings a resumed run takes from the command line when given there (else the model's own)."""
@@ -232,6 +256,17 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
                          "give --mirror")
         _check_resumed_model(parser, args)
+    if args.seeds is None:
+        given = sorted(given_flags(argv) & set(SEEDS_OPTIONS))
+        if given:
+            parser.error(f"--{given[0].replace('_', '-')} is an option of --seeds")
+    else:
+        from .seeds import check_seeds_args
+
+        try:
+            check_seeds_args(args, env_config(args))
+        except ValueError as exc:
+            parser.error(str(exc))
     return args
 
 
@@ -398,21 +433,84 @@ def eval_headings(args: Args):
 
 def make_eval_env(args: Args, seed: int):
     """One env per evaluation heading, from the paper's start (no noise); otherwise the training
-    env's keywords (the same reward) and episode length."""
+    env's keywords (the same reward) and episode length. Its ``unwrapped.run()`` is the last
+    evaluation's first episodes as :func:`rrrobot_gym.evaluation.run_episodes` returns a run."""
     from .envs.sb3 import RRRobotSB3VecEnv
+    from .evaluation import EFFORT_KEYS
 
     headings = eval_headings(args)
 
     class _FixedHeadings(RRRobotSB3VecEnv):
         def reset(self):
             self.set_options({"target_direction": headings})
-            return super().reset()
+            observations = super().reset()
+            self._path = [[(info["x_position"], info["y_position"]) for info in self.reset_infos]]
+            self._effort = {key: [] for key in EFFORT_KEYS}
+            self._ended = np.zeros(self.num_envs, dtype=bool)
+            self._left = np.zeros(self.num_envs, dtype=bool)  # (terminated: left the model)
+            return observations
+
+        def step_wait(self):
+            observations, rewards, dones, infos = super().step_wait()
+            live = ~self._ended  # (each robot's first episode is recorded)
+            self._path.append([(info["x_position"], info["y_position"]) if on else (np.nan, np.nan)
+                               for info, on in zip(infos, live)])
+            for key, values in self._effort.items():
+                values.append([info[key] if on else np.nan for info, on in zip(infos, live)])
+            self._left |= live & dones & ~np.array([info["TimeLimit.truncated"] for info in infos])
+            self._ended |= dones
+            return observations, rewards, dones, infos
+
+        def run(self) -> dict:
+            steps = args.episode_steps  # (speeds are over the whole episode, as evaluate.py's)
+            xy = np.full((steps + 1, self.num_envs, 2), np.nan)
+            xy[:len(self._path)] = self._path
+            effort = {key: np.full((steps, self.num_envs), np.nan) for key in self._effort}
+            for key, values in self._effort.items():
+                effort[key][:len(values)] = values
+            return {"times": np.arange(steps + 1) * self.vector_env.dt, "xy": xy, "terminated": self._left.copy(),
+                    **effort}
 
     venv = _FixedHeadings(
         num_envs=len(headings), max_episode_steps=args.episode_steps,
         **{**env_kwargs(args), "reset_noise_scale": 0.0, "randomize": None},
     )
     return _as_policy_sees(args, venv, seed)
+
+
+def heading_speeds(args: Args, run: dict) -> tuple:
+    """The evaluation headings (deg) and the speeds along them (mm/s) of an evaluation's ``run``
+    (:func:`make_eval_env`), scored by :func:`rrrobot_gym.evaluation.score`; a mirrored policy's
+    headings towards -Y are added as its +Y headings' mirror images (the same episodes)."""
+    from .evaluation import score
+
+    degrees = np.degrees(eval_headings(args))
+    speeds = np.array([record["speed_mps"] * 1e3 for record in score(run, degrees)])
+    if args.mirror:  # 0, 45, ..., 180: 225, 270 and 315 mirror 135, 90 and 45
+        degrees, speeds = np.concatenate([degrees, 360 - degrees[-2:0:-1]]), np.concatenate([speeds, speeds[-2:0:-1]])
+    return degrees, speeds
+
+
+def seed_argv(argv, seed: int) -> list:
+    """The command line of --seeds' run of ``seed`` (:mod:`rrrobot_gym.seeds`): the options given in
+    ``argv`` but those of --seeds and --runs-dir, on one torch thread unless given, without a
+    progress bar; the files it reads by absolute path."""
+    given = {name: value for name, value in vars(_parser(given_only=True).parse_args(argv)).items()
+             if name not in (*SEEDS_OPTIONS, "seed", "runs_dir", "progress_bar")}
+    for name in ("resume", "residual_on"):
+        if given.get(name) is not None:
+            given[name] = str(Path(given[name]).resolve())
+    given = {"torch_threads": 1, **given, "seed": seed, "progress_bar": False}
+    out = []
+    for name, value in given.items():
+        flag = "--" + name.replace("_", "-")
+        if isinstance(value, bool):
+            out.append(flag if value else "--no-" + flag[2:])
+        elif isinstance(value, list):  # (a repeatable option)
+            out += [part for item in value for part in (flag, item)]
+        else:
+            out += [flag, "none" if value is None else str(value)]
+    return out
 
 
 def stop_on_ctrl_c():
@@ -476,12 +574,21 @@ def run_name(args: Args) -> str:
 
 
 def main(argv=None) -> Path:
+    started = time.monotonic()
     args = parse_args(argv)
+    if args.seeds is not None:
+        from .seeds import run_seeds
+
+        argv = sys.argv[1:] if argv is None else list(argv)
+        rows = [(seed, seed_argv(argv, seed)) for seed in range(args.seed, args.seed + args.seeds)]
+        return run_seeds(args, rows, f"{ENV_ID}__{args.exp_name}__", env_config(args))
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
+
+    from .seeds import selection_score
 
     torch.set_num_threads(1)  # (until the first update: ThreadsForUpdates)
     random.seed(args.seed)
@@ -513,22 +620,30 @@ def main(argv=None) -> Path:
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
     class SaveBest(EvalCallback):
-        """Saves best_model.zip and its statistics at the best evaluation by --select-by."""
+        """Saves best_model.zip and its statistics at the best evaluation by --select-by, and adds
+        each evaluation's wall time and heading speeds to evaluations.npz."""
 
         best_score = -math.inf
+        wall_times, speeds = [], []
 
         def _on_step(self) -> bool:
             done = len(self.evaluations_results)
             result = super()._on_step()
             if len(self.evaluations_results) > done:
-                returns = np.asarray(self.evaluations_results[-1], dtype=float)
-                score = float(returns.min() if args.select_by == "worst" else returns.mean())
+                self.wall_times.append(time.monotonic() - started)
+                degrees, speeds = heading_speeds(args, self.eval_env.unwrapped.run())
+                self.speeds.append(speeds)
+                with np.load(self.log_path + ".npz") as saved:  # (SB3's keys, as it just wrote them)
+                    np.savez(self.log_path, **saved, wall_time_s=self.wall_times, heading_speeds_mm_s=self.speeds,
+                             speed_headings_deg=degrees)
+                score = selection_score(self.evaluations_results[-1], args.select_by)  # (as the seeds' summary)
                 if score > self.best_score:
                     self.best_score = score
                     self.model.save(run_dir / "best_model.zip")
                     train_env.save(str(run_dir / "vecnormalize.pkl"))
                     print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
-                          f"return {score:,.0f}", flush=True)
+                          f"return {score:,.0f}, heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} "
+                          "mean", flush=True)
             return result
 
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
