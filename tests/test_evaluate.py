@@ -274,6 +274,7 @@ def test_the_tables_and_plots_name_the_duration_scored_and_explain_an_ended_epis
     first = data["gaits"][0]
     leaves = dict(zip(first["parameters"], [1.4798, 1.4974, 1.5664, 1.5771, 8.6063, -1.8792]))
     data["gaits"] = [dict(first, name="leaves", parameters=leaves)]
+    data["ramp_s"] = 0.0  # (its swing at once, as searched then)
     gaits.write_text(json.dumps(data))
     table = tmp_path / "table.md"
     main(["--no-policy", "--models", "plane", "--duration", "1.5", "--gaits", str(gaits), "--markdown", str(table),

@@ -195,12 +195,16 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
     from rrrobot_gym import training
 
     args = training.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
-                             "--torque-limit", "0.5", "--leg-rate-limit", "10", *heading,
+                             "--torque-limit", "0.5", "--leg-rate-limit", "10", "--randomize", "none", *heading,
                              "--env", "contact_quadrature=trapezoid", "--env", "max-slip-velocity=0.03"])  # fmt: skip
     train_env = training.make_env(args, 2, seed=0).venv.vector_env
     evaluation = training.make_eval_env(args, seed=1).venv.vector_env
     # the same keywords but the start noise (evaluations start from the paper's start), the same episode
     assert evaluation.config == dataclasses.replace(train_env.config, reset_noise_scale=0.0)
+    # (by default training draws a robot an episode, and evaluations run the nominal one)
+    randomized = training.parse_args(heading)
+    assert training.make_env(randomized, 2, seed=0).venv.vector_env.config.randomize == "default"
+    assert training.make_eval_env(randomized, seed=1).venv.vector_env.config.randomize is None
     assert evaluation.max_episode_steps == train_env.max_episode_steps == 123
     assert (train_env.config.torque_limit, train_env.config.leg_rate_limit) == (0.5, 10.0)
     assert (train_env.config.contact_quadrature, train_env.config.max_slip_velocity) == ("trapezoid", 0.03)
@@ -228,7 +232,9 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
 @pytest.mark.parametrize("argv, named", [
     (["--torque-limit", "-1"], "--torque-limit"),
     (["--torque-limit", "nan"], "--torque-limit"),
-    (["--leg-rate-limit", "10"], "--torque-limit"),
+    (["--torque-limit", "none", "--leg-rate-limit", "10"], "--torque-limit"),
+    (["--leg-accel-limit", "-60"], "--leg-accel-limit"),
+    (["--randomize", "sometimes"], "randomize"),
     (["--clock-frequency", "0"], "--clock-frequency"),
 ])
 def test_bad_motor_and_clock_arguments_are_named(argv, named, capsys):

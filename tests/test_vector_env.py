@@ -326,7 +326,8 @@ def test_env_signatures_and_the_arguments_table_list_exactly_the_task_config_fie
         parameters = inspect.signature(env_class).parameters
         assert {name: p.default for name, p in parameters.items()} == {**own, **fields, **render}
         assert all(parameters[name].annotation != inspect.Parameter.empty for name in fields)
-    table = [line.split("|")[1].strip() for line in RRRobotEnv.__doc__.splitlines() if line.strip().startswith("| `")]
+    arguments = RRRobotEnv.__doc__.split("## Arguments")[1].split("## Version History")[0]
+    table = [line.split("|")[1].strip() for line in arguments.splitlines() if line.strip().startswith("| `")]
     assert table == [f"`{name}`" for name in [*fields, *render]]
     assert all(f.metadata["doc"] for f in dataclasses.fields(TaskConfig))
 
