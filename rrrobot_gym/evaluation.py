@@ -308,6 +308,7 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
         on_model = agents_on(model, agents, per_model)
         imposed = physics_on(model, on_model, physics)
         env_kwargs = shared_env_kwargs(on_model, **imposed)  # (one env's keywords for all, as in evaluate)
+        env_kwargs.pop("randomize", None)  # (the ranges asked for, not a policy's own)
         headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
         seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
         own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}
