@@ -52,7 +52,8 @@ def settings():
 
 def rollout(agent, heading_deg: float, n_steps: int, seed: int = 0):
     """(states (n + 1, 13), ramp starts (n, 2), ramp ends (n, 2), control step, simulator config) of one episode."""
-    kwargs = {**agent.env_config, "terminate_outside_model": False}  # the whole path, even where it leaves the model
+    # the whole path, even where it leaves the model, on the nominal robot (the replay's)
+    kwargs = {**agent.env_config, "terminate_outside_model": False, "randomize": None}
     env = gym.make("RRRobot-v0", max_episode_steps=n_steps, **kwargs)
     obs, _ = env.reset(seed=seed, options={"target_direction": math.radians(heading_deg)})
     env_core = env.unwrapped

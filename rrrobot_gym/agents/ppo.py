@@ -16,8 +16,9 @@ from .mirror import MIRROR_FILE, MirroredAgent, is_mirrored
 from .residual import RESIDUAL_FILE, ResidualAgent, load_base, run_directory
 
 
-SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale")
-"""Env keywords whoever runs a policy chooses; :attr:`PPOAgent.env_kwargs` leaves them out."""
+SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale", "randomize")
+"""Env keywords whoever runs a policy chooses (the scene, and whether its robot is drawn at random);
+:attr:`PPOAgent.env_kwargs` leaves them out."""
 
 
 class PPOAgent:
