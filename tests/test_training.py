@@ -65,7 +65,8 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
     agent = load_ppo_agent(run_dir / "best_model.zip")
     # env_kwargs.json holds every env keyword: the agent rebuilds the training env's config
     assert set(json.loads((run_dir / "env_kwargs.json").read_text())) == set(RRRobotEnv().config.to_kwargs())
-    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5).config
+    # (train.py randomizes the robot by default: the training env's keyword too)
+    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5, randomize="default").config
     assert "model" not in agent.env_kwargs and agent.env_kwargs["healthy_reward"] == 0.5
     assert run_dir.name.startswith("RRRobot-v0__ppo__3__")
     for name in ("best_model.zip", "vecnormalize.pkl", "final_model.zip", "final_vecnormalize.pkl",
