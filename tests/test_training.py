@@ -321,20 +321,22 @@ def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(
 
 def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     """Checkpoints sit in RUN/checkpoints/ and the run's env_kwargs.json one directory up: a
-    checkpoint of a pivot run under motor limits loads with those keywords, not the defaults."""
+    checkpoint of a pivot run under motor limits loads with those keywords, not the defaults
+    (limits here made other than the env's defaults, which the shipped run may have trained under)."""
     import shutil
 
     from rrrobot_gym.agents import load_ppo_agent
 
     shipped = ROOT / "agents" / "pretrained_pivot"
     (tmp_path / "checkpoints").mkdir()
-    shutil.copy(shipped / "env_kwargs.json", tmp_path / "env_kwargs.json")
+    run_kwargs = {**json.loads((shipped / "env_kwargs.json").read_text()), "torque_limit": 0.4, "leg_rate_limit": 8.0}
+    (tmp_path / "env_kwargs.json").write_text(json.dumps(run_kwargs))
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
     shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
-    assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
+    assert agent.env_kwargs["torque_limit"] == 0.4 and agent.env_kwargs["leg_rate_limit"] == 8.0
 
 
 @pytest.mark.parametrize(
