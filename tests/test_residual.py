@@ -16,14 +16,17 @@ from tests.test_training import ROOT, TINY, evaluate_here, train_here
 BASE = ROOT / "agents" / "searched" / "turn_then_run.json"
 HEADINGS = np.radians([0.0, 90.0, 135.0, 200.0])
 BASE_SERVO = json.loads(BASE.read_text())["env_kwargs"]
-"""The servo the base was searched under (the ideal one), under which it stays in the model."""
+"""The servo the base was searched under (the default one), under which it stays in the model."""
+IDEAL_BASE = ROOT / "agents" / "searched" / "turn_then_run_robust.json"
+"""A base searched under the paper's ideal servo (its ``env_kwargs``)."""
 
 
-def _wrapped(scale=0.05, episode_steps=30):
-    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0, **BASE_SERVO)
+def _wrapped(scale=0.05, episode_steps=30, base=BASE):
+    servo = json.loads(base.read_text())["env_kwargs"]
+    venv = RRRobotSB3VecEnv(num_envs=len(HEADINGS), max_episode_steps=episode_steps, reset_noise_scale=0.0, **servo)
     venv.set_options({"target_direction": HEADINGS})
     venv.seed(0)  # the next episodes' headings are drawn: as the plain envs below draw them
-    return make_residual_vec_env(venv, load_turn_then_run_agent(BASE), scale)
+    return make_residual_vec_env(venv, load_turn_then_run_agent(base), scale)
 
 
 def test_a_zero_residual_runs_the_base_agent_exactly_across_an_episode_end():
@@ -59,7 +62,10 @@ def test_a_zero_residual_runs_the_base_agent_exactly_across_an_episode_end():
 
 
 def test_the_policy_moves_the_leg_targets_by_at_most_the_scale():
-    wrapped = _wrapped(scale=0.05)  # (the ideal servo: its reference ends each step on the action's target)
+    # (on the ideal servo the reference ends each step on the action's target; the default servo's
+    # motion profile would hold it short of a far target)
+    wrapped = _wrapped(scale=0.05, base=IDEAL_BASE)
+    assert wrapped.venv.vector_env.config.leg_accel_limit is None
     wrapped.reset()
     before = wrapped.base_actions.copy()
     wrapped.step(np.tile([5.0, -0.5], (len(HEADINGS), 1)).astype(np.float32))  # clipped to 1, then 0.05 x

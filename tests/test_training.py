@@ -65,7 +65,8 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
     agent = load_ppo_agent(run_dir / "best_model.zip")
     # env_kwargs.json holds every env keyword: the agent rebuilds the training env's config
     assert set(json.loads((run_dir / "env_kwargs.json").read_text())) == set(RRRobotEnv().config.to_kwargs())
-    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5).config
+    # (train.py randomizes the robot by default: the training env's keyword too)
+    assert RRRobotEnv(**agent.env_config).config == RRRobotEnv(healthy_reward=0.5, randomize="default").config
     assert "model" not in agent.env_kwargs and agent.env_kwargs["healthy_reward"] == 0.5
     assert run_dir.name.startswith("RRRobot-v0__ppo__3__")
     for name in ("best_model.zip", "vecnormalize.pkl", "final_model.zip", "final_vecnormalize.pkl",
@@ -320,20 +321,22 @@ def test_a_gait_agent_made_for_an_env_plays_the_gait_at_that_env_s_control_step(
 
 def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     """Checkpoints sit in RUN/checkpoints/ and the run's env_kwargs.json one directory up: a
-    checkpoint of a pivot run under motor limits loads with those keywords, not the defaults."""
+    checkpoint of a pivot run under motor limits loads with those keywords, not the defaults
+    (limits here made other than the env's defaults, which the shipped run may have trained under)."""
     import shutil
 
     from rrrobot_gym.agents import load_ppo_agent
 
     shipped = ROOT / "agents" / "pretrained_pivot"
     (tmp_path / "checkpoints").mkdir()
-    shutil.copy(shipped / "env_kwargs.json", tmp_path / "env_kwargs.json")
+    run_kwargs = {**json.loads((shipped / "env_kwargs.json").read_text()), "torque_limit": 0.4, "leg_rate_limit": 8.0}
+    (tmp_path / "env_kwargs.json").write_text(json.dumps(run_kwargs))
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
     shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
-    assert agent.env_kwargs["torque_limit"] == 0.5 and agent.env_kwargs["leg_rate_limit"] == 10.0
+    assert agent.env_kwargs["torque_limit"] == 0.4 and agent.env_kwargs["leg_rate_limit"] == 8.0
 
 
 @pytest.mark.parametrize(
