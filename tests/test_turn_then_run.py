@@ -222,7 +222,11 @@ def test_the_heading_correction_holds_the_pivot_on_its_heading(tmp_path):
     gait_file = PIVOT_FILE.with_name("pivot_own_limited.json")
     (tmp_path / gait_file.name).write_text(gait_file.read_text())
     spec = {"steer_gain": 0.01, "steer_integral": 0.01, "steer_limit": 0.0075}
+    # (the maneuver and gait the correction was tuned with: the lead, the 3.66 s blend into the gait)
+    maneuver = {"turn_gait": [1.3858, 1.0593, 2.4530, 1.2129, 10.5903, -0.8368], "lead_s": 2.6035, "ramp_s": 3.6624,
+                "run_gait": "searched-pivot-own-1"}
     corrected = _variant(PIVOT_FILE, tmp_path, "limited.json", run_gait_file=gait_file.name, direction_offset_deg=-90.0,
+                         **maneuver,
                          env_kwargs=json.loads(gait_file.read_text())["env_kwargs"], **spec)  # fmt: skip
     assert corrected.steering and corrected.search_env_kwargs["leg_accel_limit"] is None
     plain = TurnThenRunAgent(corrected.turn_gait, corrected.run_gait, dt=corrected.dt, lead=corrected.lead,
