@@ -307,8 +307,6 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
     for model in models:
         on_model = agents_on(model, agents, per_model)
         imposed = physics_on(model, on_model, physics)
-        env_kwargs = shared_env_kwargs(on_model, **imposed)  # (one env's keywords for all, as in evaluate)
-        env_kwargs.pop("randomize", None)  # (the ranges asked for, not a policy's own)
         headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
         seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
         own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}
@@ -318,7 +316,7 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
                    "physics": physics_shown(imposed), "searched_gaits": searched, "robots": [], "agents": {}}
         for name, agent in on_model.items():
             run = run_episodes({name: agent}, model, headings, duration, seed, randomize=ranges, robot_seeds=seeds,
-                               **env_kwargs)[name]  # fmt: skip
+                               **imposed)[name]  # fmt: skip
             runs[(name, model)] = {"compass": run}
             rows = [slice(k * n, (k + 1) * n) for k in range(len(COMPASS_DEG))]
             per_heading = [spread(rows_of(run, r), h) for h, r in zip(COMPASS_DEG, rows)]
@@ -336,7 +334,7 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
                 slot = len(COMPASS_DEG) + list(own_here).index(name)
                 own_seeds = robot_seeds(seed, slot, n)
                 own_run = run_episodes({name: agent}, model, [own_here[name]] * n, duration, seed, randomize=ranges,
-                                       robot_seeds=own_seeds, **env_kwargs)[name]  # fmt: skip
+                                       robot_seeds=own_seeds, **imposed)[name]  # fmt: skip
                 runs[(name, model)]["own_direction"] = own_run
                 summary["own_direction"] = spread(own_run, own_here[name]) | {
                     "seeds": own_seeds, "draws": {key: values.tolist() for key, values in own_run["draws"].items()}}

@@ -243,7 +243,7 @@ def delayed_actions(actions, previous, draws):
     delay = draws.get("action_delay")
     if delay is None:
         return actions
-    return np.where(delay.reshape(-1, 1).reshape(np.shape(actions)[:-1] + (1,)) > 0, previous, actions)
+    return np.where(delay.reshape(np.shape(actions)[:-1] + (1,)) > 0, previous, actions)
 
 
 def noisy(observations, draws, rng):
