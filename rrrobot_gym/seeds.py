@@ -54,14 +54,15 @@ IQM_RANDOM_SEED = 0
 
 
 def check_seeds_args(args, trained: dict) -> None:
-    """Raise ValueError naming the problem with ``--seeds`` and its options (train.py's Args;
+    """Raise ValueError naming the problem with ``--seeds`` (or ``--sweep``) and its options (train.py's Args;
     ``trained``: the runs' env keywords as JSON, :func:`rrrobot_gym.training.env_config`)."""
-    if args.seeds < 1:
+    if args.seeds is not None and args.seeds < 1:
         raise ValueError(f"--seeds must be a positive integer, got {args.seeds}")
-    if args.seed + args.seeds > 2**32 - 100_000:
+    if args.seeds is not None and args.seed + args.seeds > 2**32 - 100_000:
         raise ValueError(f"--seed {args.seed} + --seeds {args.seeds} passes the last seed, 2**32 - 100001")
     if (args.bar is None) == (args.bar_from is None):
-        raise ValueError("--seeds needs a bar: give --bar MM_PER_S or --bar-from GAIT_SEARCH.json (one of them)")
+        raise ValueError(f"--{'seeds' if args.seeds is not None else 'sweep'} needs a bar: give --bar MM_PER_S or "
+                         "--bar-from GAIT_SEARCH.json (one of them)")
     if args.bar is not None and not math.isfinite(args.bar):
         raise ValueError(f"--bar must be a finite speed in mm/s, got {args.bar}")
     if args.bootstrap_reps < 1:
@@ -107,16 +108,17 @@ def bar_from_gait_search(path, model: str, trained: dict) -> tuple:
     return speeds[name], f"{path}: {name}, along its own direction from the paper's start"
 
 
-def run_one(seed: int, argv: list, runs_dir) -> dict:
-    """Run train.py's ``argv`` into ``runs_dir`` in a subprocess, its output in ``seed<S>.log`` there."""
+def run_one(seed: int, argv: list, runs_dir, log: str | None = None) -> dict:
+    """Run train.py's ``argv`` into ``runs_dir`` in a subprocess, its output in ``log`` there
+    (default ``seed<S>.log``)."""
     package_root = str(Path(__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])}
-    log = Path(runs_dir) / f"seed{seed}.log"
+    log = log or f"seed{seed}.log"
     start = time.monotonic()
-    with log.open("w") as out:
+    with (Path(runs_dir) / log).open("w") as out:
         returncode = subprocess.run([sys.executable, "-m", "rrrobot_gym.training", *argv, "--runs-dir", str(runs_dir)],
                                     stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env).returncode
-    return {"seed": seed, "returncode": returncode, "run_seconds": round(time.monotonic() - start, 3)}
+    return {"seed": seed, "returncode": returncode, "run_seconds": round(time.monotonic() - start, 3), "log": log}
 
 
 def _reported(result: dict) -> dict:
@@ -129,12 +131,32 @@ def _run_remote(rows, settings) -> list:
     """A Ray task's runs (``rows``: (seed, argv)), each in a temporary folder: :func:`run_one`'s
     results with ``files``, that folder's {relative path: bytes}."""
     results = []
-    for seed, argv in rows:
+    for row in rows:
         with tempfile.TemporaryDirectory() as folder:
-            result = run_one(seed, argv, folder)
+            result = run_one(row[0], row[1], folder, *row[2:])
             result["files"] = {str(p.relative_to(folder)): p.read_bytes() for p in Path(folder).rglob("*") if p.is_file()}
         results.append(result)
     return results
+
+
+def run_remote(rows, address: str, folder: Path) -> list:
+    """:func:`run_one` of each row ((seed, argv) or (seed, argv, log)) as a Ray task on the cluster
+    at ``address``, its files written into ``folder``: the results."""
+    from .gait_search import ray_map
+
+    results = [result for chunk in ray_map(_run_remote, rows, {}, address, len(rows)) for result in chunk]
+    for result in results:
+        for name, data in result.pop("files").items():
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
+            (folder / name).write_bytes(data)
+    return results
+
+
+def bar_of(args, trained: dict) -> tuple:
+    """(mm/s, its source): ``--bar``, or ``--bar-from``'s (:func:`bar_from_gait_search`)."""
+    if args.bar is not None:
+        return args.bar, "--bar"
+    return bar_from_gait_search(args.bar_from, args.model, trained)
 
 
 def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
@@ -142,10 +164,7 @@ def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
     folders named ``prefix`` + seed + ...) of the env keywords ``trained`` (as JSON), then
     summary.json and summary.md in their folder (module docstring)."""
     start = time.monotonic()
-    if args.bar is not None:
-        bar, source = args.bar, "--bar"
-    else:
-        bar, source = bar_from_gait_search(args.bar_from, args.model, trained)
+    bar, source = bar_of(args, trained)
     first, last = rows[0][0], rows[-1][0]
     folder = Path(args.runs_dir) / f"{prefix}seeds{first}-{last}__{int(time.time())}"
     folder.mkdir(parents=True, exist_ok=False)
@@ -154,13 +173,7 @@ def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
         with ThreadPoolExecutor(max_workers=min(len(rows), os.cpu_count() or 1)) as pool:
             results = list(pool.map(lambda row: _reported(run_one(row[0], row[1], folder)), rows))
     else:
-        from .gait_search import ray_map
-
-        results = [result for chunk in ray_map(_run_remote, rows, {}, args.ray_address, len(rows)) for result in chunk]
-        for result in map(_reported, results):
-            for name, data in result.pop("files").items():
-                (folder / name).parent.mkdir(parents=True, exist_ok=True)
-                (folder / name).write_bytes(data)
+        results = list(map(_reported, run_remote(rows, args.ray_address, folder)))
     summary = summarize(folder, results, bar, source, args, prefix, round(time.monotonic() - start, 3))
     summary["command"] = " ".join([sys.executable, *sys.argv])
     (folder / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
@@ -180,7 +193,7 @@ def seed_record(folder: Path, result: dict, bar: float, select_by: str, prefix: 
     """One run's entry of the summary (module docstring) from its :func:`run_one` ``result``."""
     found = sorted(p.name for p in folder.iterdir() if p.is_dir() and p.name.startswith(f"{prefix}{result['seed']}__"))
     record = {"seed": result["seed"], "status": "ok", "returncode": result["returncode"],
-              "run_dir": found[-1] if found else None, "log": f"seed{result['seed']}.log",
+              "run_dir": found[-1] if found else None, "log": result["log"],
               "run_seconds": result["run_seconds"]}
     if result["returncode"] != 0:
         lines = (folder / record["log"]).read_text(errors="replace").strip().splitlines()

@@ -100,6 +100,12 @@ class Args:
         "those with options of their own; saved in env_kwargs.json, so evaluate.py holds the agents compared to them)")
     episode_steps: int = _option(1000, "control steps per training episode (1000 = 50 s)")
     eval_freq: int = _option(250_000, "evaluate every this many env steps")
+    max_minutes: float | None = _option(
+        None, "end training after this many minutes of wall time (from the start), saving as at its end; none: no "
+        "limit (the learning rate still falls over --total-timesteps)")
+    stop_at_speed: float | None = _option(
+        None, "mm/s: end training at the first evaluation whose worst heading reaches this speed (a sweep's trials "
+        "stop at the bar); none: train on")
     checkpoint_freq: int = _option(1_000_000, "save a checkpoint every this many env steps")
     resume: str | None = _option(None, "a model zip to continue from (its vecnormalize.pkl beside it)")
     runs_dir: str = _option("runs", "where runs are written")
@@ -128,6 +134,9 @@ class Args:
     ray_address: str | None = _option(
         None, "with --seeds: run each run as a Ray task on this cluster (host:port, or local), its files gathered here")
     bootstrap_reps: int = _option(50_000, "with --seeds: bootstrap replications of the IQM's confidence interval")
+    sweep: int | None = _option(
+        None, "run this many trials of an optuna sweep of the PPO settings for the wall time to --bar (or --bar-from), "
+        "each ending there or after --max-minutes (rrrobot_gym/sweep.py); summary.json and summary.md in its folder")
 
 
 SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps")
@@ -214,6 +223,10 @@ def parse_args(argv=None) -> Args:
         parser.error("--direction-deg must be a finite number of degrees")
     if args.clock_frequency is not None and not (math.isfinite(args.clock_frequency) and args.clock_frequency > 0):
         parser.error("--clock-frequency must be a positive number of rad/s")
+    if args.max_minutes is not None and not (math.isfinite(args.max_minutes) and args.max_minutes > 0):
+        parser.error(f"--max-minutes must be a positive number, got {args.max_minutes}")
+    if args.stop_at_speed is not None and not math.isfinite(args.stop_at_speed):
+        parser.error(f"--stop-at-speed must be a finite speed in mm/s, got {args.stop_at_speed}")
     for name in ("learning_rate", "learning_rate_final"):
         value = getattr(args, name)
         if value is not None and not (math.isfinite(value) and value >= 0):
@@ -256,10 +269,17 @@ def parse_args(argv=None) -> Args:
             parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
                          "give --mirror")
         _check_resumed_model(parser, args)
-    if args.seeds is None:
+    if args.sweep is not None:
+        if args.seeds is not None:
+            parser.error("--sweep and --seeds cannot be combined (a sweep's trials run on --seed)")
+        if args.sweep < 1:
+            parser.error(f"--sweep must be a positive integer, got {args.sweep}")
+        if args.max_minutes is None:
+            parser.error("--sweep needs --max-minutes: each trial's wall-time budget")
+    if args.seeds is None and args.sweep is None:
         given = sorted(given_flags(argv) & set(SEEDS_OPTIONS))
         if given:
-            parser.error(f"--{given[0].replace('_', '-')} is an option of --seeds")
+            parser.error(f"--{given[0].replace('_', '-')} is an option of --seeds and --sweep")
     else:
         from .seeds import check_seeds_args
 
@@ -491,16 +511,17 @@ def heading_speeds(args: Args, run: dict) -> tuple:
     return degrees, speeds
 
 
-def seed_argv(argv, seed: int) -> list:
-    """The command line of --seeds' run of ``seed`` (:mod:`rrrobot_gym.seeds`): the options given in
-    ``argv`` but those of --seeds and --runs-dir, on one torch thread unless given, without a
-    progress bar; the files it reads by absolute path."""
+def seed_argv(argv, seed: int, settings: dict | None = None) -> list:
+    """The command line of --seeds' run of ``seed`` (:mod:`rrrobot_gym.seeds`), or of a --sweep
+    trial with its ``settings`` ({option: value}, :mod:`rrrobot_gym.sweep`): the options given in
+    ``argv`` but those of --seeds, --sweep and --runs-dir, on one torch thread unless given,
+    without a progress bar; the files it reads by absolute path."""
     given = {name: value for name, value in vars(_parser(given_only=True).parse_args(argv)).items()
-             if name not in (*SEEDS_OPTIONS, "seed", "runs_dir", "progress_bar")}
+             if name not in (*SEEDS_OPTIONS, "sweep", "seed", "runs_dir", "progress_bar")}
     for name in ("resume", "residual_on"):
         if given.get(name) is not None:
             given[name] = str(Path(given[name]).resolve())
-    given = {"torch_threads": 1, **given, "seed": seed, "progress_bar": False}
+    given = {"torch_threads": 1, **given, **(settings or {}), "seed": seed, "progress_bar": False}
     out = []
     for name, value in given.items():
         flag = "--" + name.replace("_", "-")
@@ -511,6 +532,21 @@ def seed_argv(argv, seed: int) -> list:
         else:
             out += [flag, "none" if value is None else str(value)]
     return out
+
+
+def stop_after(deadline: float | None):
+    """A callback that ends training at the first env step after ``deadline`` (time.monotonic()
+    seconds; None: never)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class StopAfter(BaseCallback):
+        def _on_step(self) -> bool:
+            if deadline is not None and time.monotonic() >= deadline:
+                print(f"--max-minutes reached at {self.num_timesteps:,} steps: ending training", flush=True)
+                return False
+            return True
+
+    return StopAfter()
 
 
 def stop_on_ctrl_c():
@@ -576,6 +612,10 @@ def run_name(args: Args) -> str:
 def main(argv=None) -> Path:
     started = time.monotonic()
     args = parse_args(argv)
+    if args.sweep is not None:
+        from .sweep import run_sweep
+
+        return run_sweep(args, sys.argv[1:] if argv is None else list(argv), seed_argv, ENV_ID, env_config(args))
     if args.seeds is not None:
         from .seeds import run_seeds
 
@@ -644,6 +684,10 @@ def main(argv=None) -> Path:
                     print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
                           f"return {score:,.0f}, heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} "
                           "mean", flush=True)
+                if args.stop_at_speed is not None and speeds.min() >= args.stop_at_speed:
+                    print(f"worst heading {speeds.min():.1f} mm/s reached --stop-at-speed {args.stop_at_speed:g}: "
+                          "ending training", flush=True)
+                    return False
             return result
 
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
@@ -656,10 +700,12 @@ def main(argv=None) -> Path:
         print(f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
               f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}", flush=True)
     stop = stop_on_ctrl_c()
+    deadline = None if args.max_minutes is None else started + 60 * args.max_minutes
     try:
         with stop.handling_ctrl_c():
             model.learn(total_timesteps=total_timesteps, progress_bar=args.progress_bar, tb_log_name="tb",
-                        callback=CallbackList([stop, evaluation, checkpoints, threads_for_updates(args.torch_threads)]),
+                        callback=CallbackList([stop, stop_after(deadline), evaluation, checkpoints,
+                                               threads_for_updates(args.torch_threads)]),
                         reset_num_timesteps=args.resume is None)
     except KeyboardInterrupt:  # a second Ctrl-C: stop at once
         stop.requested = True

@@ -1,0 +1,84 @@
+"""train.py --sweep (rrrobot_gym/sweep.py), and the two ways a run ends early that its trials use:
+--stop-at-speed and --max-minutes."""
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+from rrrobot_gym import sweep, training
+
+from test_seeds import TINY, only_folder, train_py
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def two_trials(tmp_path_factory):
+    """train.py --sweep 2 with a bar every first evaluation reaches: its folder and summary."""
+    runs = tmp_path_factory.mktemp("sweep")
+    done = train_py(["--sweep", "2", "--bar", "-1000", "--max-minutes", "5", *TINY, "--runs-dir", str(runs)])
+    assert done.returncode == 0, done.stderr[-3000:]
+    folder = only_folder(runs)
+    return folder, json.loads((folder / "summary.json").read_text())
+
+
+def test_each_trial_runs_its_settings_and_stops_at_the_bar(two_trials):
+    folder, summary = two_trials
+    assert summary["schema"] == sweep.SCHEMA and summary["trials"] == 2 and summary["reached_bar"] == 2
+    scores = [r["score"] for r in summary["records"]]
+    assert scores == sorted(scores)
+    for record in summary["records"]:
+        settings = record["settings"]
+        for name, (kind, values) in sweep.SPACE.items():
+            if kind == "choice" and name != "batch_size":
+                assert settings[name] in values
+            elif kind != "choice":
+                assert values[0] <= settings[name] <= values[1]
+        assert settings["batch_size"] <= settings["num_envs"] * settings["n_steps"]
+        run_dir = folder / record["run_dir"]
+        args = json.loads((run_dir / "args.json").read_text())
+        for name, value in settings.items():
+            assert args[name] == pytest.approx(value, rel=1e-12), name
+        assert args["seed"] == summary["seed"] and args["stop_at_speed"] == summary["bar_mm_s"]
+        with np.load(run_dir / "evaluations.npz") as data:  # stopped at its first evaluation, which reached the bar
+            assert len(data["timesteps"]) == 1
+            assert record["time_to_bar_s"] == data["wall_time_s"][0] == record["score"]
+        assert (run_dir / "final_model.zip").is_file() and (folder / record["log"]).is_file()
+    assert "| trial |" in (folder / "summary.md").read_text()
+
+
+def test_a_missed_bar_scores_between_one_and_two_budgets_by_how_near_it_came():
+    budget = 600.0
+    assert sweep.score({"status": "ok", "time_to_bar_s": 123.0}, 80.0, budget) == 123.0
+    missed = [sweep.score({"status": "ok", "time_to_bar_s": None, "worst_heading_mm_s": w}, 80.0, budget)
+              for w in (-5.0, 0.0, 40.0, 79.0)]
+    assert missed == [2 * budget, 2 * budget, 1.5 * budget, pytest.approx(budget * (1 + 1 / 80))]
+    assert sweep.score({"status": "failed"}, 80.0, budget) == 3 * budget
+
+
+def test_max_minutes_ends_training_early_and_saves(tmp_path):
+    done = train_py(["--total-timesteps", "50000000", "--max-minutes", "0.05", "--num-envs", "4", "--n-steps", "32",
+                     "--batch-size", "64", "--n-epochs", "1", "--eval-freq", "1000000", "--no-progress-bar",
+                     "--runs-dir", str(tmp_path)])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "--max-minutes reached" in done.stdout
+    run_dir = only_folder(tmp_path)
+    with zipfile.ZipFile(run_dir / "final_model.zip") as archive:
+        trained = json.loads(archive.read("data"))["num_timesteps"]
+    assert 0 < trained < 50_000_000
+
+
+@pytest.mark.parametrize("argv, problem", [
+    (["--sweep", "2", "--bar", "50"], "--sweep needs --max-minutes"),
+    (["--sweep", "2", "--max-minutes", "1"], "--sweep needs a bar"),
+    (["--sweep", "2", "--seeds", "2", "--bar", "50", "--max-minutes", "1"], "cannot be combined"),
+    (["--sweep", "0", "--bar", "50", "--max-minutes", "1"], "--sweep must be a positive integer"),
+    (["--max-minutes", "-1"], "--max-minutes must be a positive number"),
+    (["--stop-at-speed", "nan"], "--stop-at-speed must be a finite speed"),
+])
+def test_bad_sweep_options_are_named(argv, problem, capsys):
+    with pytest.raises(SystemExit):
+        training.parse_args(argv)
+    assert problem in capsys.readouterr().err
