@@ -35,9 +35,8 @@ def _free_port() -> int:
 
 
 def _clean_env(**extra) -> dict:
-    """This environment without Ray's settings (RAY_*), this checkout first on the path, plus ``extra``."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
-    return {**env, "PYTHONPATH": str(ROOT), **extra}
+    """This environment without Ray's settings (RAY_*) or PYTHONPATH, plus ``extra``."""
+    return {**{k: v for k, v in os.environ.items() if not k.startswith("RAY_") and k != "PYTHONPATH"}, **extra}
 
 
 def _processes_under(folder: str) -> list:
@@ -70,9 +69,12 @@ def _stop(groups, folder: str) -> None:
 @pytest.fixture(scope="module")
 def cluster():
     """A head and a worker node of one CPU each, started by the ``ray`` command in sessions of their
-    own, the token in a file of the test's (RAY_AUTH_TOKEN_PATH) rather than the user's ~/.ray:
+    own, the token in a file of the test's (RAY_AUTH_TOKEN_PATH) rather than the user's ~/.ray, from
+    a folder holding a broken copy of this package (a user's other checkout, where Ray's workers run):
     (address, token path, {node id: "head" or "worker", its temp dir's name}, the folder of both)."""
-    pytest.importorskip("ray")
+    ray = pytest.importorskip("ray")
+    if tuple(int(part) for part in ray.__version__.split(".")[:2]) < (2, 59):
+        pytest.skip(f"Ray {ray.__version__}: `ray start --head` turns token authentication on from Ray 2.59")
     ray_cli = shutil.which("ray")
     if ray_cli is None:
         pytest.skip("the ray command is not on PATH")
@@ -80,12 +82,15 @@ def cluster():
     token = Path(folder) / "token"
     token.write_text(secrets.token_hex(32))
     groups = []
+    elsewhere = Path(folder) / "elsewhere" / "rrrobot_gym"
+    elsewhere.mkdir(parents=True)
+    (elsewhere / "__init__.py").write_text("raise ImportError('the copy in the working directory of ray start')\n")
 
     def start(args, env, node):
         command = [ray_cli, "start", *args, "--num-cpus", "1", "--temp-dir", str(Path(folder) / node),
                    "--dashboard-agent-listen-port", str(_free_port()), "--disable-usage-stats"]  # fmt: skip
-        process = subprocess.Popen(command, cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.PIPE,
-                                   stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)  # fmt: skip
+        process = subprocess.Popen(command, cwd=elsewhere.parent, env=env, start_new_session=True, text=True,
+                                   stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
         groups.append(process.pid)
         out, _ = process.communicate(timeout=180)
         assert process.returncode == 0, out[-3000:]
@@ -111,7 +116,7 @@ def cluster():
 
 def _driver(argv, token, timeout=300, **env):
     """Our command line (rrrobot or train.py) as a user runs it in a shell, in this checkout."""
-    env = _clean_env(**{"RAY_AUTH_TOKEN_PATH": str(token), **env})
+    env = _clean_env(**{"PYTHONPATH": str(ROOT), "RAY_AUTH_TOKEN_PATH": str(token), **env})
     return subprocess.run([sys.executable, *argv], cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout)
 
 
