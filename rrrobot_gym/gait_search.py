@@ -434,13 +434,15 @@ def ray_runtime_env() -> dict:
 RAY_CONNECT_SECONDS = 10.0
 """How long :func:`check_ray_address` waits for a Ray head to answer."""
 
-RAY_TOKEN_HELP = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
+RAY_TOKEN_SOURCES = "RAY_AUTH_TOKEN, RAY_AUTH_TOKEN_PATH or ~/.ray/auth_token"
+"""Where a Ray driver reads its token, in Ray's order of precedence, once RAY_AUTH_MODE is "token"."""
 
 
 def check_ray_address(address: str) -> None:
-    """Raise ConnectionError, in one sentence naming ``address`` and what to do, if nothing answers
-    at host:port within :data:`RAY_CONNECT_SECONDS` or (RAY_AUTH_MODE not "token") the cluster wants a
-    token: ``ray.init`` retries either for a long time. "auto", "local" and no port are left to Ray."""
+    """Raise ConnectionError, in one line naming ``address`` and what to set, if nothing answers at
+    host:port within :data:`RAY_CONNECT_SECONDS`, or the head refuses this driver's token or its lack
+    of one (:func:`_ray_auth_problem`): ``ray.init`` would retry either with warnings for 20 s or
+    more, then raise. "auto", "local" and no port are left to Ray."""
     import socket
 
     if not isinstance(address, str):
@@ -455,37 +457,63 @@ def check_ray_address(address: str) -> None:
             f"ray_address {address!r}: nothing answers at {host}:{port} ({exc}); start a head there "
             "('ray start --head') or pass 'local' for a Ray on this machine"
         ) from None
-    token_mode = os.environ.get("RAY_AUTH_MODE", "").lower() == "token"  # (then Ray sends the token and judges it)
-    if not address.startswith("ray://") and not token_mode and _ray_refuses_token(address):
-        raise ConnectionError(
-            f"ray_address {address!r}: the cluster uses token authentication; set RAY_AUTH_MODE=token and its "
-            f"token ({RAY_TOKEN_HELP})"
-        )
+    problem = None if address.startswith("ray://") else _ray_auth_problem(address)
+    if problem:
+        raise ConnectionError(f"ray_address {address!r}: {problem}")
 
 
 RAY_TOKEN_PROBE_SECONDS = 3.0
 """How long :func:`check_ray_address` waits for the head's answer to its one request."""
 
 
-def _ray_refuses_token(address: str) -> bool:
-    """Whether the Ray head (its GCS) at ``address`` refuses one request of this driver as
-    unauthenticated. False if Ray is not installed, or on any other answer or none within
+def _ray_auth_problem(address: str) -> str | None:
+    """What to set, in words, if the Ray head (its GCS) at ``address`` refuses one request sent as
+    ``ray.init`` would send it: with the token Ray finds (:data:`RAY_TOKEN_SOURCES`) if
+    RAY_AUTH_MODE is "token", else none (Ray sends none to an address it is given). None if it
+    answers, if Ray is not installed, or on any other answer or none within
     :data:`RAY_TOKEN_PROBE_SECONDS` (``ray.init`` then reports what is wrong)."""
     try:
         import grpc
+        from ray._raylet import AuthenticationTokenLoader
         from ray.core.generated import gcs_service_pb2, gcs_service_pb2_grpc
     except ImportError:
-        return False
+        return None
+    token_mode = os.environ.get("RAY_AUTH_MODE", "").lower() == "token"
+    header = {}
+    if token_mode:
+        loader = AuthenticationTokenLoader.instance()
+        try:
+            header = loader.get_token_for_http_header(ignore_auth_mode=True)
+        except Exception as exc:  # noqa: BLE001 - Ray's AuthenticationError: e.g. RAY_AUTH_TOKEN_PATH unreadable
+            return f"RAY_AUTH_MODE=token, but the token cannot be read: {str(exc).partition('. ')[0]}"
+        if not header:
+            return (f"RAY_AUTH_MODE=token, but no token is set here: give the cluster's (`ray get-auth-token` on "
+                    f"its head) in {RAY_TOKEN_SOURCES}")
     try:
         with grpc.insecure_channel(address) as channel:
             gcs_service_pb2_grpc.NodeInfoGcsServiceStub(channel).GetClusterId(
-                gcs_service_pb2.GetClusterIdRequest(), timeout=RAY_TOKEN_PROBE_SECONDS
+                gcs_service_pb2.GetClusterIdRequest(), timeout=RAY_TOKEN_PROBE_SECONDS, metadata=tuple(header.items())
             )
+        return None
     except grpc.RpcError as exc:
-        return exc.code() == grpc.StatusCode.UNAUTHENTICATED
+        if exc.code() != grpc.StatusCode.UNAUTHENTICATED:
+            return None
     except Exception:  # noqa: BLE001 - not ours to diagnose: ray.init will
-        return False
-    return False
+        return None
+    if token_mode:
+        return (f"the cluster refuses this driver's token (read from {_token_source()}): give the cluster's "
+                f"(`ray get-auth-token` on its head) in {RAY_TOKEN_SOURCES}")
+    return (f"the cluster uses token authentication: set RAY_AUTH_MODE=token (as `ray start --address` needs "
+            f"too), with the cluster's token in {RAY_TOKEN_SOURCES}")
+
+
+def _token_source() -> str:
+    """Which of :data:`RAY_TOKEN_SOURCES` Ray reads the token from, by its precedence."""
+    if os.environ.get("RAY_AUTH_TOKEN"):
+        return "RAY_AUTH_TOKEN"
+    if os.environ.get("RAY_AUTH_TOKEN_PATH"):
+        return f"RAY_AUTH_TOKEN_PATH, {os.environ['RAY_AUTH_TOKEN_PATH']}"
+    return "~/.ray/auth_token"
 
 
 def ray_map(function, rows, settings, ray_address=None, ray_chunks=None) -> list:

@@ -22,12 +22,13 @@ The summary (``summary.json``, schema ``rrrobot_gym.seeds/1``; ``summary.md`` as
   under the training's servo and physics);
 - ``runs``, one per seed: ``status`` ("ok"; "failed" with ``returncode`` and the log's last line in
   ``error``; "no evaluation" for a run shorter than ``--eval-freq``), ``run_dir``, ``log``,
-  ``run_seconds``, and from ``evaluations.npz``: ``best_evaluation`` (the one that chose
-  best_model.zip by ``--select-by``: ``timesteps``, ``wall_time_s``), its ``worst_heading_mm_s``,
-  ``mean_heading_mm_s`` and ``heading_speeds_mm_s`` ({deg: mm/s}; the nominal robot from the
-  paper's start, the 8 compass headings, over ``--episode-steps``), and ``time_to_bar_s``
-  and ``timesteps_to_bar``: the run's wall time (s from its start) and steps at its first
-  evaluation whose worst heading reaches the bar (null if none does);
+  ``run_seconds``, ``ray_node_id`` (with ``--ray-address``: the node it ran on), and from
+  ``evaluations.npz``: ``best_evaluation`` (the one that chose best_model.zip by ``--select-by``:
+  ``timesteps``, ``wall_time_s``), its ``worst_heading_mm_s``, ``mean_heading_mm_s`` and
+  ``heading_speeds_mm_s`` ({deg: mm/s}; the nominal robot from the paper's start, the 8 compass
+  headings, over ``--episode-steps``), and ``time_to_bar_s`` and ``timesteps_to_bar``: the run's
+  wall time (s from its start) and steps at its first evaluation whose worst heading reaches the
+  bar (null if none does);
 - ``worst_heading_iqm``: the interquartile mean of the ok runs' worst-heading speeds with its
   95 % stratified-bootstrap confidence interval (rliable, Agarwal et al. 2021; ``reps``
   replications, numpy RandomState ``random_seed``), null without such runs;
@@ -110,14 +111,18 @@ def bar_from_gait_search(path, model: str, trained: dict) -> tuple:
 
 def run_one(seed: int, argv: list, runs_dir, log: str | None = None) -> dict:
     """Run train.py's ``argv`` into ``runs_dir`` in a subprocess, its output in ``log`` there
-    (default ``seed<S>.log``)."""
+    (default ``seed<S>.log``). The subprocess runs in ``runs_dir``: ``python -m`` puts its working
+    directory first on the path, and a Ray worker's (where ``ray start`` ran) may hold another
+    copy of this package."""
     package_root = str(Path(__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])])}
+    runs_dir = Path(runs_dir).resolve()
     log = log or f"seed{seed}.log"
     start = time.monotonic()
-    with (Path(runs_dir) / log).open("w") as out:
+    with (runs_dir / log).open("w") as out:
         returncode = subprocess.run([sys.executable, "-m", "rrrobot_gym.training", *argv, "--runs-dir", str(runs_dir)],
-                                    stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env).returncode
+                                    stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env,
+                                    cwd=runs_dir).returncode
     return {"seed": seed, "returncode": returncode, "run_seconds": round(time.monotonic() - start, 3), "log": log}
 
 
@@ -129,13 +134,15 @@ def _reported(result: dict) -> dict:
 
 def _run_remote(rows, settings) -> list:
     """A Ray task's runs (``rows``: (seed, argv)), each in a temporary folder: :func:`run_one`'s
-    results with ``files``, that folder's {relative path: bytes}."""
+    results with ``files``, that folder's {relative path: bytes}, and ``ray_node_id``, where it ran."""
+    import ray
+
     results = []
     for row in rows:
         with tempfile.TemporaryDirectory() as folder:
             result = run_one(row[0], row[1], folder, *row[2:])
             result["files"] = {str(p.relative_to(folder)): p.read_bytes() for p in Path(folder).rglob("*") if p.is_file()}
-        results.append(result)
+        results.append({**result, "ray_node_id": ray.get_runtime_context().get_node_id()})
     return results
 
 
@@ -194,7 +201,7 @@ def seed_record(folder: Path, result: dict, bar: float, select_by: str, prefix: 
     found = sorted(p.name for p in folder.iterdir() if p.is_dir() and p.name.startswith(f"{prefix}{result['seed']}__"))
     record = {"seed": result["seed"], "status": "ok", "returncode": result["returncode"],
               "run_dir": found[-1] if found else None, "log": result["log"],
-              "run_seconds": result["run_seconds"]}
+              "run_seconds": result["run_seconds"], **{k: v for k, v in result.items() if k == "ray_node_id"}}
     if result["returncode"] != 0:
         lines = (folder / record["log"]).read_text(errors="replace").strip().splitlines()
         return {**record, "status": "failed", "error": lines[-1] if lines else ""}

@@ -1,7 +1,7 @@
 """A hyperparameter sweep for the wall time to a bar: ``train.py --sweep TRIALS``.
 
-    python train.py --sweep 16 --bar 77.6 --max-minutes 10
-    python train.py --sweep 64 --bar 77.6 --max-minutes 10 --ray-address HOST:PORT
+    python train.py --sweep 16 --bar 77.57 --max-minutes 10
+    python train.py --sweep 64 --bar 77.57 --max-minutes 10 --ray-address HOST:PORT
 
 optuna's TPE sampler chooses each trial's PPO settings from :data:`SPACE`; a trial is one train.py
 run with every other option as given (seed ``--seed``), which ends at its first evaluation whose

@@ -605,6 +605,26 @@ def threads_for_updates(threads: int):
     return ThreadsForUpdates()
 
 
+def first_update_notice(started: float):
+    """An SB3 callback that prints, once, when PPO's first update has ended (the second rollout
+    starts): s since ``started`` (time.monotonic()) and the unix time, the run's start-up cost."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class FirstUpdate(BaseCallback):
+        told = False
+
+        def _on_rollout_start(self) -> None:
+            if self.n_calls > 0 and not self.told:  # (a rollout of this learn() and its update are done)
+                self.told = True
+                print(f"first PPO update done {time.monotonic() - started:.1f} s into the run "
+                      f"(unix time {time.time():.3f})", flush=True)
+
+        def _on_step(self) -> bool:
+            return True
+
+    return FirstUpdate()
+
+
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -705,7 +725,7 @@ def main(argv=None) -> Path:
         with stop.handling_ctrl_c():
             model.learn(total_timesteps=total_timesteps, progress_bar=args.progress_bar, tb_log_name="tb",
                         callback=CallbackList([stop, stop_after(deadline), evaluation, checkpoints,
-                                               threads_for_updates(args.torch_threads)]),
+                                               threads_for_updates(args.torch_threads), first_update_notice(started)]),
                         reset_num_timesteps=args.resume is None)
     except KeyboardInterrupt:  # a second Ctrl-C: stop at once
         stop.requested = True

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import socket
 from pathlib import Path
 
 import numpy as np
@@ -138,29 +137,3 @@ def test_a_ray_address_where_nothing_answers_is_one_line_before_any_work(capsys,
     err = _one_line_error(capsys, command + ["--ray-address", "127.0.0.1:1", "--no-progress", "--out", str(out)],
                           "ray_address '127.0.0.1:1': nothing answers at 127.0.0.1:1")  # fmt: skip
     assert "ray start --head" in err and not out.exists()
-
-
-def test_a_cluster_that_wants_a_token_names_what_to_set(capsys, tmp_path, monkeypatch):
-    # (a head with token authentication refuses the driver: _ray_refuses_token asks it; here a
-    # listening socket stands for the head and the refusal is given)
-    with socket.socket() as head:
-        head.bind(("127.0.0.1", 0))
-        head.listen()
-        address = f"127.0.0.1:{head.getsockname()[1]}"
-        monkeypatch.setattr(gait_search, "_ray_refuses_token", lambda a: a == address)
-        monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
-        argv = ["gait-search", "--model", "plane", "--evaluations", "2", "--popsize", "2", "--ray-address", address,
-                "--out", str(tmp_path / "out.json")]  # fmt: skip
-        _one_line_error(capsys, argv, "the cluster uses token authentication; set RAY_AUTH_MODE=token")
-        # with RAY_AUTH_MODE=token Ray sends the token itself, and judges it: no probe
-        monkeypatch.setenv("RAY_AUTH_MODE", "token")
-        monkeypatch.setattr(gait_search, "_ray_refuses_token", lambda a: pytest.fail("probed in token mode"))
-        gait_search.check_ray_address(address)
-
-
-def test_the_token_probe_reads_no_refusal_where_no_ray_head_answers():
-    pytest.importorskip("ray")
-    with socket.socket() as other:  # (something that is not a Ray head)
-        other.bind(("127.0.0.1", 0))
-        other.listen()
-        assert gait_search._ray_refuses_token(f"127.0.0.1:{other.getsockname()[1]}") is False
