@@ -112,7 +112,7 @@ def test_each_seed_is_its_own_run_and_the_summary_holds_its_evaluations(two_seed
 
 
 def _results(summary):
-    return [{key: run[key] for key in ("seed", "returncode", "run_seconds")} for run in summary["runs"]]
+    return [{key: run[key] for key in ("seed", "returncode", "run_seconds", "log")} for run in summary["runs"]]
 
 
 @pytest.mark.slow
@@ -137,7 +137,7 @@ def test_a_failed_run_is_reported_and_left_out_of_the_iqm(two_seeds):
     (folder / "seed9.log").write_text("starting\nValueError: something broke\n")
     try:
         args = training.parse_args(["--seeds", "3", "--seed", "7", "--bar", "-1000", *REPS])
-        results = _results(summary) + [{"seed": 9, "returncode": 1, "run_seconds": 2.0}]
+        results = _results(summary) + [{"seed": 9, "returncode": 1, "run_seconds": 2.0, "log": "seed9.log"}]
         out = seeds.summarize(folder, results, -1000.0, "--bar", args, PREFIX, 1.0)
     finally:
         (folder / "seed9.log").unlink()
