@@ -8,8 +8,8 @@ batched env ours take short rollouts from many robots and large minibatches:
     from rrrobot_gym.envs import RRRobotSB3VecEnv
     from rrrobot_gym.hyperparams import ppo_hyperparams, vecnormalize_kwargs
 
-    venv = VecNormalize(RRRobotSB3VecEnv(num_envs=64, healthy_reward=1.0), **vecnormalize_kwargs())
-    model = PPO("MlpPolicy", venv, **ppo_hyperparams(num_envs=64))
+    venv = VecNormalize(RRRobotSB3VecEnv(num_envs=256, healthy_reward=1.0), **vecnormalize_kwargs())
+    model = PPO("MlpPolicy", venv, **ppo_hyperparams(num_envs=256))
     model.learn(1_000_000)
 
 Save the VecNormalize statistics beside the model and evaluate with
@@ -21,14 +21,16 @@ from __future__ import annotations
 
 from .params import whole_number
 
-NUM_ENVS = 64
+TOTAL_TIMESTEPS = 10_000_000
+"""env steps of a training run; the learning rate falls to LEARNING_RATE_FINAL over them."""
+NUM_ENVS = 256
 """robots simulated together in the batched env."""
-N_STEPS = 256
-"""control steps per env per rollout (12.8 s of robot time)."""
+N_STEPS = 64
+"""control steps per env per rollout (3.2 s of robot time): 16,384 steps a rollout."""
 MAX_BATCH_SIZE = 4096
 """minibatch size, capped at one rollout (n_steps x num_envs) for small batches of envs."""
-N_EPOCHS = 10
-"""passes over each rollout."""
+N_EPOCHS = 5
+"""passes over each rollout: 20 minibatches of 4,096."""
 GAMMA = 0.99
 """per 0.05 s control step: a horizon of about 100 steps, 5 s, several gait periods."""
 GAE_LAMBDA = 0.95

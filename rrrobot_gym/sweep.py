@@ -3,7 +3,8 @@
     python train.py --sweep 16 --bar 77.57 --max-minutes 10
     python train.py --sweep 64 --bar 77.57 --max-minutes 10 --ray-address HOST:PORT
 
-optuna's TPE sampler chooses each trial's PPO settings from :data:`SPACE`; a trial is one train.py
+optuna's TPE sampler chooses each trial's PPO settings from :data:`SPACE`, the first trial
+those given (train.py's defaults, when they are inside the space); a trial is one train.py
 run with every other option as given (seed ``--seed``), which ends at its first evaluation whose
 worst heading reaches the bar (``--stop-at-speed``) or after ``--max-minutes``. Its score, to
 minimise, is :func:`score`: the seconds to the bar, or for a run that misses it ``--max-minutes``
@@ -105,6 +106,10 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=args.seed))
+    given = {name: getattr(args, name) for name in SPACE}
+    if all(values[0] <= given[name] <= values[1] if kind != "choice" else given[name] in values
+           for name, (kind, values) in SPACE.items()):
+        study.enqueue_trial(given)  # trial 0: the settings given (train.py's defaults): does any trial beat them?
     workers = args.sweep if args.ray_address is not None else min(args.sweep, os.cpu_count() or 1)
     study.optimize(objective, n_trials=args.sweep, n_jobs=workers)
     records.sort(key=lambda r: (r["score"], r["trial"]))

@@ -62,7 +62,7 @@ class Args:
     exp_name: str = _option("ppo", "name of this experiment (part of the run name)")
     seed: int = _option(1, "seed of every RNG: python, numpy, torch, the envs")
     total_timesteps: int = _option(
-        20_000_000, "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps")
+        hp.TOTAL_TIMESTEPS, "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps")
     model: str = _option("plane", "dynamic model: plane or pivot")
     direction_deg: float | None = _option(
         None, "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading")

@@ -14,11 +14,16 @@ from test_seeds import TINY, only_folder, train_py
 pytestmark = pytest.mark.slow
 
 
+GIVEN = {"learning_rate": 3e-4, "num_envs": 128, "n_steps": 16, "batch_size": 2048, "n_epochs": 2, "ent_coef": 0.0}
+"""Settings inside the sweep's space: its first trial runs them."""
+
+
 @pytest.fixture(scope="module")
 def two_trials(tmp_path_factory):
     """train.py --sweep 2 with a bar every first evaluation reaches: its folder and summary."""
     runs = tmp_path_factory.mktemp("sweep")
-    done = train_py(["--sweep", "2", "--bar", "-1000", "--max-minutes", "5", *TINY, "--runs-dir", str(runs)])
+    given = [part for name, value in GIVEN.items() for part in (f"--{name.replace('_', '-')}", str(value))]
+    done = train_py(["--sweep", "2", "--bar", "-1000", "--max-minutes", "5", *TINY, *given, "--runs-dir", str(runs)])
     assert done.returncode == 0, done.stderr[-3000:]
     folder = only_folder(runs)
     return folder, json.loads((folder / "summary.json").read_text())
@@ -47,6 +52,10 @@ def test_each_trial_runs_its_settings_and_stops_at_the_bar(two_trials):
             assert record["time_to_bar_s"] == data["wall_time_s"][0] == record["score"]
         assert (run_dir / "final_model.zip").is_file() and (folder / record["log"]).is_file()
     assert "| trial |" in (folder / "summary.md").read_text()
+    (first,) = [r for r in summary["records"] if r["trial"] == 0]
+    assert first["settings"] == GIVEN  # the settings given are the first trial's
+    (second,) = [r for r in summary["records"] if r["trial"] == 1]
+    assert second["settings"] != GIVEN
 
 
 def test_a_missed_bar_scores_between_one_and_two_budgets_by_how_near_it_came():
