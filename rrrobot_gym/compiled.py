@@ -212,7 +212,8 @@ def _robot(a, at, stride, torque_limit, rate_limit):
                   a[at + 13 * s], a[at + 14 * s], a[at + 15 * s], a[at + 16 * s], a[at + 17 * s], a[at + 18 * s],
                   a[at + 19 * s])  # fmt: skip
     kc = ContactConstants(k.radius, k.leg_length, k.mass_tip, k.depth, k.gravity, a[at + 20 * s], k.mb_r)
-    return k, kc, _Gains(a[at + 21 * s], a[at + 22 * s]), _limit(torque_limit, a[at + 23 * s]), _limit(rate_limit, a[at + 24 * s])
+    gains = _Gains(a[at + 21 * s], a[at + 22 * s])
+    return k, kc, gains, _limit(torque_limit, a[at + 23 * s]), _limit(rate_limit, a[at + 24 * s])
 
 
 def _limit(given, own):
@@ -229,6 +230,13 @@ def _own(a, at, stride, k, kc, gains, torque_limit, rate_limit):
     limits then None (none) or any float (each robot's own)."""
     if k is None:
         return _robot(a, at, stride, torque_limit, rate_limit)
+    return k, kc, gains, torque_limit, rate_limit
+
+
+def _given(a, at, stride, k, kc, gains, torque_limit, rate_limit):
+    """:func:`_own` of the shared stepper (k never None): the values given. numba prunes ``k is None``
+    only where k is None, so with :func:`_own` the shared stepper would compile the per-robot
+    branch too, dead; with this (:func:`_stepper`) its code is the lanes' without per-robot values."""
     return k, kc, gains, torque_limit, rate_limit
 
 
@@ -375,7 +383,8 @@ def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, param
     blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
-            _lanes(y, b * LANES, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary, robot)
+            _lanes(y, b * LANES, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary,
+                   robot)
         elif padded:
             yp, pp, rp, sp, ap = _padded(y, blocks * LANES, rest, params, rows, summary, robot)
             _lanes(yp, 0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, pp, shared, rp, sp, ap)
@@ -419,7 +428,8 @@ def _padded(y, first, count, params, rows, summary, robot):
     if params.shape[0] == 1:
         for j in range(params.shape[1]):
             pp[0, j] = params[0, j]
-    return yp, pp, np.empty((rows.shape[0], rows.shape[1], L)), np.empty((summary.shape[0], L)), _padded_robot(robot, first, count)
+    rp, sp = np.empty((rows.shape[0], rows.shape[1], L)), np.empty((summary.shape[0], L))
+    return yp, pp, rp, sp, _padded_robot(robot, first, count)
 
 
 def _padded_robot(robot, first, count):
@@ -538,6 +548,8 @@ def _stepper(parallel: bool, per_robot: bool = False):
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         _copies(_LANE_INLINED, inline, namespace)
+        if not per_robot:
+            namespace["_own"] = _copies((_given,), inline, namespace)["_given"]
         _copies(_STEPPER, njit, namespace)
         batch = types.FunctionType(_batch.__code__, namespace, "_batch")
         batch.__qualname__ = name

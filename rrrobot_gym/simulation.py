@@ -354,8 +354,8 @@ def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
     The steppers call ``first`` (through the recorder) at the start of every substep and ``f``
     at the other stages, so the torques the integrator applied come from the evaluation it
     makes anyway. ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets
-    (kinematic legs). ``scene`` = (constants, contact constants, gains, torque limit, rate limit) replaces the config's
-    (per-robot parameters, :func:`_robot_scene`).
+    (kinematic legs). ``scene`` = (constants, contact constants, gains, torque limit, rate limit)
+    replaces the config's (per-robot parameters, :func:`_robot_scene`).
     """
     if scene is None:
         k = dynamics.constants(config.robot, config.depth)
