@@ -97,7 +97,7 @@ robot_derivative_kernel = dynamics.derivative_kernel  # (compiled called, not in
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
-Constants = dynamics.Constants
+Constants, ContactConstants = dynamics.Constants, dynamics.ContactConstants
 
 
 def _leg_targets(kind, p, shared, t):
@@ -196,6 +196,48 @@ _Y, _S, _K1, _K2, _K3, _D = 0, 13, 26, 39, 52, 65  # state, stage state, k1..k3,
 _P = 78  # per-robot target parameters (8)
 _TAU, _C, _RATES = 86, 88, 95  # the record's rows: torques, contact values (7), leg rates
 _ROWS = 97
+_R = _ROWS  # with each robot's own values (k None): ROBOT_ROWS rows more, _robot's
+ROBOT_ROWS = len(Constants._fields) + 5
+"""A robot's own values, in :func:`_robot`'s order: its Constants, total mass, kp, kd, torque limit, rate limit."""
+
+
+def _robot(a, at, stride, torque_limit, rate_limit):
+    """(constants, contact constants, gains, torque limit, rate limit) of the robot whose ROBOT_ROWS
+    values are a[at], a[at + stride], ...; a limit None where ``torque_limit`` (``rate_limit``) is
+    None, for every robot. The contact constants shared with Constants are its values, the same
+    numbers (dynamics.constants and contact_constants take them from the same RobotParams fields)."""
+    s = stride
+    k = Constants(a[at], a[at + s], a[at + 2 * s], a[at + 3 * s], a[at + 4 * s], a[at + 5 * s], a[at + 6 * s],
+                  a[at + 7 * s], a[at + 8 * s], a[at + 9 * s], a[at + 10 * s], a[at + 11 * s], a[at + 12 * s],
+                  a[at + 13 * s], a[at + 14 * s], a[at + 15 * s], a[at + 16 * s], a[at + 17 * s], a[at + 18 * s],
+                  a[at + 19 * s])  # fmt: skip
+    kc = ContactConstants(k.radius, k.leg_length, k.mass_tip, k.depth, k.gravity, a[at + 20 * s], k.mb_r)
+    gains = _Gains(a[at + 21 * s], a[at + 22 * s])
+    return k, kc, gains, _limit(torque_limit, a[at + 23 * s]), _limit(rate_limit, a[at + 24 * s])
+
+
+def _limit(given, own):
+    """None where ``given`` is None, else ``own`` (numba types a dead branch unless its condition is
+    on a None: returning ``given`` keeps both branches a float where ``given`` is one)."""
+    if given is None:
+        return given
+    return own
+
+
+def _own(a, at, stride, k, kc, gains, torque_limit, rate_limit):
+    """(constants, contact constants, gains, torque limit, rate limit): those given, or where k is
+    None (a per-robot run) a robot's own, :func:`_robot`'s of a[at], a[at + stride], ...; the
+    limits then None (none) or any float (each robot's own)."""
+    if k is None:
+        return _robot(a, at, stride, torque_limit, rate_limit)
+    return k, kc, gains, torque_limit, rate_limit
+
+
+def _given(a, at, stride, k, kc, gains, torque_limit, rate_limit):
+    """:func:`_own` of the shared stepper (k never None): the values given. numba prunes ``k is None``
+    only where k is None, so with :func:`_own` the shared stepper would compile the per-robot
+    branch too, dead; with this (:func:`_stepper`) its code is the lanes' without per-robot values."""
+    return k, kc, gains, torque_limit, rate_limit
 
 
 def _lane_state(w, row, i):
@@ -208,36 +250,39 @@ def _lane_state(w, row, i):
     )  # fmt: skip
 
 
-def _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared):
+def _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared):
     """The servo's torques on the stage state, every lane, into _TAU (inlined where ``kind`` is a
-    constant, so each kind of target has a loop of its own)."""
+    constant, so each kind of target has a loop of its own); k None: each lane's own gains and limits."""
     L = LANES
     if params.shape[0] == 1:  # the same targets for every robot: once a stage
         targets = _leg_targets(kind, params[0], shared, t)
         for i in range(L):
-            tau = _servo(_lane_state(w, _S, i), targets, gains, torque_limit, rate_limit)
+            _, _, g, tl, rl = _own(w, _R * L + i, L, k, kc, gains, torque_limit, rate_limit)
+            tau = _servo(_lane_state(w, _S, i), targets, g, tl, rl)
             w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
     else:
         for i in range(L):
             p = (w[_P * L + i], w[(_P + 1) * L + i], w[(_P + 2) * L + i], w[(_P + 3) * L + i],
                  w[(_P + 4) * L + i], w[(_P + 5) * L + i], w[(_P + 6) * L + i], w[(_P + 7) * L + i])  # fmt: skip
-            tau = _torque(_lane_state(w, _S, i), t, gains, torque_limit, rate_limit, kind, p, shared)
+            _, _, g, tl, rl = _own(w, _R * L + i, L, k, kc, gains, torque_limit, rate_limit)
+            tau = _torque(_lane_state(w, _S, i), t, g, tl, rl, kind, p, shared)
             w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
 
 
-def _lane_derivatives(w, k, kc, record):
+def _lane_derivatives(w, k, kc, gains, record):
     """The stage state's derivative into _D, every lane, and with ``record`` its contact values
     (contact_kernel of the state and that derivative) into _C: one loop, so the compiler shares
     their common terms (inlined where ``record`` is a constant: a flag read inside the loop would
-    keep it scalar)."""
+    keep it scalar); k None: each lane's own constants."""
     L = LANES
     for i in range(L):
         c = _lane_state(w, _S, i)
-        d = derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), k)
+        lk, lkc, _, _, _ = _own(w, _R * L + i, L, k, kc, gains, None, None)
+        d = derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), lk)
         for j in range(13):
             w[(_D + j) * L + i] = d[j]
         if record:
-            f = contact_kernel(c, d, kc)
+            f = contact_kernel(c, d, lkc)
             for j in range(7):
                 w[(_C + j) * L + i] = f[j]
 
@@ -246,15 +291,15 @@ def _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shar
     """The stage state's servo torques and derivative (into _D), every lane; with ``record``,
     the contact values too (into _C)."""
     if kind == _HELD:
-        _lane_torques(w, t, gains, torque_limit, rate_limit, _HELD, params, shared)
+        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, _HELD, params, shared)
     elif kind == _RAMP:
-        _lane_torques(w, t, gains, torque_limit, rate_limit, _RAMP, params, shared)
+        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, _RAMP, params, shared)
     else:
-        _lane_torques(w, t, gains, torque_limit, rate_limit, kind, params, shared)
+        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared)
     if record:
-        _lane_derivatives(w, k, kc, True)
+        _lane_derivatives(w, k, kc, gains, True)
     else:
-        _lane_derivatives(w, k, kc, False)
+        _lane_derivatives(w, k, kc, gains, False)
 
 
 def _lane_combine(w, keep, scale):
@@ -302,16 +347,20 @@ def _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, 
     _lane_update(w, sixth)
 
 
-def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
-    """Robots first .. first + LANES - 1 of y (N, 13) together, in place, with the record and its summary."""
+def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
+    """Robots first .. first + LANES - 1 of y (N, 13) together, in place, with the record and its
+    summary; k None: each with its own values from ``robot`` (_batch's) into rows _R .. of the lanes."""
     L = LANES
-    w = np.zeros(_ROWS * L)
+    w = np.zeros((_ROWS if k is not None else _R + ROBOT_ROWS) * L)
     for i in range(L):
         for j in range(13):
             w[(_Y + j) * L + i] = y[first + i, j]
         if params.shape[0] > 1:
             for j in range(params.shape[1]):
                 w[(_P + j) * L + i] = params[first + i, j]
+        if k is None:  # (robot is empty otherwise)
+            for j in range(ROBOT_ROWS):
+                w[(_R + j) * L + i] = robot[(first + i) * ROBOT_ROWS + j]
     w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
     for step in range(n_steps):
         _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step)
@@ -323,41 +372,28 @@ def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind
         _summarise(rows, summary, first, L)
 
 
-def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary):
+def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
     """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
+    Every robot takes the constants k, kc, gains and the limits given (None: no limit; ``robot``
+    empty), or with k, kc and gains None its own: ``robot`` (N * ROBOT_ROWS,) holds each robot's
+    ROBOT_ROWS values (:func:`_robot`) in turn, and a limit is None (none) or any float (each robot's own).
     Whole blocks of LANES robots take the lane stepper; the rest (fewer than LANES), if at least
     PADDED_MIN, a block of their own padded with copies of the last (_padded), else one by one."""
     shared_targets = params.shape[0] == 1
     blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
-            _lanes(y, b * LANES, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary)
+            _lanes(y, b * LANES, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary,
+                   robot)
         elif padded:
-            yp, pp, rp, sp = _padded(y, blocks * LANES, rest, params, rows, summary)
-            _lanes(yp, 0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, pp, shared, rp, sp)
+            yp, pp, rp, sp, ap = _padded(y, blocks * LANES, rest, params, rows, summary, robot)
+            _lanes(yp, 0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, pp, shared, rp, sp, ap)
             _unpadded(y, rows, summary, blocks * LANES, rest, yp, rp, sp)
         else:
             i = blocks * LANES + (b - blocks)
             p = params[0] if shared_targets else params[i]
-            _one_robot(y[i], t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i)
-
-
-def _per_robot(y, t, h, n_steps, constants, gains, torque_limits, rate_limits, kind, params, shared, rows, summary):
-    """Every robot of y (N, 13) in place on the one-robot stepper, each with its own constants of
-    the equations of motion (N, len(Constants)), gains (N, 2: kp, kd) and motor limits ((N,) or None)."""
-    shared_targets = params.shape[0] == 1
-    for i in prange(y.shape[0]):
-        c = constants[i]
-        k = Constants(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13], c[14],
-                      c[15], c[16], c[17], c[18], c[19])  # fmt: skip
-        g = _Gains(gains[i, 0], gains[i, 1])
-        p = params[0] if shared_targets else params[i]
-        if torque_limits is None:
-            _one_robot(y[i], t, h, n_steps, k, g, None, None, kind, p, shared, rows, summary, i)
-        elif rate_limits is None:
-            _one_robot(y[i], t, h, n_steps, k, g, torque_limits[i], None, kind, p, shared, rows, summary, i)
-        else:
-            _one_robot(y[i], t, h, n_steps, k, g, torque_limits[i], rate_limits[i], kind, p, shared, rows, summary, i)
+            ik, _, ig, itl, irl = _own(robot, i * ROBOT_ROWS, 1, k, kc, gains, torque_limit, rate_limit)
+            _one_robot(y[i], t, h, n_steps, ik, ig, itl, irl, kind, p, shared, rows, summary, i)
 
 
 def _partition(n):
@@ -376,9 +412,9 @@ last of them (whose results are dropped): no slower than the one-robot stepper f
 alone: equal at 8, 1.3x faster at 12, 1.7x at 16)."""
 
 
-def _padded(y, first, count, params, rows, summary):
-    """(state, target parameters, record, summary) of one lane block holding robots first ..
-    first + count - 1 of y, the rest of its LANES lanes copies of the last of them."""
+def _padded(y, first, count, params, rows, summary, robot):
+    """(state, target parameters, record, summary, robots' own values) of one lane block
+    holding robots first .. first + count - 1 of y, the rest of its LANES lanes copies of the last of them."""
     L = LANES
     yp = np.empty((L, 13))
     pp = np.empty((L if params.shape[0] > 1 else 1, params.shape[1]))
@@ -392,7 +428,18 @@ def _padded(y, first, count, params, rows, summary):
     if params.shape[0] == 1:
         for j in range(params.shape[1]):
             pp[0, j] = params[0, j]
-    return yp, pp, np.empty((rows.shape[0], rows.shape[1], L)), np.empty((summary.shape[0], L))
+    rp, sp = np.empty((rows.shape[0], rows.shape[1], L)), np.empty((summary.shape[0], L))
+    return yp, pp, rp, sp, _padded_robot(robot, first, count)
+
+
+def _padded_robot(robot, first, count):
+    """_padded's copy of ``robot`` (_batch's), empty where it is."""
+    out = np.empty(LANES * ROBOT_ROWS if robot.size else 0)
+    for i in range(LANES if robot.size else 0):
+        source = first + min(i, count - 1)
+        for j in range(ROBOT_ROWS):
+            out[i * ROBOT_ROWS + j] = robot[source * ROBOT_ROWS + j]
+    return out
 
 
 def _unpadded(y, rows, summary, first, count, yp, rp, sp):
@@ -407,10 +454,10 @@ def _unpadded(y, rows, summary, first, count, yp, rp, sp):
             summary[j, first + i] = sp[j, i]
 
 
-_STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded, _unpadded,
-            _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
+_STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded_robot, _padded,
+            _unpadded, _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
 """This module's functions the compiled :func:`_batch` calls."""
-_LANE_INLINED = (_lane_state, _lane_torques, _lane_derivatives, _lane_combine)
+_LANE_INLINED = (_limit, _robot, _own, _lane_state, _lane_torques, _lane_derivatives, _lane_combine)
 """Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
 
 
@@ -468,9 +515,9 @@ COMPILE_SECONDS = 60
 
 @functools.lru_cache(maxsize=None)
 def _stepper(parallel: bool, per_robot: bool = False):
-    """The compiled :func:`_batch` (``per_robot``: :func:`_per_robot`), threaded over robots if
-    ``parallel``: loaded from the disk cache (:func:`cache_dir`) or compiled, with a line on
-    stderr, once a process."""
+    """The compiled :func:`_batch` (``per_robot``: a copy for robots of their own values, cached
+    under a name of its own), threaded over robots if ``parallel``: loaded from the disk cache
+    (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
     import numba
 
     directory = cache_dir()
@@ -483,8 +530,7 @@ def _stepper(parallel: bool, per_robot: bool = False):
         _prune_stale_caches(directory)
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    entry = _per_robot if per_robot else _batch
-    name = entry.__name__ + ("_threaded" if parallel else "")
+    name = "_batch" + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
         print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
@@ -502,8 +548,10 @@ def _stepper(parallel: bool, per_robot: bool = False):
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         _copies(_LANE_INLINED, inline, namespace)
+        if not per_robot:
+            namespace["_own"] = _copies((_given,), inline, namespace)["_given"]
         _copies(_STEPPER, njit, namespace)
-        batch = types.FunctionType(entry.__code__, namespace, entry.__name__)
+        batch = types.FunctionType(_batch.__code__, namespace, "_batch")
         batch.__qualname__ = name
         return njit(batch, parallel=parallel)
     finally:
@@ -514,7 +562,9 @@ def _stepper(parallel: bool, per_robot: bool = False):
 def _scene(robot, depth, gains):
     """The constants of the equations of motion and of the contact force, and the servo gains,
     as the stepper takes them."""
-    return dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth), _Gains(float(gains.kp), float(gains.kd))
+    # (floats: the stepper's per-robot branch, typed though dead here, makes them of floats)
+    k, kc = dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth)
+    return Constants(*map(float, k)), ContactConstants(*map(float, kc)), _Gains(float(gains.kp), float(gains.kd))
 
 
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1, scene=None):
@@ -523,8 +573,9 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     ((S, 11) for one robot, (S, 11, N) for a batch) or None, and the record's summary ((6,) or
     (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is what
     :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
-    shared among that many threads. ``scene`` (constants, gains, torque limit, rate limit), fields
-    (N,) arrays or floats, gives each robot its own (``simulation.advance``'s ``robots``).
+    shared among that many threads. ``scene`` (constants, contact constants, gains, torque limit,
+    rate limit), fields (N,) arrays or floats, a limit None for none, gives each robot its own
+    (``simulation.advance``'s ``robots``).
     """
     kind, params, shared = targets
     y = np.array(state, dtype=float, order="C").reshape(-1, dynamics.STATE_SIZE)
@@ -537,15 +588,16 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
     if scene is None:
         k, kc, gains = _scene(config.robot, config.depth, config.gains)
         args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind,
-                params, shared, rows, summary)  # fmt: skip
+                params, shared, rows, summary, np.empty(0))  # fmt: skip
     else:
-        k, gains, torque_limits, rate_limits = scene
-        n = y.shape[0]
-        constants = np.empty((n, len(k)))
-        for j, value in enumerate(k):
-            constants[:, j] = value
-        args = (y, float(t0), float(h), int(n_steps), constants, np.stack([gains.kp, gains.kd], axis=1), torque_limits,
-                rate_limits, kind, params, shared, rows, summary)  # fmt: skip
+        k, kc, gains, torque_limits, rate_limits = scene
+        robot = np.zeros((y.shape[0], ROBOT_ROWS))  # (_robot's order; a limit of None stays 0, unread)
+        for j, value in enumerate((*k, kc.total_mass, gains.kp, gains.kd, torque_limits, rate_limits)):
+            if value is not None:
+                robot[:, j] = value
+        limits = [None if limit is None else np.nan for limit in (torque_limits, rate_limits)]  # (each robot's own)
+        args = (y, float(t0), float(h), int(n_steps), None, None, None, *limits, kind, params, shared, rows, summary,
+                robot.reshape(-1))  # fmt: skip
     if parallel:
         import numba
 

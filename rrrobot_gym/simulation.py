@@ -354,14 +354,14 @@ def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
     The steppers call ``first`` (through the recorder) at the start of every substep and ``f``
     at the other stages, so the torques the integrator applied come from the evaluation it
     makes anyway. ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets
-    (kinematic legs). ``scene`` = (constants, gains, torque limit, rate limit) replaces the config's
-    (per-robot parameters, :func:`_robot_scene`).
+    (kinematic legs). ``scene`` = (constants, contact constants, gains, torque limit, rate limit)
+    replaces the config's (per-robot parameters, :func:`_robot_scene`).
     """
     if scene is None:
         k = dynamics.constants(config.robot, config.depth)
         gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
     else:
-        k, gains, torque_limit, rate_limit = scene
+        k, _, gains, torque_limit, rate_limit = scene
     kernel = dynamics.derivative_kernel
     leg_targets = targets.leg_targets
     if config.legs == "kinematic":
@@ -666,13 +666,15 @@ def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
 
 
 def _robot_scene(config: SimConfig, values: dict):
-    """(constants, gains, torque limit, rate limit) of :func:`robot_values`' robots, each field an
-    (N,) array (the radius, depth and gravity the config's floats; a limit None where the config has none)."""
+    """(constants, contact constants, gains, torque limit, rate limit) of :func:`robot_values`' robots,
+    each field an (N,) array (the radius, depth and gravity the config's floats; a limit None where
+    the config has none)."""
     # what dynamics.constants reads of a RobotParams, the varied fields (N,) arrays
     robot = types.SimpleNamespace(radius=config.robot.radius, gravity=config.robot.gravity, total_mass=total_mass(values),
                                   **{name: values[name] for name in PER_ROBOT_FIELDS[:5]})  # fmt: skip
     gains = compiled._Gains(values["kp"], values["kd"])
-    return dynamics.constants(robot, config.depth), gains, values["torque_limit"], values["leg_rate_limit"]
+    return (dynamics.constants(robot, config.depth), dynamics.contact_constants(robot, config.depth), gains,
+            values["torque_limit"], values["leg_rate_limit"])  # fmt: skip
 
 
 def total_mass(values: dict) -> np.ndarray:
@@ -684,9 +686,12 @@ def _scene_row(scene, i: int):
     """Robot i's part of a per-robot scene, on Python floats (None for None)."""
     if scene is None:
         return None
-    k, gains, torque_limit, rate_limit = scene
-    row = [v if isinstance(v, float) else float(v[i]) for v in k]
-    return (dynamics.Constants(*row), compiled._Gains(float(gains.kp[i]), float(gains.kd[i])),
+    k, kc, gains, torque_limit, rate_limit = scene
+
+    def row(fields):
+        return [v if isinstance(v, float) else float(v[i]) for v in fields]
+
+    return (dynamics.Constants(*row(k)), dynamics.ContactConstants(*row(kc)), compiled._Gains(*row(gains)),
             None if torque_limit is None else float(torque_limit[i]), None if rate_limit is None else float(rate_limit[i]))  # fmt: skip
 
 

@@ -333,7 +333,7 @@ def test_the_stepper_run_as_plain_python_gives_what_numba_compiled():
     y = states.copy()
     rows = np.empty((3, compiled.RECORD_ROWS, n))
     summary = np.empty((compiled.SUMMARY_ROWS, n))
-    compiled._batch(y, 0.1, h, 3, k, kc, gains, 0.4, 9.0, *targets, rows, summary)
+    compiled._batch(y, 0.1, h, 3, k, kc, gains, 0.4, 9.0, *targets, rows, summary, np.empty(0))
     fast, fast_rows, fast_summary = compiled.integrate(replace(config, backend="numba"), targets, states, 0.1, h, 3, True)
     assert np.array_equal(y, fast) and np.array_equal(rows, fast_rows) and np.array_equal(summary, fast_summary)
 

@@ -17,7 +17,7 @@ from rrrobot_gym.simulation import PER_ROBOT_FIELDS, SimConfig, advance
 RECORD_FIELDS = ("times", "torque", "force", "normal", "tangential", "leg_clearance", "leg_rates")
 BACKENDS = ["numpy", pytest.param("numba", marks=pytest.mark.skipif(not compiled.available(), reason="numba is not installed"))]
 MOTOR = SimConfig(torque_limit=0.4, leg_rate_limit=12.0)
-SCENES = {"plane-motor": MOTOR, "pivot": SimConfig(model="pivot")}
+SCENES = {"plane-motor": MOTOR, "pivot": SimConfig(model="pivot"), "plane-torque-limit": SimConfig(torque_limit=0.4)}
 
 
 def _draw(config, n, seed):
@@ -27,7 +27,9 @@ def _draw(config, n, seed):
     robots = {name: getattr(robot, name) * rng.uniform(0.8, 1.25, n) for name in ("mass_bottom", "mass_pin", "mass_tip", "leg_length")}
     robots.update(damping=rng.uniform(-0.03, 0.0, n), kp=gains.kp * rng.uniform(0.8, 1.2, n), kd=gains.kd * rng.uniform(0.8, 1.2, n))
     if config.torque_limit is not None:
-        robots.update(torque_limit=rng.uniform(0.2, 0.6, n), leg_rate_limit=rng.uniform(8.0, 16.0, n))
+        robots.update(torque_limit=rng.uniform(0.2, 0.6, n))
+    if config.leg_rate_limit is not None:
+        robots.update(leg_rate_limit=rng.uniform(8.0, 16.0, n))
     return robots
 
 
@@ -75,12 +77,18 @@ def _robot_of(state, record, i):
     return state[i], one
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+# numpy: N = 5 its row-by-row path, N = 40 its batched arrays (a robot alone: a batch of copies of
+# itself, the same layout). numba: 5 robots one by one (the one-robot stepper), a padded lane block
+# alone, a block of LANES robots in SIMD lanes (each lane its own constants, gains and limits) and
+# 5 one by one, a block and a padded block.
+NUMBA_SIZES = (5, compiled.PADDED_MIN + 4, compiled.LANES + 5, compiled.LANES + compiled.PADDED_MIN)
+SIZES = [("numpy", 5), ("numpy", 40)] + [pytest.param("numba", n, marks=BACKENDS[1].marks) for n in NUMBA_SIZES]
+
+
+@pytest.mark.parametrize("backend, n", SIZES)
 @pytest.mark.parametrize("scene", SCENES)
-@pytest.mark.parametrize("n", [5, 40])
 def test_each_robot_of_a_varied_batch_moves_as_it_would_alone(backend, scene, n):
-    # N = 5: numpy's row-by-row path; N = 40: numpy's batched arrays (robot alone: a batch of copies
-    # of itself, the same layout). numba steps every varied robot on its one-robot stepper.
+    assert 5 < compiled.PADDED_MIN < compiled.LANES
     config = replace(SCENES[scene], backend=backend)
     states = random_states(np.random.default_rng(n), n)
     targets, robots = _ramps(states, 1), _draw(config, n, 2)
@@ -100,7 +108,7 @@ def test_each_robot_of_a_varied_batch_moves_as_it_would_alone(backend, scene, n)
 @pytest.mark.skipif(not compiled.available(), reason="numba is not installed")
 @pytest.mark.parametrize("n", [5, 40])
 def test_numba_and_numpy_agree_on_a_varied_batch(n):
-    # numba's one-robot stepper is numpy's float stepper to the bit (tests/test_compiled.py); numpy's
+    # numba's steppers (lanes, one robot) are numpy's float stepper to the bit (tests/test_compiled.py); numpy's
     # batched arrays take the leg angles' cos and sin by another formula: equal to rounding there.
     states = random_states(np.random.default_rng(7), n)
     targets, robots = _ramps(states, 8), _draw(MOTOR, n, 9)
