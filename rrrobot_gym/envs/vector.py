@@ -110,6 +110,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._paths = None
         self._upright = None  # (N, 2) m, the upright contact points of self.states (task.upright_contact_points)
         self._headings = None  # (headings (N,), their (cos, sin)): see heading_vectors
+        self.compiled_task = task.CompiledTask(self.config, self.num_envs) if task.CompiledTask.applies(
+            self.config, self.workers) else None
+        """The step in one compiled call (:class:`rrrobot_gym.envs.task.CompiledTask`), where it applies;
+        None: the numpy task code, its reference (a caller may set None to run that)."""
 
     @property
     def dt(self) -> float:
@@ -162,6 +166,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = observations
         self.robot_draws = task.draw_robots(self._generators, self.config)
+        if self.compiled_task is not None:
+            self.compiled_task.set_robots(self.robot_draws, self.num_envs)
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
@@ -208,6 +214,37 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         heading = self.heading_vectors(targets)
         applied = task.delayed_actions(actions, self._last_actions, self.robot_draws)
         self._last_actions = actions
+        if self.compiled_task is None:
+            after, observations, rewards, terminated, info = self._task_step(before, targets, heading, applied, actions)
+        else:
+            (after, self.leg_targets, self.leg_target_rates, observations, values, flags, rewards, terminated,
+             self.contact_lost) = self.compiled_task.step(
+                before, self._observations, self.leg_targets, self.leg_target_rates, applied, actions, np.reshape(heading, (2, -1)),
+                targets, self.episode_steps * self.dt, (self.episode_steps + 1) * self.dt, self.contact_lost, self._upright)
+            info = task.compiled_info(values, flags)
+        self.episode_steps += 1
+        if self.max_episode_steps is None:
+            truncated = np.zeros(self.num_envs, dtype=bool)
+        else:
+            truncated = self.episode_steps >= self.max_episode_steps
+        self.states = after
+        self._observations = observations
+        if self._paths is not None:
+            for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
+                path.append((x, y))
+        every = np.ones(self.num_envs, dtype=bool)
+        masks = {key: every.copy() for key in info}
+        done = terminated | truncated
+        if done.any():
+            observations = self._autoreset(done, observations, info, masks)
+        # (the next step's upright points before: a reset sub-env's info is its new start's)
+        self._upright = _upright_points(info)
+        observations = task.noisy(observations, self.robot_draws, self.np_random)
+        return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+
+    def _task_step(self, before, targets, heading, applied, actions):
+        """The numpy task code's step (the reference of :attr:`compiled_task`): (states after,
+        observations, rewards, terminated, info); updates the servo's reference and contact_lost."""
         _, leg_targets, rates = task.step_targets(applied, self.leg_targets, self.leg_target_rates, self.config)
         after, measures, failed, contact_lost = self._advance(before, self.leg_targets, leg_targets, self.contact_lost,
                                                               self.robot_draws)
@@ -225,28 +262,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             before, after, targets, actions, failed, self.config, measures, elapsed, upright_before=self._upright,
             rows_after=rows, heading=heading,
         )
-        self.episode_steps += 1
-        if self.max_episode_steps is None:
-            truncated = np.zeros(self.num_envs, dtype=bool)
-        else:
-            truncated = self.episode_steps >= self.max_episode_steps
-        self.states = after
         self.leg_targets = np.where(failed[:, None], self.leg_targets, leg_targets)
         self.leg_target_rates = np.where(failed[:, None], self.leg_target_rates, rates)
         self.contact_lost = np.where(failed, self.contact_lost, contact_lost)
-        self._observations = observations
-        if self._paths is not None:
-            for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
-                path.append((x, y))
-        every = np.ones(self.num_envs, dtype=bool)
-        masks = {key: every.copy() for key in info}
-        done = terminated | truncated
-        if done.any():
-            observations = self._autoreset(done, observations, info, masks)
-        # (the next step's upright points before: a reset sub-env's info is its new start's)
-        self._upright = _upright_points(info)
-        observations = task.noisy(observations, self.robot_draws, self.np_random)
-        return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+        return after, observations, rewards, terminated, info
 
     def heading_vectors(self, targets):
         """cos and sin of the headings ``targets`` (N,), kept while the headings stay the same
@@ -302,6 +321,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._last_actions[indices] = task.leg_targets_to_action(states[:, 6:8]).clip(-1.0, 1.0)
         for name, values in task.draw_robots([self._generators[i] for i in indices], self.config).items():
             self.robot_draws[name][indices] = values
+        if self.compiled_task is not None and self.robot_draws:
+            self.compiled_task.set_robots(self.robot_draws, self.num_envs)
         self.contact_lost[indices] = 0.0
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
