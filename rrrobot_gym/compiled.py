@@ -97,7 +97,7 @@ robot_derivative_kernel = dynamics.derivative_kernel  # (compiled called, not in
 pd_torque, motor_torque = control.pd_torque, control.motor_torque
 ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
-Constants = dynamics.Constants
+Constants, ContactConstants = dynamics.Constants, dynamics.ContactConstants
 
 
 def _leg_targets(kind, p, shared, t):
@@ -497,9 +497,15 @@ def _measures(rows, summary, i, lost, mu, mass, p, out):
 
 
 def _task_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
-               obs_times, contact_lost, upright_before, p, k, kc, gains, torque_limit, rate_limit, constants,
+               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, constants,
                robot_gains, torque_limits, rate_limits, friction, mass):
-    """One control step of the robots ``before`` (N, 13) (rrrobot_gym.envs.task.CompiledTask.step)."""
+    """One control step of the robots ``before`` (N, 13) (rrrobot_gym.envs.task.CompiledTask.step); ``scene``:
+    the shared scene's constants, contact constants and gains in one array (cheaper to pass than tuples)."""
+    k = Constants(scene[0], scene[1], scene[2], scene[3], scene[4], scene[5], scene[6], scene[7], scene[8], scene[9],
+                  scene[10], scene[11], scene[12], scene[13], scene[14], scene[15], scene[16], scene[17], scene[18],
+                  scene[19])  # fmt: skip
+    kc = ContactConstants(scene[20], scene[21], scene[22], scene[23], scene[24], scene[25], scene[26])
+    gains = _Gains(scene[27], scene[28])
     n = before.shape[0]
     dt, h, n_steps, accel = p[0], p[1], int(p[2]), p[3]
     linear = p[5] > 0.0

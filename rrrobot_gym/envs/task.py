@@ -1008,7 +1008,10 @@ class CompiledTask:
             tilt_limit=dynamics.TILT_LIMIT,
         )  # fmt: skip
         self._params = np.array([float(values[name]) for name in compiled.TASK_PARAMS])
-        self._shared = compiled._scene(sim.robot, sim.depth, sim.gains)
+        k, kc, gains = compiled._scene(sim.robot, sim.depth, sim.gains)
+        self._shared = np.array([*k, *kc, *gains], dtype=float)
+        if len(self._shared) != 29:
+            raise AssertionError("compiled._task_step reads 20 constants, 7 contact constants and 2 gains")
         self._step = compiled._stepper(False, task=True)
         self.set_robots({}, num_envs)
 
@@ -1024,7 +1027,7 @@ class CompiledTask:
         sim = self.config.sim
         physics, friction = robot_physics(draws)
         if physics is None:
-            self._scene = (np.empty((0, len(self._shared[0]))), np.empty((0, 2)), None, None)
+            self._scene = (np.empty((0, 20)), np.empty((0, 2)), None, None)
             self._mass = np.full(num_envs, sim.robot.total_mass)
         else:
             values = simulation.robot_values(sim, physics, num_envs)
@@ -1044,23 +1047,17 @@ class CompiledTask:
         ``compiled.TASK_INFO``), flags (numerical_failure, outside_model), rewards, terminated,
         contact_lost after), each with a leading or trailing axis of N robots. A failed robot keeps
         its state, observation (``observations``, the last) and servo reference."""
-        k, kc, gains = self._shared
         return self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets,
-                          elapsed, times, contact_lost, upright, self._params, k, kc, gains, self.config.sim.torque_limit,
+                          elapsed, times, contact_lost, upright, self._params, self._shared, self.config.sim.torque_limit,
                           self.config.sim.leg_rate_limit, *self._scene, self._friction, self._mass)  # fmt: skip
 
 
 def compiled_info(values, flags) -> dict:
     """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays in its order of keys."""
-    rows = dict(zip(compiled.TASK_INFO, values))
-    info = {key: rows[key] for key in compiled.TASK_INFO[:11]}
-    info["numerical_failure"] = flags[0]
-    info.update((key, rows[key]) for key in MEASURE_ORDER)
-    info["outside_model"] = flags[1]
-    info["reward_survive"] = rows["reward_survive"]
-    return info
+    rows, (failed, outside) = list(values), list(flags)
+    return dict(zip(_COMPILED_INFO_ORDER, rows[:11] + [failed] + rows[11:20] + [outside, rows[20]]))
 
 
-MEASURE_ORDER = ("normal_force", "friction_ratio", "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
-                 "liftoff_fraction", "liftoff_time", "slip_velocity")  # fmt: skip
-"""The order of keys of :func:`rrrobot_gym.validity.step_measures`' measures (a step's info keeps it)."""
+_COMPILED_INFO_ORDER = compiled.TASK_INFO[:11] + ("numerical_failure",) + compiled.TASK_INFO[11:20] + (
+    "outside_model", "reward_survive")
+"""A step's info keys in :func:`step_outcome`'s order (its measures in :func:`rrrobot_gym.validity.step_measures`')."""

@@ -219,7 +219,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         else:
             (after, self.leg_targets, self.leg_target_rates, observations, values, flags, rewards, terminated,
              self.contact_lost) = self.compiled_task.step(
-                before, self._observations, self.leg_targets, self.leg_target_rates, applied, actions, np.reshape(heading, (2, -1)),
+                before, self._observations, self.leg_targets, self.leg_target_rates, applied, actions, heading,
                 targets, self.episode_steps * self.dt, (self.episode_steps + 1) * self.dt, self.contact_lost, self._upright)
             info = task.compiled_info(values, flags)
         self.episode_steps += 1
@@ -232,8 +232,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if self._paths is not None:
             for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
                 path.append((x, y))
-        every = np.ones(self.num_envs, dtype=bool)
-        masks = {key: every.copy() for key in info}
+        masks = dict(zip(info, np.ones((len(info), self.num_envs), dtype=bool)))  # (rows: an array each)
         done = terminated | truncated
         if done.any():
             observations = self._autoreset(done, observations, info, masks)
@@ -273,7 +272,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
             targets = task.headings("episode_target_directions", targets, self.num_envs)  # (a caller may write rows)
-            kept = self._headings = (targets, task.heading_vectors(targets))
+            kept = self._headings = (targets, np.reshape(task.heading_vectors(targets), (2, -1)))  # (cos, sin) rows
         return kept[1]
 
     def _advance(self, states, start_targets, end_targets, contact_lost, draws):
