@@ -498,9 +498,12 @@ def _measures(rows, summary, i, lost, mu, mass, p, out):
 
 def _task_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
                obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, constants,
-               robot_gains, torque_limits, rate_limits, friction, mass):
-    """One control step of the robots ``before`` (N, 13) (rrrobot_gym.envs.task.CompiledTask.step); ``scene``:
-    the shared scene's constants, contact constants and gains in one array (cheaper to pass than tuples)."""
+               robot_gains, torque_limits, rate_limits, friction, mass, y, ends, rates, obs, info, flags, rewards,
+               terminated, lost_after):
+    """One control step of the robots ``before`` (N, 13) into the arrays from ``y`` on
+    (rrrobot_gym.envs.task.CompiledTask.step: made by the caller, as numba's boxing of arrays it
+    returns costs more than the caller's np.empty); ``scene``: the shared scene's constants, contact
+    constants and gains in one array (cheaper to pass than tuples)."""
     k = Constants(scene[0], scene[1], scene[2], scene[3], scene[4], scene[5], scene[6], scene[7], scene[8], scene[9],
                   scene[10], scene[11], scene[12], scene[13], scene[14], scene[15], scene[16], scene[17], scene[18],
                   scene[19])  # fmt: skip
@@ -509,7 +512,6 @@ def _task_step(before, last_obs, previous_targets, previous_rates, applied, acti
     n = before.shape[0]
     dt, h, n_steps, accel = p[0], p[1], int(p[2]), p[3]
     linear = p[5] > 0.0
-    ends, rates = np.empty((n, 2)), np.empty((n, 2))
     params = np.empty((n, 8 if linear else 2))
     for i in range(n):
         for j in range(2):
@@ -526,7 +528,7 @@ def _task_step(before, last_obs, previous_targets, previous_rates, applied, acti
                 params[i, j], params[i, 2 + j], params[i, 4 + j], params[i, 6 + j] = start, end, change, change / dt
             else:
                 params[i, j] = end
-    y = before.copy()
+    y[:] = before
     rows = np.empty((n_steps, RECORD_ROWS, n))
     summary = np.empty((SUMMARY_ROWS, n))
     shared = np.array([0.0, dt])
@@ -537,10 +539,6 @@ def _task_step(before, last_obs, previous_targets, previous_rates, applied, acti
         _per_robot(y, 0.0, h, n_steps, constants, robot_gains, torque_limits, rate_limits, kind, params, shared, rows,
                    summary)  # fmt: skip
     size = last_obs.shape[1]
-    obs = np.empty((n, size), dtype=np.float32)
-    info = np.empty((len(TASK_INFO), n))
-    flags = np.zeros((2, n), dtype=np.bool_)
-    rewards, terminated, lost_after = np.empty(n), np.zeros(n, dtype=np.bool_), np.empty(n)
     out = np.empty(len(TASK_INFO))
     for i in range(n):
         cos_t, sin_t = heading[0, i], heading[1, i]
@@ -591,7 +589,6 @@ def _task_step(before, last_obs, previous_targets, previous_rates, applied, acti
         flags[0, i], flags[1, i] = failed, outside
         for m in range(len(TASK_INFO)):
             info[m, i] = out[m]
-    return y, ends, rates, obs, info, flags, rewards, terminated, lost_after
 
 
 _STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded, _unpadded,

@@ -1047,9 +1047,14 @@ class CompiledTask:
         ``compiled.TASK_INFO``), flags (numerical_failure, outside_model), rewards, terminated,
         contact_lost after), each with a leading or trailing axis of N robots. A failed robot keeps
         its state, observation (``observations``, the last) and servo reference."""
-        return self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets,
-                          elapsed, times, contact_lost, upright, self._params, self._shared, self.config.sim.torque_limit,
-                          self.config.sim.leg_rate_limit, *self._scene, self._friction, self._mass)  # fmt: skip
+        n = len(states)
+        out = (np.empty((n, dynamics.STATE_SIZE)), np.empty((n, 2)), np.empty((n, 2)),
+               np.empty((n, self.config.observation_size), dtype=np.float32), np.empty((len(compiled.TASK_INFO), n)),
+               np.empty((2, n), dtype=bool), np.empty(n), np.empty(n, dtype=bool), np.empty(n))  # fmt: skip
+        self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
+                   times, contact_lost, upright, self._params, self._shared, self.config.sim.torque_limit,
+                   self.config.sim.leg_rate_limit, *self._scene, self._friction, self._mass, *out)  # fmt: skip
+        return out
 
 
 def compiled_info(values, flags) -> dict:

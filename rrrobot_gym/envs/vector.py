@@ -370,7 +370,9 @@ RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
 
 def _upright_points(info):
     """(N, 2) m: the upright contact points an info reports (``x_upright``, ``y_upright``), copied."""
-    return np.column_stack((info["x_upright"], info["y_upright"]))
+    points = np.empty((len(info["x_upright"]), 2))
+    points[:, 0], points[:, 1] = info["x_upright"], info["y_upright"]
+    return points
 
 
 def _with_masks(info, masks):
