@@ -293,7 +293,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             )  # fmt: skip
             self.state, observation, self.leg_targets, self.leg_target_rates = after[0], observations[0], targets[0], rates[0]
             self.contact_lost = float(lost[0])
-            info = {key: value.item() for key, value in task.compiled_info(values, flags).items()}
+            info = task.compiled_info(values, flags, robot=0)
             reward, terminated = rewards[0].item(), terminations[0].item()
         self._observation = observation
         self.time += self.dt

@@ -1057,9 +1057,13 @@ class CompiledTask:
         return out
 
 
-def compiled_info(values, flags) -> dict:
-    """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays in its order of keys."""
-    rows, (failed, outside) = list(values), list(flags)
+def compiled_info(values, flags, robot=None) -> dict:
+    """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays in its order of keys, or
+    one ``robot``'s Python floats and bools (the single env's info)."""
+    if robot is None:
+        rows, (failed, outside) = list(values), list(flags)
+    else:
+        rows, (failed, outside) = values[:, robot].tolist(), flags[:, robot].tolist()
     return dict(zip(_COMPILED_INFO_ORDER, rows[:11] + [failed] + rows[11:20] + [outside, rows[20]]))
 
 
