@@ -39,7 +39,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
     Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
     ``episode_steps`` (N,) expose the batch; of these only a heading may be written
-    (``per_env_settable``): it takes effect in the next step.
+    (``per_env_settable``): it takes effect in the next step. In a step's info without resets,
+    every key's mask is one read-only all-True array.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
@@ -105,6 +106,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._every = np.ones(self.num_envs, dtype=bool)  # the masks of a step without resets, shared
+        self._every.flags.writeable = False
         self._observations = None
         self._generators = [None] * self.num_envs
         self._paths = None
@@ -232,10 +235,12 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         if self._paths is not None:
             for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
                 path.append((x, y))
-        masks = dict(zip(info, np.ones((len(info), self.num_envs), dtype=bool)))  # (rows: an array each)
         done = terminated | truncated
         if done.any():
+            masks = dict(zip(info, np.ones((len(info), self.num_envs), dtype=bool)))  # (rows: an array each)
             observations = self._autoreset(done, observations, info, masks)
+        else:
+            masks = dict.fromkeys(info, self._every)
         # (the next step's upright points before: a reset sub-env's info is its new start's)
         self._upright = _upright_points(info)
         observations = task.noisy(observations, self.robot_draws, self.np_random)
