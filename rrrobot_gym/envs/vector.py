@@ -272,12 +272,12 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         return after, observations, rewards, terminated, info
 
     def heading_vectors(self, targets):
-        """cos and sin of the headings ``targets`` (N,), kept while the headings stay the same
-        (they change at resets and by ``set_attr``, in place: compared by value each step)."""
+        """(2, N): the cos and sin rows of the headings ``targets`` (N,), kept while the headings stay
+        the same (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
             targets = task.headings("episode_target_directions", targets, self.num_envs)  # (a caller may write rows)
-            kept = self._headings = (targets, np.reshape(task.heading_vectors(targets), (2, -1)))  # (cos, sin) rows
+            kept = self._headings = (targets, np.reshape(task.heading_vectors(targets), (2, -1)))
         return kept[1]
 
     def _advance(self, states, start_targets, end_targets, contact_lost, draws):
