@@ -454,9 +454,202 @@ def _unpadded(y, rows, summary, first, count, yp, rp, sp):
             summary[j, first + i] = sp[j, i]
 
 
+# The env's whole step in one call (rrrobot_gym.envs.task.CompiledTask): the servo's motion profile,
+# the physics with its record, the model's measures, the outcome and the observation, robot by robot,
+# each the same numbers as the numpy task code (the reference; tests/test_compiled_task.py).
+TASK_PARAMS = ("dt", "h", "n_steps", "accel_limit", "profile_rate_limit", "linear", "plane", "max_slip_velocity",
+               "max_liftoff_time", "forward_scale", "ctrl_cost_weight", "healthy_reward", "terminate_outside_model",
+               "radius", "limited_friction", "clock_frequency", "positions", "target_mid", "target_half_range",
+               "grace", "tilt_limit")  # fmt: skip
+"""The scalars :func:`_task_step` takes in one array, in this order (0 or 1 for flags; an accel limit
+or clock frequency of 0: none)."""
+TASK_INFO = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction", "x_velocity",
+             "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "normal_force", "friction_ratio",
+             "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction", "liftoff_time",
+             "slip_velocity", "reward_survive")  # fmt: skip
+"""The rows of :func:`_task_step`'s float info; its flags are numerical_failure and outside_model."""
+profile_rates = upright_scale = None  # (rrrobot_gym.envs.task's, given to the compiled copy)
+
+
+def _clip_unit(v):
+    """A float32 observation entry clipped to [-1, 1] (NaN stays NaN, as numpy's clip)."""
+    if v > 1.0:
+        return np.float32(1.0)
+    if v < -1.0:
+        return np.float32(-1.0)
+    return v
+
+
+def _observe_robot(o, c, rows, cos_t, sin_t, time, p):
+    """One robot's observation into o (float32), from its state c and rotation rows (task.observe)."""
+    for m in range(3):
+        o[m] = _clip_unit(np.float32(rows[2][m]))
+        o[3 + m] = _clip_unit(np.float32(rows[0][m] * cos_t + rows[1][m] * sin_t))
+    for m in range(3):  # body rate (state 8:11), then the leg angles (6:8) and rates (11:13)
+        o[6 + m] = np.float32(c[8 + m])
+    for m in range(2):
+        o[9 + m], o[11 + m] = np.float32(c[6 + m]), np.float32(c[11 + m])
+    o[13], o[14] = np.float32(cos_t), np.float32(sin_t)
+    end = 15
+    if p[16] > 0.0:
+        o[15], o[16] = np.float32(c[0]), np.float32(c[1])
+        end = 17
+    if p[15] > 0.0:
+        phase = p[15] * time
+        o[end], o[end + 1] = np.float32(np.sin(phase)), np.float32(np.cos(phase))
+
+
+def _measures(rows, summary, i, lost, mu, mass, p, out):
+    """Robot i's model measures (validity.step_measures, rectangle quadrature) into out[11:20] (the
+    TASK_INFO order); returns the spell without contact going at the end."""
+    samples = rows.shape[0]
+    least_normal = summary[0, i]
+    ratio = summary[1, i]
+    if least_normal <= 0.0:  # (the numpy path's friction_ratio, inf where the floor would pull)
+        ratio = -np.inf
+        for s in range(samples):
+            normal = rows[s, 5, i]
+            ratio = _greater(ratio, np.inf if normal <= 0.0 else rows[s, 6, i] / normal)
+    out[11], out[12], out[13] = least_normal, ratio, summary[2, i]
+    out[14] = np.sqrt(summary[3, i] / (2 * samples))
+    out[15], out[16] = summary[4, i], summary[5, i]
+    if p[6] == 0.0:  # pivot: the joint holds any force
+        out[17], out[18], out[19] = 0.0, 0.0, 0.0
+        return 0.0
+    step = p[1]
+    last_contact, longest, spell, off_count = 0.0, -np.inf, 0.0, 0
+    for s in range(samples):
+        count = s + 1.0
+        if rows[s, 5, i] <= 0.0:
+            off_count += 1
+        else:
+            last_contact = count
+        spell = (count - last_contact) * step + (lost if last_contact == 0.0 else 0.0)
+        longest = _greater(longest, spell)
+    out[17], out[18] = off_count / samples, np.maximum(lost, longest)
+    limited = p[14] > 0.0
+    beyond = limited and not ratio <= mu * (1 - 1e-12)
+    if least_normal > 0.0 and not beyond:
+        out[19] = 0.0
+    else:
+        total = 0.0
+        for s in range(samples):
+            normal = rows[s, 5, i]
+            missing = np.maximum(-normal, 0.0)
+            if limited:
+                missing = missing + np.maximum(rows[s, 6, i] - mu * np.maximum(normal, 0.0), 0.0)
+            total = missing if s == 0 else total + missing
+        out[19] = total * step / mass
+    return spell
+
+
+def _task_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
+               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, robot, friction,
+               mass, y, ends, rates, obs, info, flags, rewards, terminated, lost_after):
+    """One control step of the robots ``before`` (N, 13) into the arrays from ``y`` on
+    (rrrobot_gym.envs.task.CompiledTask.step: made by the caller, as numba's boxing of arrays it
+    returns costs more than the caller's np.empty); ``scene``: the shared scene's constants, contact
+    constants and gains in one array (cheaper to pass than tuples)."""
+    n = before.shape[0]
+    dt, h, n_steps, accel = p[0], p[1], int(p[2]), p[3]
+    linear = p[5] > 0.0
+    params = np.empty((n, 8 if linear else 2))
+    for i in range(n):
+        for j in range(2):
+            start = previous_targets[i, j]
+            goal = p[17] + p[18] * applied[i, j]
+            if accel > 0.0:
+                rate = profile_rates(goal - start, previous_rates[i, j], dt, accel, p[4])
+                end = start + rate * dt
+            else:
+                end, rate = goal, (goal - start) / dt
+            ends[i, j], rates[i, j] = end, rate
+            if linear:
+                change = end - start
+                params[i, j], params[i, 2 + j], params[i, 4 + j], params[i, 6 + j] = start, end, change, change / dt
+            else:
+                params[i, j] = end
+    y[:] = before
+    rows = np.empty((n_steps, RECORD_ROWS, n))
+    summary = np.empty((SUMMARY_ROWS, n))
+    shared = np.array([0.0, dt])
+    kind = _RAMP if linear else _HELD
+    _task_physics(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot)
+    size = last_obs.shape[1]
+    out = np.empty(len(TASK_INFO))
+    for i in range(n):
+        cos_t, sin_t = heading[0, i], heading[1, i]
+        failed = False
+        for j in range(13):
+            if not np.isfinite(y[i, j]):
+                failed = True
+        if not failed:
+            r = rotation_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
+            _observe_robot(obs[i], y[i], r, cos_t, sin_t, obs_times[i], p)
+            for j in range(size):
+                if not np.isfinite(obs[i, j]):
+                    failed = True
+        if failed:  # the last finite state and observation, the servo's reference kept
+            for j in range(13):
+                y[i, j] = before[i, j]
+            for j in range(size):
+                obs[i, j] = last_obs[i, j]
+            for j in range(2):
+                ends[i, j], rates[i, j] = previous_targets[i, j], previous_rates[i, j]
+            r = rotation_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
+        scale = upright_scale(r[0][2], r[1][2], r[2][2], p[13])
+        out[0], out[1] = y[i, 0], y[i, 1]
+        out[2], out[3] = y[i, 0] - scale * r[0][2], y[i, 1] - scale * r[1][2]
+        out[4] = np.arccos(min(max(r[2][2], -1.0), 1.0))
+        out[5] = targets[i]
+        if failed:
+            out[6] = out[7] = out[8] = out[9] = out[10] = 0.0
+            for m in range(11, 20):
+                out[m] = np.nan
+            lost_after[i] = contact_lost[i]
+        else:
+            out[6], out[7] = (y[i, 0] - before[i, 0]) / dt, (y[i, 1] - before[i, 1]) / dt
+            out[8] = ((out[2] - upright_before[i, 0]) * cos_t + (out[3] - upright_before[i, 1]) * sin_t) / dt
+            out[9] = p[9] * out[8]
+            out[10] = -p[10] * (actions[i, 0] * actions[i, 0] + actions[i, 1] * actions[i, 1])
+            lost_after[i] = _measures(rows, summary, i, contact_lost[i], friction[i], mass[i], p, out)
+        started = elapsed[i] >= p[19]
+        left = out[19] > p[7] or out[18] > p[8]
+        outside = out[13] <= 0.0 or (p[6] > 0.0 and started and left)
+        outside = outside and not failed
+        if p[6] > 0.0 and (left or elapsed[i] < p[19]):
+            out[9] = 0.0
+        done = failed or out[4] >= p[20] or (p[12] > 0.0 and outside)
+        out[20] = 0.0 if done else p[11]
+        rewards[i] = out[9] + out[10] + out[20]
+        terminated[i] = done
+        flags[0, i], flags[1, i] = failed, outside
+        for m in range(len(TASK_INFO)):
+            info[m, i] = out[m]
+
+
+def _physics_shared(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
+    """:func:`_task_step`'s physics for robots that share the config: its constants, contact
+    constants and gains from ``scene`` (one array: cheaper to pass than tuples)."""
+    k = Constants(scene[0], scene[1], scene[2], scene[3], scene[4], scene[5], scene[6], scene[7], scene[8], scene[9],
+                  scene[10], scene[11], scene[12], scene[13], scene[14], scene[15], scene[16], scene[17], scene[18],
+                  scene[19])  # fmt: skip
+    kc = ContactConstants(scene[20], scene[21], scene[22], scene[23], scene[24], scene[25], scene[26])
+    _batch(y, 0.0, h, n_steps, k, kc, _Gains(scene[27], scene[28]), torque_limit, rate_limit, kind, params, shared,
+           rows, summary, robot)  # fmt: skip
+
+
+def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
+    """:func:`_task_step`'s physics for robots of their own values (``robot``, :func:`robot_rows`)."""
+    _batch(y, 0.0, h, n_steps, None, None, None, torque_limit, rate_limit, kind, params, shared, rows, summary, robot)
+
+
 _STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded_robot, _padded,
             _unpadded, _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
 """This module's functions the compiled :func:`_batch` calls."""
+_TASK = (_batch, _clip_unit, _observe_robot, _measures)
+"""This module's functions the compiled :func:`_task_step` calls, besides its physics (:func:`_physics_shared`
+or :func:`_physics_own`, as ``_task_physics``) and :data:`_STEPPER`'s."""
 _LANE_INLINED = (_limit, _robot, _own, _lane_state, _lane_torques, _lane_derivatives, _lane_combine)
 """Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
 
@@ -514,13 +707,17 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool, per_robot: bool = False):
+def _stepper(parallel: bool, per_robot: bool = False, task: bool = False):
     """The compiled :func:`_batch` (``per_robot``: a copy for robots of their own values, cached
-    under a name of its own), threaded over robots if ``parallel``: loaded from the disk cache
-    (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
+    under a name of its own; ``task``: :func:`_task_step` over that stepper), threaded over robots
+    if ``parallel``: loaded from the disk cache (:func:`cache_dir`) or compiled, with a line on
+    stderr, once a process."""
     import numba
 
-    directory = cache_dir()
+    from .envs import task as task_module
+
+    # (the task step also compiles functions of the task module: its cache is named by that source too)
+    directory = cache_dir((__file__, dynamics.__file__, control.__file__, task_module.__file__) if task else None)
     try:
         os.makedirs(directory, exist_ok=True)
         cache = os.access(directory, os.W_OK)
@@ -530,9 +727,10 @@ def _stepper(parallel: bool, per_robot: bool = False):
         _prune_stale_caches(directory)
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    name = "_batch" + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "")
+    entry = _task_step if task else _batch
+    name = entry.__name__ + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
-        print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
+        print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
@@ -547,11 +745,19 @@ def _stepper(parallel: bool, per_robot: bool = False):
         namespace["robot_derivative_kernel"] = _copies(dynamics.KERNELS, njit, dict(vars(dynamics)))["derivative_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
-        _copies(_LANE_INLINED, inline, namespace)
+        suffix = "_per_robot" if per_robot else ""  # (copies with other globals: names of their own in the cache)
+        _copies(_LANE_INLINED, inline, namespace, suffix)
         if not per_robot:
             namespace["_own"] = _copies((_given,), inline, namespace)["_given"]
-        _copies(_STEPPER, njit, namespace)
-        batch = types.FunctionType(_batch.__code__, namespace, "_batch")
+        _copies(_STEPPER, njit, namespace, suffix)
+        if task:
+            namespace["rotation_rows"] = _copies((dynamics.rotation_rows,), njit, dict(vars(dynamics)))["rotation_rows"]
+            kernels = _copies(task_module.KERNELS, njit, dict(vars(task_module)))
+            namespace.update((fn.__name__, kernels[fn.__name__]) for fn in task_module.KERNELS)
+            physics = _physics_own if per_robot else _physics_shared
+            namespace["_task_physics"] = _copies((physics,), njit, namespace)[physics.__name__]
+            _copies(_TASK, njit, namespace, suffix)
+        batch = types.FunctionType(entry.__code__, namespace, entry.__name__)
         batch.__qualname__ = name
         return njit(batch, parallel=parallel)
     finally:
@@ -565,6 +771,19 @@ def _scene(robot, depth, gains):
     # (floats: the stepper's per-robot branch, typed though dead here, makes them of floats)
     k, kc = dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth)
     return Constants(*map(float, k)), ContactConstants(*map(float, kc)), _Gains(float(gains.kp), float(gains.kd))
+
+
+def robot_rows(scene, n: int):
+    """(robot, limits): the per-robot stepper's values of ``n`` robots from a per-robot ``scene``
+    (constants, contact constants, gains, torque limit, rate limit; fields (N,) arrays or floats),
+    ROBOT_ROWS a robot in :func:`_robot`'s order, and the limits it is given: None (none for any
+    robot) or NaN (each robot's own)."""
+    k, kc, gains, torque_limits, rate_limits = scene
+    robot = np.zeros((n, ROBOT_ROWS))  # (a limit of None stays 0, unread)
+    for j, value in enumerate((*k, kc.total_mass, gains.kp, gains.kd, torque_limits, rate_limits)):
+        if value is not None:
+            robot[:, j] = value
+    return robot.reshape(-1), tuple(None if limit is None else np.nan for limit in (torque_limits, rate_limits))
 
 
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1, scene=None):
@@ -590,14 +809,9 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind,
                 params, shared, rows, summary, np.empty(0))  # fmt: skip
     else:
-        k, kc, gains, torque_limits, rate_limits = scene
-        robot = np.zeros((y.shape[0], ROBOT_ROWS))  # (_robot's order; a limit of None stays 0, unread)
-        for j, value in enumerate((*k, kc.total_mass, gains.kp, gains.kd, torque_limits, rate_limits)):
-            if value is not None:
-                robot[:, j] = value
-        limits = [None if limit is None else np.nan for limit in (torque_limits, rate_limits)]  # (each robot's own)
+        robot, limits = robot_rows(scene, y.shape[0])
         args = (y, float(t0), float(h), int(n_steps), None, None, None, *limits, kind, params, shared, rows, summary,
-                robot.reshape(-1))  # fmt: skip
+                robot)  # fmt: skip
     if parallel:
         import numba
 

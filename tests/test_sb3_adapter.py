@@ -140,3 +140,31 @@ def test_get_attr_set_attr_and_env_method_follow_vec_env_semantics_per_index():
     assert venv.get_attr("episode_target_directions", indices=-1) == venv.get_attr("episode_target_directions", indices=2)
     venv.set_attr("max_episode_steps", 9, indices=[-1, -2, -3])  # (every env, counted from the end)
     assert venv.get_attr("max_episode_steps") == [9] * 3
+
+
+def test_step_infos_filled_on_reading_are_the_batch_info_per_env():
+    """A step's infos (filled from the batch's arrays when read) hold what the vector env's info
+    says of each env, in its order, and read, copied, pickled or printed as dicts; a key SB3 asks
+    of every env (``episode``) that the batch lacks is absent."""
+    import copy
+    import json
+    import pickle
+
+    venv = RRRobotSB3VecEnv(num_envs=3, max_episode_steps=None)
+    venv.seed(0)
+    venv.reset()
+    twin = RRRobotSB3VecEnv(num_envs=3, max_episode_steps=None).vector_env
+    twin.reset(seed=0)
+    actions = np.array([[0.1, -0.2], [0.0, 0.3], [-0.1, 0.1]], dtype=np.float32)
+    _, _, dones, infos = venv.step(actions)
+    _, _, _, _, batch = twin.step(actions)
+    assert not dones.any()
+    keys = [key for key in batch if not key.startswith("_")]
+    for i, info in enumerate(infos):
+        assert info.get("episode") is None and "episode" not in info and "x_position" in info
+        expected = {**{key: batch[key][i].item() for key in keys}, "TimeLimit.truncated": False}
+        assert info["tilt"] == expected["tilt"]
+        assert list(info.items()) == list(expected.items()) and info == expected and len(info) == len(expected)
+        for same in (info.copy(), dict(info), {**info}, copy.deepcopy(info), pickle.loads(pickle.dumps(info))):
+            assert list(same.items()) == list(expected.items())
+        assert json.loads(json.dumps(info)) == expected and repr(info) == repr(expected)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import gymnasium
 import numpy as np
 from gymnasium.error import DependencyNotInstalled
@@ -234,6 +236,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self._path = None  # contact points so far, kept only when rendering
         self._viewer = None
         self._no_window = False  # human mode where no window can open: warned once, nothing shown
+        self.compiled_task = task.CompiledTask(self.config, 1) if task.CompiledTask.applies(self.config) else None
+        """The step in one compiled call (:class:`rrrobot_gym.envs.task.CompiledTask`), where it applies;
+        None: the numpy task code, its reference (a caller may set None to run that)."""
 
     @property
     def dt(self) -> float:
@@ -249,6 +254,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         state = task.start_states(noise[None])[0] if option_state is None else option_state
         heading = target if option_target is None else option_target
         self.robot_draws = task.draw_robots([self.np_random], self.config)
+        if self.compiled_task is not None:
+            self.compiled_task.set_robots(self.robot_draws, 1)
         observation = task.observe(state[None], np.array([heading]), self.config, np.zeros(1))[0]
         self.state = state
         self.episode_target_direction = heading
@@ -271,6 +278,35 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         before = self.state
         applied = task.delayed_actions(action, self._last_action, self.robot_draws)
         self._last_action = action
+        # (the last step's upright contact point, unless the state was replaced since)
+        upright = self._upright[1] if self._upright[0] is before else None
+        if self.compiled_task is None:
+            observation, reward, terminated, info = self._task_step(before, action, applied, upright)
+        else:
+            target = self.episode_target_direction
+            if upright is None:
+                upright = task.upright_contact_points(before[None], self.config.sim.robot.radius)
+            after, targets, rates, observations, values, flags, rewards, terminations, lost = self.compiled_task.step(
+                before[None], self._observation[None], self.leg_targets[None], self.leg_target_rates[None],
+                applied[None], action[None], np.array([[math.cos(target)], [math.sin(target)]]), np.array([target]),
+                np.array([self.time]), np.array([self.time + self.dt]), np.array([self.contact_lost]), upright,
+            )  # fmt: skip
+            self.state, observation, self.leg_targets, self.leg_target_rates = after[0], observations[0], targets[0], rates[0]
+            self.contact_lost = float(lost[0])
+            info = task.compiled_info(values, flags, robot=0)
+            reward, terminated = rewards[0].item(), terminations[0].item()
+        self._observation = observation
+        self.time += self.dt
+        self._upright = (self.state, np.array([[info["x_upright"], info["y_upright"]]]))
+        if self._path is not None:
+            self._path.append((info["x_position"], info["y_position"]))
+        if self.render_mode == "human":
+            self.render()
+        return self._noisy(observation), reward, terminated, False, info
+
+    def _task_step(self, before, action, applied, upright):
+        """The numpy task code's step (the reference of :attr:`compiled_task`): (observation, reward,
+        terminated, info); updates the state, the servo's reference and contact_lost."""
         held, targets, rates = task.step_targets(applied, self.leg_targets, self.leg_target_rates, self.config)
         after, observation, measures, contact_lost = self._advance(before, held)
         failed = after is None
@@ -280,22 +316,13 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             self.contact_lost = float(contact_lost[0])
         rewards, terminations, infos = task.step_outcome(
             before[None], after[None], self._targets_array(), action[None], np.array([failed]), self.config,
-            measures, np.array([self.time]),
-            # (the last step's upright contact point, unless the state was replaced since)
-            upright_before=self._upright[1] if self._upright[0] is before else None,
+            measures, np.array([self.time]), upright_before=upright,
         )
         self.state = after
-        self._observation = observation
         if not failed:
             self.leg_targets, self.leg_target_rates = targets, rates
-        self.time += self.dt
         info = {key: value.item() for key, value in infos.items()}  # Python floats and bools
-        self._upright = (after, np.array([[info["x_upright"], info["y_upright"]]]))
-        if self._path is not None:
-            self._path.append((info["x_position"], info["y_position"]))
-        if self.render_mode == "human":
-            self.render()
-        return self._noisy(observation), rewards[0].item(), terminations[0].item(), False, info
+        return observation, rewards[0].item(), terminations[0].item(), info
 
     def _advance(self, state, held):
         """(new state, observation, step measures, contact_lost) after one control step, or Nones on a

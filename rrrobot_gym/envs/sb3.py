@@ -81,9 +81,9 @@ class RRRobotSB3VecEnv(VecEnv):
                 infos[i] = final_infos[i]
                 infos[i]["terminal_observation"] = info["final_obs"][i]
                 infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-        else:
-            infos = _info_list(info, self.num_envs)
-        for i in np.flatnonzero(~dones):
+        else:  # (each gets a key below, so none is an empty dict underneath: json's C encoder reads that size)
+            infos = _info_list(info, self.num_envs, lazy=True)
+        for i in np.flatnonzero(~dones).tolist():
             infos[i]["TimeLimit.truncated"] = False
         return observations, rewards.astype(np.float32), dones, infos
 
@@ -152,8 +152,14 @@ class RRRobotSB3VecEnv(VecEnv):
             )
 
 
-def _info_list(info, num_envs, exclude=()):
-    """Gymnasium's vector info (dict of arrays with "_key" masks) as SB3's list of per-env dicts."""
+def _info_list(info, num_envs, exclude=(), lazy=False):
+    """Gymnasium's vector info (dict of arrays with "_key" masks) as SB3's list of per-env dicts; with
+    ``lazy``, :class:`EnvInfo` dicts where every env has every key (a step without resets)."""
+    columns = {key: values for key, values in info.items() if not key.startswith("_") and key not in exclude}
+    masks = [info["_" + key] for key in columns if "_" + key in info]
+    if lazy and all(isinstance(values, np.ndarray) and values.dtype != object for values in columns.values()) and (
+            not masks or np.all(masks)):  # (one call for every mask)
+        return [EnvInfo(columns, i) for i in range(num_envs)]
     infos = [{} for _ in range(num_envs)]
     for key, values in info.items():
         if key.startswith("_") or key in exclude:
@@ -172,3 +178,60 @@ def _info_list(info, num_envs, exclude=()):
             for i in np.flatnonzero(mask):
                 infos[i][key] = items[i]
     return infos
+
+
+class EnvInfo(dict):
+    """One env's info in the SB3 adapter's ``infos``: a dict, filled from the batch's arrays when first
+    read as a whole (copy, items, iteration, printing ...) or by one of their keys; a key the batch
+    does not have (``get("episode")``, as SB3 asks of every env every step) is answered without
+    filling it. Keys set before it is filled come after the batch's, as in a dict built eagerly."""
+
+    __slots__ = ("_columns", "_row")
+
+    def __init__(self, columns: dict, row: int):
+        super().__init__()
+        self._columns, self._row = columns, row  # {key: (N,) array}, shared by the batch's envs
+
+    def _fill(self):
+        columns = self._columns
+        if columns is not None:
+            self._columns = None
+            later = dict.copy(self)
+            dict.clear(self)
+            row = self._row
+            dict.update(self, {key: values[row].item() for key, values in columns.items()})
+            dict.update(self, later)
+
+    def __getitem__(self, key):
+        if self._columns is not None and key in self._columns:
+            self._fill()
+        return dict.__getitem__(self, key)
+
+    def get(self, key, default=None):
+        if self._columns is not None and key in self._columns:
+            self._fill()
+        return dict.get(self, key, default)
+
+    def __contains__(self, key):
+        return dict.__contains__(self, key) or (self._columns is not None and key in self._columns)
+
+    def __getstate__(self):  # (pickled and copied as the dict it stands for)
+        self._fill()
+        return None, {"_columns": None, "_row": self._row}
+
+
+def _filling(name):
+    method = getattr(dict, name)
+
+    def call(self, *args, **kwargs):
+        self._fill()
+        return method(self, *args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    return call
+
+
+for _name in ("keys", "values", "items", "__iter__", "__reversed__", "__len__", "__repr__", "__eq__", "__ne__", "copy",
+              "pop", "popitem", "setdefault", "update", "__delitem__", "clear", "__or__", "__ror__", "__ior__",
+              "__reduce__", "__reduce_ex__"):  # fmt: skip
+    setattr(EnvInfo, _name, _filling(_name))

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 from gymnasium import spaces
 
-from .. import dynamics, validity
+from .. import compiled, dynamics, simulation, validity
 from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
 from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, MAX_SAMPLES, NumericalFailure, SimConfig, advance, check_state
@@ -795,8 +795,7 @@ def upright_contact_points(states, radius, rows=None):
     lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
     # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
     if isinstance(lean_x, float):  # one robot (see rotation_rows)
-        sin_tilt = math.hypot(lean_x, lean_y)
-        scale = radius * (math.atan2(sin_tilt, cos_tilt) / sin_tilt if sin_tilt > 1e-9 else 1.0)
+        scale = upright_scale(lean_x, lean_y, cos_tilt, radius)
     else:
         sin_tilt = np.hypot(lean_x, lean_y)
         leaning = sin_tilt > 1e-9
@@ -805,6 +804,13 @@ def upright_contact_points(states, radius, rows=None):
     points[:, 0] = states[:, 0] - scale * lean_x
     points[:, 1] = states[:, 1] - scale * lean_y
     return points
+
+
+def upright_scale(lean_x, lean_y, cos_tilt, radius):
+    """m per unit lean, one robot's (floats): :func:`upright_contact_points` moves its contact
+    point back by this times (``lean_x``, ``lean_y``). Also compiled (:data:`KERNELS`)."""
+    sin_tilt = math.hypot(lean_x, lean_y)
+    return radius * (math.atan2(sin_tilt, cos_tilt) / sin_tilt if sin_tilt > 1e-9 else 1.0)
 
 
 def reset_info(states, targets, config: TaskConfig, rows=None, draws=None):
@@ -888,16 +894,21 @@ def step_targets(actions, previous_targets, previous_rates, config: TaskConfig, 
         end = goal
         rates = (goal - previous_targets) / dt
     else:
-        error = goal - previous_targets
-        size = np.abs(error)
-        half = 0.5 * config.leg_accel_limit * dt  # (the continuous sqrt(2 a e) overshoots by up to half a step)
-        wanted = np.minimum(np.sqrt(2.0 * config.leg_accel_limit * size + half * half) - half, size / dt)
-        if config.leg_rate_limit is not None:
-            wanted = np.minimum(wanted, config.leg_rate_limit)
-        change = config.leg_accel_limit * dt
-        rates = np.clip(np.copysign(wanted, error), previous_rates - change, previous_rates + change)
+        top = np.inf if config.leg_rate_limit is None else config.leg_rate_limit
+        rates = profile_rates(goal - previous_targets, previous_rates, dt, config.leg_accel_limit, top)
         end = previous_targets + rates * dt
     return held_targets(previous_targets, end, config, t), end, rates
+
+
+def profile_rates(error, previous_rates, dt, accel_limit, rate_limit):
+    """The motion profile's rate over a step (:func:`step_targets`) of a reference ``error`` (rad)
+    short of its target, at ``previous_rates`` (rad/s) before, with ``accel_limit`` (rad/s^2) and a
+    top speed ``rate_limit`` (rad/s, inf: none); floats or arrays. Also compiled (:data:`KERNELS`)."""
+    size = np.abs(error)
+    half = 0.5 * accel_limit * dt  # (the continuous sqrt(2 a e) overshoots by up to half a step)
+    wanted = np.minimum(np.minimum(np.sqrt(2.0 * accel_limit * size + half * half) - half, size / dt), rate_limit)
+    change = accel_limit * dt
+    return np.minimum(np.maximum(np.copysign(wanted, error), previous_rates - change), previous_rates + change)
 
 
 def held_targets(start, end, config: TaskConfig, t: float = 0.0):
@@ -968,3 +979,91 @@ def finite_rows(states, observations):
 
 FINITE_BY_DOT_MIN = 256
 """Batches from this size on are checked by :func:`finite_rows`' dot products (faster for large batches)."""
+
+
+KERNELS = (profile_rates, upright_scale)
+"""This module's functions :mod:`rrrobot_gym.compiled` compiles into the env's step (:class:`CompiledTask`)."""
+
+
+class CompiledTask:
+    """One control step of N robots, task and physics, in one compiled call
+    (:func:`rrrobot_gym.compiled._task_step`): the servo's motion profile (:func:`step_targets`),
+    :func:`advance_and_check`, the observation (:func:`observe`) and :func:`step_outcome`, robot by
+    robot, the same numbers as these numpy functions, which the envs run where it does not apply
+    (:meth:`applies`) and which are its reference."""
+
+    def __init__(self, config: TaskConfig, num_envs: int):
+        self.config = config
+        sim = config.sim
+        n_steps, h = simulation._substeps(config.dt, sim.step)
+        values = dict(
+            dt=config.dt, h=h, n_steps=n_steps, accel_limit=config.leg_accel_limit or 0.0,
+            profile_rate_limit=np.inf if config.leg_rate_limit is None else config.leg_rate_limit,
+            linear=config.action_hold == "linear", plane=sim.model == "plane", max_slip_velocity=config.max_slip_velocity,
+            max_liftoff_time=config.max_liftoff_time, forward_scale=config.forward_reward_weight * FORWARD_VELOCITY_UNIT,
+            ctrl_cost_weight=config.ctrl_cost_weight, healthy_reward=config.healthy_reward,
+            terminate_outside_model=config.terminate_outside_model, radius=sim.robot.radius, limited_friction=False,
+            clock_frequency=config.clock_frequency or 0.0, positions=not config.exclude_current_positions_from_observation,
+            target_mid=_LEG_TARGET_MID, target_half_range=_LEG_TARGET_HALF_RANGE, grace=STARTUP_GRACE - 1e-9,
+            tilt_limit=dynamics.TILT_LIMIT,
+        )  # fmt: skip
+        self._params = np.array([float(values[name]) for name in compiled.TASK_PARAMS])
+        k, kc, gains = compiled._scene(sim.robot, sim.depth, sim.gains)
+        self._shared = np.array([*k, *kc, *gains], dtype=float)
+        if len(self._shared) != 29:
+            raise AssertionError("compiled._task_step reads 20 constants, 7 contact constants and 2 gains")
+        self.set_robots({}, num_envs)
+
+    @staticmethod
+    def applies(config: TaskConfig, workers: int = 1) -> bool:
+        """True where the compiled step covers the scene: the compiled stepper's (one worker), a fixed
+        timestep and the rectangle quadrature."""
+        return (workers == 1 and simulation.takes_compiled(config.sim) and not isinstance(config.timestep, str)
+                and config.contact_quadrature == "rectangle")  # fmt: skip
+
+    def set_robots(self, draws: dict, num_envs: int) -> None:
+        """The robots to step from now on: :func:`draw_robots`' draws ({} for the env's own)."""
+        sim = self.config.sim
+        physics, friction = robot_physics(draws)
+        if physics is None:
+            self._robot = (sim.torque_limit, sim.leg_rate_limit, np.empty(0))
+            self._mass = np.full(num_envs, sim.robot.total_mass)
+        else:
+            values = simulation.robot_values(sim, physics, num_envs)
+            robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
+            self._robot = (*limits, robot)
+            self._mass = simulation.total_mass(values)
+        self._step = compiled._stepper(False, physics is not None, task=True)
+        grip = self.config.friction_coefficient if friction is None else friction
+        self._params[compiled.TASK_PARAMS.index("limited_friction")] = grip is not None
+        self._friction = np.array(np.broadcast_to(1.0 if grip is None else grip, (num_envs,)), dtype=float)
+
+    def step(self, states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
+             times, contact_lost, upright):
+        """One control step: (states, leg targets, their rates, observations, float info (rows
+        ``compiled.TASK_INFO``), flags (numerical_failure, outside_model), rewards, terminated,
+        contact_lost after), each with a leading or trailing axis of N robots. A failed robot keeps
+        its state, observation (``observations``, the last) and servo reference."""
+        n = len(states)
+        out = (np.empty((n, dynamics.STATE_SIZE)), np.empty((n, 2)), np.empty((n, 2)),
+               np.empty((n, self.config.observation_size), dtype=np.float32), np.empty((len(compiled.TASK_INFO), n)),
+               np.empty((2, n), dtype=bool), np.empty(n), np.empty(n, dtype=bool), np.empty(n))  # fmt: skip
+        self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
+                   times, contact_lost, upright, self._params, self._shared, *self._robot, self._friction, self._mass,
+                   *out)  # fmt: skip
+        return out
+
+
+def compiled_info(values, flags, robot=None) -> dict:
+    """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays in its order of keys, or
+    one ``robot``'s Python floats and bools (the single env's info)."""
+    if robot is None:
+        rows, (failed, outside) = list(values), list(flags)
+    else:
+        rows, (failed, outside) = values[:, robot].tolist(), flags[:, robot].tolist()
+    return dict(zip(_COMPILED_INFO_ORDER, rows[:11] + [failed] + rows[11:20] + [outside, rows[20]]))
+
+
+_COMPILED_INFO_ORDER = compiled.TASK_INFO[:11] + ("numerical_failure",) + compiled.TASK_INFO[11:20] + (
+    "outside_model", "reward_survive")
+"""A step's info keys in :func:`step_outcome`'s order (its measures in :func:`rrrobot_gym.validity.step_measures`')."""

@@ -39,7 +39,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
     Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
     ``episode_steps`` (N,) expose the batch; of these only a heading may be written
-    (``per_env_settable``): it takes effect in the next step.
+    (``per_env_settable``): it takes effect in the next step. In a step's info without resets,
+    every key's mask is one read-only all-True array.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.SAME_STEP}
@@ -105,11 +106,17 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._every = np.ones(self.num_envs, dtype=bool)  # the masks of a step without resets, shared
+        self._every.flags.writeable = False
         self._observations = None
         self._generators = [None] * self.num_envs
         self._paths = None
         self._upright = None  # (N, 2) m, the upright contact points of self.states (task.upright_contact_points)
         self._headings = None  # (headings (N,), their (cos, sin)): see heading_vectors
+        self.compiled_task = task.CompiledTask(self.config, self.num_envs) if task.CompiledTask.applies(
+            self.config, self.workers) else None
+        """The step in one compiled call (:class:`rrrobot_gym.envs.task.CompiledTask`), where it applies;
+        None: the numpy task code, its reference (a caller may set None to run that)."""
 
     @property
     def dt(self) -> float:
@@ -162,6 +169,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._observations = observations
         self.robot_draws = task.draw_robots(self._generators, self.config)
+        if self.compiled_task is not None:
+            self.compiled_task.set_robots(self.robot_draws, self.num_envs)
         if self.render_mode is not None:
             self._paths = [[(float(x), float(y))] for x, y in self.states[:, 0:2]]
         info = self._reset_info(np.arange(self.num_envs))
@@ -208,6 +217,38 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         heading = self.heading_vectors(targets)
         applied = task.delayed_actions(actions, self._last_actions, self.robot_draws)
         self._last_actions = actions
+        if self.compiled_task is None:
+            after, observations, rewards, terminated, info = self._task_step(before, targets, heading, applied, actions)
+        else:
+            (after, self.leg_targets, self.leg_target_rates, observations, values, flags, rewards, terminated,
+             self.contact_lost) = self.compiled_task.step(
+                before, self._observations, self.leg_targets, self.leg_target_rates, applied, actions, heading,
+                targets, self.episode_steps * self.dt, (self.episode_steps + 1) * self.dt, self.contact_lost, self._upright)
+            info = task.compiled_info(values, flags)
+        self.episode_steps += 1
+        if self.max_episode_steps is None:
+            truncated = np.zeros(self.num_envs, dtype=bool)
+        else:
+            truncated = self.episode_steps >= self.max_episode_steps
+        self.states = after
+        self._observations = observations
+        if self._paths is not None:
+            for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
+                path.append((x, y))
+        done = terminated | truncated
+        if done.any():
+            masks = dict(zip(info, np.ones((len(info), self.num_envs), dtype=bool)))  # (rows: an array each)
+            observations = self._autoreset(done, observations, info, masks)
+        else:
+            masks = dict.fromkeys(info, self._every)
+        # (the next step's upright points before: a reset sub-env's info is its new start's)
+        self._upright = _upright_points(info)
+        observations = task.noisy(observations, self.robot_draws, self.np_random)
+        return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+
+    def _task_step(self, before, targets, heading, applied, actions):
+        """The numpy task code's step (the reference of :attr:`compiled_task`): (states after,
+        observations, rewards, terminated, info); updates the servo's reference and contact_lost."""
         _, leg_targets, rates = task.step_targets(applied, self.leg_targets, self.leg_target_rates, self.config)
         after, measures, failed, contact_lost = self._advance(before, self.leg_targets, leg_targets, self.contact_lost,
                                                               self.robot_draws)
@@ -225,36 +266,18 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             before, after, targets, actions, failed, self.config, measures, elapsed, upright_before=self._upright,
             rows_after=rows, heading=heading,
         )
-        self.episode_steps += 1
-        if self.max_episode_steps is None:
-            truncated = np.zeros(self.num_envs, dtype=bool)
-        else:
-            truncated = self.episode_steps >= self.max_episode_steps
-        self.states = after
         self.leg_targets = np.where(failed[:, None], self.leg_targets, leg_targets)
         self.leg_target_rates = np.where(failed[:, None], self.leg_target_rates, rates)
         self.contact_lost = np.where(failed, self.contact_lost, contact_lost)
-        self._observations = observations
-        if self._paths is not None:
-            for path, (x, y) in zip(self._paths, after[:, 0:2].tolist()):
-                path.append((x, y))
-        every = np.ones(self.num_envs, dtype=bool)
-        masks = {key: every.copy() for key in info}
-        done = terminated | truncated
-        if done.any():
-            observations = self._autoreset(done, observations, info, masks)
-        # (the next step's upright points before: a reset sub-env's info is its new start's)
-        self._upright = _upright_points(info)
-        observations = task.noisy(observations, self.robot_draws, self.np_random)
-        return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
+        return after, observations, rewards, terminated, info
 
     def heading_vectors(self, targets):
-        """cos and sin of the headings ``targets`` (N,), kept while the headings stay the same
-        (they change at resets and by ``set_attr``, in place: compared by value each step)."""
+        """(2, N): the cos and sin rows of the headings ``targets`` (N,), kept while the headings stay
+        the same (they change at resets and by ``set_attr``, in place: compared by value each step)."""
         kept = self._headings
         if kept is None or not np.array_equal(kept[0], targets):
             targets = task.headings("episode_target_directions", targets, self.num_envs)  # (a caller may write rows)
-            kept = self._headings = (targets, task.heading_vectors(targets))
+            kept = self._headings = (targets, np.reshape(task.heading_vectors(targets), (2, -1)))
         return kept[1]
 
     def _advance(self, states, start_targets, end_targets, contact_lost, draws):
@@ -302,6 +325,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._last_actions[indices] = task.leg_targets_to_action(states[:, 6:8]).clip(-1.0, 1.0)
         for name, values in task.draw_robots([self._generators[i] for i in indices], self.config).items():
             self.robot_draws[name][indices] = values
+        if self.compiled_task is not None and self.robot_draws:
+            self.compiled_task.set_robots(self.robot_draws, self.num_envs)
         self.contact_lost[indices] = 0.0
         self.episode_target_directions[indices] = targets
         self.episode_steps[indices] = 0
@@ -350,7 +375,9 @@ RRRobotVectorEnv.__init__.__signature__ = task.signature_with_keywords(
 
 def _upright_points(info):
     """(N, 2) m: the upright contact points an info reports (``x_upright``, ``y_upright``), copied."""
-    return np.column_stack((info["x_upright"], info["y_upright"]))
+    points = np.empty((len(info["x_upright"]), 2))
+    points[:, 0], points[:, 1] = info["x_upright"], info["y_upright"]
+    return points
 
 
 def _with_masks(info, masks):
