@@ -1,7 +1,9 @@
 """Tuned PPO hyperparameters for RRRobot-v0, declared once: ``train.py``'s defaults.
 
 SB3's PPO defaults (``n_steps=2048`` per env, minibatches of 64) suit a single env; with a
-batched env ours take short rollouts from many robots and large minibatches:
+batched env ours take short rollouts from many robots and large minibatches. They are the best
+of a sweep for the wall time to the searched gaits' speed (``train.py --sweep``,
+docs/training/sweep):
 
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
@@ -22,22 +24,23 @@ from __future__ import annotations
 from .params import whole_number
 
 TOTAL_TIMESTEPS = 10_000_000
-"""env steps of a training run; the learning rate falls to LEARNING_RATE_FINAL over them."""
+"""env steps of a training run (about 12 minutes on one core of the 2-core EPYC); the learning
+rate falls to LEARNING_RATE_FINAL over them."""
 NUM_ENVS = 256
 """robots simulated together in the batched env."""
-N_STEPS = 64
-"""control steps per env per rollout (3.2 s of robot time): 16,384 steps a rollout."""
+N_STEPS = 16
+"""control steps per env per rollout (0.8 s of robot time): 4,096 steps a rollout, one minibatch."""
 MAX_BATCH_SIZE = 4096
 """minibatch size, capped at one rollout (n_steps x num_envs) for small batches of envs."""
 N_EPOCHS = 5
-"""passes over each rollout: 20 minibatches of 4,096."""
+"""passes over each rollout."""
 GAMMA = 0.99
 """per 0.05 s control step: a horizon of about 100 steps, 5 s, several gait periods."""
 GAE_LAMBDA = 0.95
 CLIP_RANGE = 0.2
-ENT_COEF = 0.0
-"""no entropy bonus."""
-LEARNING_RATE = 3e-4
+ENT_COEF = 1e-3
+"""a small entropy bonus."""
+LEARNING_RATE = 5e-4
 """Adam's learning rate at the start of a run ..."""
 LEARNING_RATE_FINAL = 0.0
 """... falling linearly to this at its end (:class:`LinearRate`)."""

@@ -38,6 +38,7 @@ SPACE = {
     "batch_size": ("choice", (2048, 4096, 8192, 16384)),
     "n_epochs": ("integer", (2, 8)),
     "ent_coef": ("choice", (0.0, 1e-4, 1e-3, 1e-2)),
+    "log_std_init": ("choice", (-2.0, -1.5, -1.0, -0.5)),
 }
 """The swept train.py options: {option: (kind, range or choices)}; a batch size above a rollout
 (num_envs x n_steps) is taken as the whole rollout."""

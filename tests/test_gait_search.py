@@ -297,14 +297,14 @@ def test_tuned_ppo_hyperparameters_cap_the_minibatch_at_one_rollout_and_learn(tm
 
     with pytest.raises(ValueError, match="num_envs"):
         ppo_hyperparams(0)
-    assert ppo_hyperparams(learning_rate_final=None)["learning_rate"] == 3e-4  # an override: a constant rate
+    assert ppo_hyperparams(learning_rate_final=None)["learning_rate"] == 5e-4  # an override: a constant rate
 
     venv = VecNormalize(RRRobotSB3VecEnv(num_envs=2, max_episode_steps=100), **vecnormalize_kwargs())
     model = PPO("MlpPolicy", venv, seed=0, **ppo_hyperparams(num_envs=2))
-    assert model.batch_size == 128 and model.n_steps == 64  # one minibatch a rollout at 2 envs
+    assert model.batch_size == 32 and model.n_steps == 16  # one minibatch a rollout at 2 envs
     before = [p.detach().clone() for p in model.policy.parameters()]
-    model.learn(256)  # two rollouts of 64 steps x 2 envs, each then 5 epochs (the last one's at rate 0)
-    assert model.num_timesteps == 256
+    model.learn(64)  # two rollouts of 16 steps x 2 envs, each then 5 epochs (the last one's at rate 0)
+    assert model.num_timesteps == 64
     assert any(not np.allclose(b.numpy(), a.detach().numpy()) for b, a in zip(before, model.policy.parameters()))
     venv.close()
 
