@@ -29,8 +29,8 @@ HERE = Path(__file__).resolve().parents[1]
 BAR_MM_S = 77.57
 """mm/s: the best searched gait's speed along its own direction from the paper's start under the
 default servo (agents/searched, docs/evaluation)."""
-EARLIER = {"num_envs": 64, "n_steps": 256, "n_epochs": 10, "batch_size": 4096, "learning_rate": 3e-4,
-           "total_timesteps": 20_000_000, "net_arch": "128,128", "eval_freq": 250_000}
+EARLIER = {"num_envs": 64, "n_steps": 256, "n_epochs": 10, "batch_size": 4096, "learning_rate": 3e-4, "ent_coef": 0.0,
+           "log_std_init": -2.0, "total_timesteps": 20_000_000, "net_arch": "128,128", "eval_freq": 250_000}
 """train.py's PPO settings before they were tuned for wall time."""
 
 

@@ -260,7 +260,7 @@ def markdown(summary: dict) -> str:
         return "-" if value is None else form.format(value)
 
     lines = [f"### {summary['seeds']} seeds from {summary['first_seed']}: worst and mean heading speed of each best "
-             f"model (mm/s), bar {summary['bar_mm_s']:.1f} mm/s ({summary['bar_source']})\n",
+             f"model (mm/s), bar {summary['bar_mm_s']:.2f} mm/s ({summary['bar_source']})\n",
              "| seed | worst heading | mean heading | best at (steps) | time to bar (s) | steps to bar | run (s) | status |",
              "|---|---|---|---|---|---|---|---|"]
     for run in summary["runs"]:

@@ -83,7 +83,7 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
     budget_s = 60.0 * args.max_minutes
     folder = Path(args.runs_dir) / f"{env_id}__{args.exp_name}__sweep__{int(time.time())}"
     folder.mkdir(parents=True, exist_ok=False)
-    print(f"sweep of {args.sweep} trials into {folder}: bar {bar:.1f} mm/s, {args.max_minutes:g} min each", flush=True)
+    print(f"sweep of {args.sweep} trials into {folder}: bar {bar:.2f} mm/s, {args.max_minutes:g} min each", flush=True)
     records, lock = [], threading.Lock()
 
     def objective(trial):
@@ -132,7 +132,7 @@ def _options(settings: dict) -> str:
 def markdown(summary: dict) -> str:
     """summary.md: the trials by score."""
     names = list(SPACE)
-    lines = [f"### {summary['trials']} trials, bar {summary['bar_mm_s']:.1f} mm/s ({summary['bar_source']}), "
+    lines = [f"### {summary['trials']} trials, bar {summary['bar_mm_s']:.2f} mm/s ({summary['bar_source']}), "
              f"{summary['max_minutes']:g} min each, seed {summary['seed']}\n",
              "| trial | " + " | ".join(names) + " | time to bar (s) | steps to bar | worst heading (mm/s) | score |",
              "|---" * (len(names) + 5) + "|"]
