@@ -707,17 +707,18 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool, per_robot: bool = False, task: bool = False):
+def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None = None):
     """The compiled :func:`_batch` (``per_robot``: a copy for robots of their own values, cached
-    under a name of its own; ``task``: :func:`_task_step` over that stepper), threaded over robots
-    if ``parallel``: loaded from the disk cache (:func:`cache_dir`) or compiled, with a line on
-    stderr, once a process."""
+    under a name of its own; with ``task_kernels``, the task module's functions it calls,
+    :func:`_task_step` over that stepper), threaded over robots if ``parallel``: loaded from the
+    disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process. (The task
+    module passes its kernels, as it imports this one.)"""
     import numba
 
-    from .envs import task as task_module
-
-    # (the task step also compiles functions of the task module: its cache is named by that source too)
-    directory = cache_dir((__file__, dynamics.__file__, control.__file__, task_module.__file__) if task else None)
+    task = task_kernels is not None
+    # (the task step also compiles the task module's functions: its cache is named by that source too)
+    sources = (__file__, dynamics.__file__, control.__file__, *sorted({fn.__code__.co_filename for fn in task_kernels or ()}))
+    directory = cache_dir(sources if task else None)
     try:
         os.makedirs(directory, exist_ok=True)
         cache = os.access(directory, os.W_OK)
@@ -752,8 +753,8 @@ def _stepper(parallel: bool, per_robot: bool = False, task: bool = False):
         _copies(_STEPPER, njit, namespace, suffix)
         if task:
             namespace["rotation_rows"] = _copies((dynamics.rotation_rows,), njit, dict(vars(dynamics)))["rotation_rows"]
-            kernels = _copies(task_module.KERNELS, njit, dict(vars(task_module)))
-            namespace.update((fn.__name__, kernels[fn.__name__]) for fn in task_module.KERNELS)
+            kernels = _copies(task_kernels, njit, dict(task_kernels[0].__globals__))
+            namespace.update((fn.__name__, kernels[fn.__name__]) for fn in task_kernels)
             physics = _physics_own if per_robot else _physics_shared
             namespace["_task_physics"] = _copies((physics,), njit, namespace)[physics.__name__]
             _copies(_TASK, njit, namespace, suffix)

@@ -165,13 +165,13 @@ def test_the_learning_rate_falls_linearly_to_the_final_one_and_a_resume_takes_it
     args = training.parse_args(["--learning-rate", "2e-4", "--learning-rate-final", "5e-5"])
     rate = training.learning_rate(args)
     assert (rate(1.0), rate(0.5), rate(0.0)) == pytest.approx((2e-4, 1.25e-4, 5e-5))
-    default = training.learning_rate(training.parse_args([]))  # by default, 3e-4 falling to 0
-    assert (default(1.0), default(0.0)) == (3e-4, 0.0)
-    assert training.learning_rate(training.parse_args(["--learning-rate-final", "none"])) == 3e-4  # constant
+    default = training.learning_rate(training.parse_args([]))  # by default, 5e-4 falling to 0
+    assert (default(1.0), default(0.0)) == (5e-4, 0.0)
+    assert training.learning_rate(training.parse_args(["--learning-rate-final", "none"])) == 5e-4  # constant
     shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
     argv = ["--resume", shipped, "--learning-rate-final", "0", "--mirror"]
     resumed = training.resume_overrides(training.parse_args(argv), argv)["learning_rate"]
-    assert (resumed(1.0), resumed(0.0)) == (3e-4, 0.0)
+    assert (resumed(1.0), resumed(0.0)) == (5e-4, 0.0)
     with pytest.raises(SystemExit):
         training.parse_args(["--learning-rate-final", "-1e-4"])
     assert "--learning-rate-final" in capsys.readouterr().err
@@ -226,8 +226,8 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
 def test_total_timesteps_are_rounded_up_to_whole_rollouts():
     from rrrobot_gym import training
 
-    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "20000"])) == 32_768  # 2 x 64 x 256
-    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "16384"])) == 16_384
+    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "5000"])) == 8_192  # 2 x 16 x 256
+    assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "4096"])) == 4_096
 
 
 @pytest.mark.parametrize("argv, named", [

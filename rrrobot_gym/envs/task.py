@@ -1033,7 +1033,7 @@ class CompiledTask:
             robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
             self._robot = (*limits, robot)
             self._mass = simulation.total_mass(values)
-        self._step = compiled._stepper(False, physics is not None, task=True)
+        self._step = compiled._stepper(False, physics is not None, KERNELS)
         grip = self.config.friction_coefficient if friction is None else friction
         self._params[compiled.TASK_PARAMS.index("limited_friction")] = grip is not None
         self._friction = np.array(np.broadcast_to(1.0 if grip is None else grip, (num_envs,)), dtype=float)
