@@ -42,7 +42,6 @@ SPACE = {
 }
 """The swept train.py options: {option: (kind, range or choices)}; a batch size above a rollout
 (num_envs x n_steps) is taken as the whole rollout."""
-SWEEP_OPTIONS = ("sweep",)
 
 
 def suggest(trial) -> dict:
@@ -137,9 +136,9 @@ def markdown(summary: dict) -> str:
              "| trial | " + " | ".join(names) + " | time to bar (s) | steps to bar | worst heading (mm/s) | score |",
              "|---" * (len(names) + 5) + "|"]
     for r in summary["records"]:
-        reached = r.get("time_to_bar_s")
-        lines.append(f"| {r['trial']} | " + " | ".join(f"{r['settings'][n]:.3g}" if isinstance(r['settings'][n], float) else str(r['settings'][n])
-                                                  for n in names)
+        reached, settings = r.get("time_to_bar_s"), r["settings"]
+        lines.append(f"| {r['trial']} | " + " | ".join(f"{settings[n]:.3g}" if isinstance(settings[n], float)
+                                                      else str(settings[n]) for n in names)
                      + f" | {'-' if reached is None else f'{reached:.0f}'} | "
                      + ("-" if r.get("timesteps_to_bar") is None else f"{r['timesteps_to_bar']:,}")
                      + f" | {r.get('worst_heading_mm_s', math.nan):.1f} | {r['score']:.0f} |")

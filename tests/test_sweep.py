@@ -7,11 +7,9 @@ import zipfile
 import numpy as np
 import pytest
 
-from rrrobot_gym import sweep, training
+from rrrobot_gym import sweep
 
 from test_seeds import TINY, only_folder, train_py
-
-pytestmark = pytest.mark.slow
 
 
 GIVEN = {"learning_rate": 3e-4, "num_envs": 128, "n_steps": 16, "batch_size": 2048, "n_epochs": 2, "ent_coef": 0.0,
@@ -30,6 +28,7 @@ def two_trials(tmp_path_factory):
     return folder, json.loads((folder / "summary.json").read_text())
 
 
+@pytest.mark.slow
 def test_each_trial_runs_its_settings_and_stops_at_the_bar(two_trials):
     folder, summary = two_trials
     assert summary["schema"] == sweep.SCHEMA and summary["trials"] == 2 and summary["reached_bar"] == 2
@@ -68,6 +67,7 @@ def test_a_missed_bar_scores_between_one_and_two_budgets_by_how_near_it_came():
     assert sweep.score({"status": "failed"}, 80.0, budget) == 3 * budget
 
 
+@pytest.mark.slow
 def test_max_minutes_ends_training_early_and_saves(tmp_path):
     done = train_py(["--total-timesteps", "50000000", "--max-minutes", "0.05", "--num-envs", "4", "--n-steps", "32",
                      "--batch-size", "64", "--n-epochs", "1", "--eval-freq", "1000000", "--no-progress-bar",
@@ -78,17 +78,3 @@ def test_max_minutes_ends_training_early_and_saves(tmp_path):
     with zipfile.ZipFile(run_dir / "final_model.zip") as archive:
         trained = json.loads(archive.read("data"))["num_timesteps"]
     assert 0 < trained < 50_000_000
-
-
-@pytest.mark.parametrize("argv, problem", [
-    (["--sweep", "2", "--bar", "50"], "--sweep needs --max-minutes"),
-    (["--sweep", "2", "--max-minutes", "1"], "--sweep needs a bar"),
-    (["--sweep", "2", "--seeds", "2", "--bar", "50", "--max-minutes", "1"], "cannot be combined"),
-    (["--sweep", "0", "--bar", "50", "--max-minutes", "1"], "--sweep must be a positive integer"),
-    (["--max-minutes", "-1"], "--max-minutes must be a positive number"),
-    (["--stop-at-speed", "nan"], "--stop-at-speed must be a finite speed"),
-])
-def test_bad_sweep_options_are_named(argv, problem, capsys):
-    with pytest.raises(SystemExit):
-        training.parse_args(argv)
-    assert problem in capsys.readouterr().err

@@ -237,8 +237,14 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
     (["--leg-accel-limit", "-60"], "--leg-accel-limit"),
     (["--randomize", "sometimes"], "randomize"),
     (["--clock-frequency", "0"], "--clock-frequency"),
+    (["--sweep", "2", "--bar", "50"], "--sweep needs --max-minutes"),
+    (["--sweep", "2", "--max-minutes", "1"], "--sweep needs a bar"),
+    (["--sweep", "2", "--seeds", "2", "--bar", "50", "--max-minutes", "1"], "cannot be combined"),
+    (["--sweep", "0", "--bar", "50", "--max-minutes", "1"], "--sweep must be a positive integer"),
+    (["--max-minutes", "-1"], "--max-minutes must be a positive number"),
+    (["--stop-at-speed", "nan"], "--stop-at-speed must be a finite speed"),
 ])
-def test_bad_motor_and_clock_arguments_are_named(argv, named, capsys):
+def test_bad_motor_clock_and_sweep_arguments_are_named(argv, named, capsys):
     from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
