@@ -7,8 +7,9 @@
 Runs K train.py runs, seeds ``--seed`` ... ``--seed`` + K - 1 with every other option as given, into
 ``runs/RRRobot-v0__<exp_name>__seeds<first>-<last>__<unix time>/``: each run's folder as train.py
 writes it (with ``evaluations.npz``), its output in ``seed<S>.log``, and ``summary.json`` and
-``summary.md``. Here the runs are subprocesses, at most ``os.cpu_count()`` at once, each on
-``--torch-threads 1`` unless that is given. With ``--ray-address`` each run is a one-CPU Ray task
+``summary.md``. Here the runs are subprocesses, each on ``--torch-threads 1`` unless that is given,
+at most ``os.cpu_count()`` // that many at once (:func:`runs_at_once`): ``--torch-threads 2`` on two
+cores runs them one by one, each as a lone ``python train.py`` runs. With ``--ray-address`` each run is a one-CPU Ray task
 (:func:`rrrobot_gym.gait_search.ray_map`, with its one-line errors for a cluster that does not
 answer or wants a token) that runs train.py in a temporary folder of its node and returns that
 folder's files, written here. Files the runs read (``--resume``, ``--residual-on``) are given to
@@ -159,6 +160,14 @@ def run_remote(rows, address: str, folder: Path) -> list:
     return results
 
 
+def runs_at_once(rows) -> int:
+    """How many of the runs ``rows`` ((seed, train.py's argv, ...)) run at once here: as many as
+    the cores hold, each run taking its ``--torch-threads`` (train.py's update threads; the env
+    and the rollouts take one of them), at least one."""
+    threads = max(int(argv[argv.index("--torch-threads") + 1]) for _, argv, *_ in rows)
+    return max(1, min(len(rows), (os.cpu_count() or 1) // threads))
+
+
 def bar_of(args, trained: dict) -> tuple:
     """(mm/s, its source): ``--bar``, or ``--bar-from``'s (:func:`bar_from_gait_search`)."""
     if args.bar is not None:
@@ -177,7 +186,7 @@ def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=False)
     print(f"seeds {first} ... {last} into {folder}", flush=True)
     if args.ray_address is None:
-        with ThreadPoolExecutor(max_workers=min(len(rows), os.cpu_count() or 1)) as pool:
+        with ThreadPoolExecutor(max_workers=runs_at_once(rows)) as pool:
             results = list(pool.map(lambda row: _reported(run_one(row[0], row[1], folder)), rows))
     else:
         results = list(map(_reported, run_remote(rows, args.ray_address, folder)))

@@ -9,7 +9,8 @@ run with every other option as given (seed ``--seed``), which ends at its first 
 worst heading reaches the bar (``--stop-at-speed``) or after ``--max-minutes``. Its score, to
 minimise, is :func:`score`: the seconds to the bar, or for a run that misses it ``--max-minutes``
 in seconds times (2 - its best worst heading / the bar), so between one and two budgets.
-Here at most ``os.cpu_count()`` trials run at once, each on one torch thread; with
+Here trials run as ``--seeds``' runs do (on one torch thread each unless ``--torch-threads`` is
+given, as many at once as the cores hold: :func:`rrrobot_gym.seeds.runs_at_once`); with
 ``--ray-address`` each is a Ray task, its files gathered here, as ``--seeds``' runs
 (:mod:`rrrobot_gym.seeds`).
 
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
 import threading
 import time
@@ -75,7 +75,7 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
     folders are named ``env_id``__exp_name__...; ``trained``: the env keywords as JSON)."""
     import optuna
 
-    from .seeds import bar_of, run_one, run_remote, seed_record
+    from .seeds import bar_of, run_one, run_remote, runs_at_once, seed_record
 
     start = time.monotonic()
     bar, source = bar_of(args, trained)
@@ -110,7 +110,7 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
     if all(values[0] <= given[name] <= values[1] if kind != "choice" else given[name] in values
            for name, (kind, values) in SPACE.items()):
         study.enqueue_trial(given)  # trial 0: the settings given (train.py's defaults): does any trial beat them?
-    workers = args.sweep if args.ray_address is not None else min(args.sweep, os.cpu_count() or 1)
+    workers = args.sweep if args.ray_address is not None else runs_at_once([(args.seed, child_argv(argv, args.seed))] * args.sweep)
     study.optimize(objective, n_trials=args.sweep, n_jobs=workers)
     records.sort(key=lambda r: (r["score"], r["trial"]))
     summary = {"schema": SCHEMA, "trials": len(records), "seed": args.seed, "bar_mm_s": bar, "bar_source": source,

@@ -164,6 +164,15 @@ def test_each_run_gets_the_options_given_but_those_of_seeds(monkeypatch):
     assert training.parse_args(training.seed_argv(["--seeds", "3", "--bar", "5"], 4)).torch_threads == 1
 
 
+@pytest.mark.parametrize("cores, argv, at_once", [
+    (2, [], 2), (2, ["--torch-threads", "2"], 1), (4, ["--torch-threads", "2"], 2), (1, [], 1),
+    (2, ["--torch-threads", "3"], 1), (8, [], 3)])  # (never more than the runs)
+def test_runs_at_once_share_the_cores_by_each_runs_torch_threads(monkeypatch, cores, argv, at_once):
+    monkeypatch.setattr(seeds.os, "cpu_count", lambda: cores)
+    rows = [(seed, training.seed_argv(["--seeds", "3", "--bar", "5", *argv], seed)) for seed in (1, 2, 3)]
+    assert seeds.runs_at_once(rows) == at_once
+
+
 @pytest.mark.parametrize("argv, problem", [
     (["--bar", "100"], "--bar is an option of --seeds"),
     (["--ray-address", "local"], "--ray-address is an option of --seeds"),
