@@ -671,6 +671,36 @@ def cache_dir(sources=None):
     return os.path.join(root, "rrrobot_gym", "numba-" + digest.hexdigest()[:16])
 
 
+@functools.lru_cache(maxsize=1)
+def _content_keyed_locator():
+    """Register (once) a numba cache locator for the code :func:`_stepper` compiles: its files go
+    straight into the :func:`cache_dir` being compiled into, stamped with that directory's content
+    digest. numba's own locator files them under a folder named by the source's path and stamps them
+    with its modification time, so a copy of the package at another path (a Ray worker's unpacked
+    working directory, a new virtual environment) would compile everything again."""
+    from numba.core import caching
+    from numba.core import config as numba_config
+
+    class ContentKeyedLocator(caching.UserProvidedCacheLocator):
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            self._cache_path = self._directory = numba_config.CACHE_DIR
+
+        def get_source_stamp(self):
+            return os.path.basename(self._directory)  # numba-<digest of every compiled source>
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            directory = numba_config.CACHE_DIR
+            # only while _stepper compiles into one of our cache directories
+            if not (directory and os.path.basename(directory).startswith("numba-")
+                    and os.path.basename(os.path.dirname(directory)) == "rrrobot_gym"):
+                return None
+            return super().from_function(py_func, py_file)
+
+    caching.CacheImpl._locator_classes.insert(0, ContentKeyedLocator)
+
+
 CACHE_UNUSED_DAYS = 30
 """A cache directory of other sources (an older install, an edited checkout) that no process has
 used for this many days is removed when a stepper is made."""
@@ -726,6 +756,7 @@ def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None
         cache = False
     if cache:
         _prune_stale_caches(directory)
+        _content_keyed_locator()
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
     entry = _task_step if task else _batch

@@ -266,8 +266,14 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
     import time
 
     # this process's cache holds both steppers (compiled here or by an earlier process); a copy
-    # of it is what a second process finds after the first compiled: it loads, and says nothing
+    # of it is what a second process finds after the first compiled: it loads, and says nothing,
+    # even run from a copy of the package at another path with newer files (a Ray worker's
+    # unpacked working directory): the cache is keyed by the sources' content, not their path or time
     _use_both_steppers()
+    package = tmp_path / "elsewhere" / "rrrobot_gym"
+    shutil.copytree(os.path.dirname(compiled.__file__), package, ignore=shutil.ignore_patterns("__pycache__"))
+    for path in package.rglob("*.py"):
+        os.utime(path, (time.time() + 100, time.time() + 100))
     script = (
         "import warnings, numba\n"
         "warnings.simplefilter('error', numba.NumbaPerformanceWarning)\n"
@@ -277,7 +283,7 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
         "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
         "stats = [compiled._stepper(parallel).stats for parallel in (False, True)]\n"
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
-        "      compiled.cache_dir())\n"
+        "      compiled.cache_dir(), compiled.__file__)\n"
     )
     warm = compiled.cache_dir()
     # (another test process may be writing into it: numba writes each file as *.tmp.* and renames it)
@@ -288,15 +294,17 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
         (folder / "sub").mkdir(parents=True)
         (folder / "sub" / "f.nbi").write_text("")
         os.utime(folder, (time.time() - days * 86400, time.time() - days * 86400))
-    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path))
-    run = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path), PYTHONPATH=str(package.parent))
+    run = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True,
+                         cwd=package.parent)
     assert not stale.exists() and recent.exists()
-    hits, misses, where = run.stdout.split()
+    hits, misses, where, source = run.stdout.split()
+    assert source == str(package / "compiled.py")
     assert (hits, misses) == ("2", "0") and "compiling" not in run.stderr
     assert where == str(tmp_path / "rrrobot_gym" / os.path.basename(warm))
     # numba names cache files by the function's name, not by parallel=: the threaded stepper
     # must have files of its own, or one process would load the serial code for it
-    names = [name for folder in os.listdir(where) for name in os.listdir(os.path.join(where, folder))]
+    names = os.listdir(where)
     assert any(n.startswith("compiled._batch-") for n in names) and any(n.startswith("compiled._batch_threaded-") for n in names)
 
 
