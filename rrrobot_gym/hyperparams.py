@@ -24,8 +24,8 @@ from __future__ import annotations
 from .params import whole_number
 
 TOTAL_TIMESTEPS = 10_000_000
-"""env steps of a training run (about 12 minutes on one core of the 2-core EPYC); the learning
-rate falls to LEARNING_RATE_FINAL over them."""
+"""env steps of a training run (9-10 minutes alone on the 2-core EPYC, about 12 on one core beside
+another run); the learning rate falls to LEARNING_RATE_FINAL over them."""
 NUM_ENVS = 256
 """robots simulated together in the batched env."""
 N_STEPS = 16
