@@ -49,6 +49,31 @@ def test_observation_noise_perturbs_what_the_policy_sees_and_not_the_robot():
     assert np.abs(observations[:, 0:6]).max() <= 1.0  # unit vectors stay in the observation space
 
 
+@pytest.mark.parametrize("seed", [7, [7, 8, 9, 10], "sb3"])
+def test_a_seeded_batch_repeats_its_observation_noise(seed):
+    """Two batches seeded alike see the same noisy observations, through autoresets: an int seed, a
+    list of seeds, and SB3's seed(), which hands the batch a list (the batch's noise generator was
+    left to the OS's entropy then, so no two training runs were alike)."""
+    from rrrobot_gym.envs import RRRobotSB3VecEnv
+
+    kwargs = dict(num_envs=4, randomize="default", max_episode_steps=5)
+    actions = np.random.default_rng(1).uniform(-1, 1, (12, 4, 2)).astype(np.float32)
+    runs = []
+    for _ in range(2):
+        if seed == "sb3":
+            env = RRRobotSB3VecEnv(**kwargs)
+            env.seed(7)
+            observations = [env.reset()] + [env.step(action)[0] for action in actions]
+        else:
+            env = RRRobotVectorEnv(**kwargs)
+            observations = [env.reset(seed=seed)[0]] + [env.step(action)[0] for action in actions]
+        runs.append(np.array(observations))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    ranges = {name: (r.low, r.high) for name, r in task.RANDOMIZATIONS["default"].items()}
+    clean = RRRobotVectorEnv(**{**kwargs, "randomize": {**ranges, "observation_noise": (0.0, 0.0)}})
+    assert not np.array_equal(runs[0][0], clean.reset(seed=7)[0])  # (the same robots and starts, but noisy)
+
+
 @pytest.mark.parametrize("backend", ["numpy", "auto"])
 def test_a_drawn_robot_moves_as_the_env_built_with_its_values(backend):
     """A randomized mass, leg length, gain and friction act as the same values given as keywords,
