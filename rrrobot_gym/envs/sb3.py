@@ -9,11 +9,23 @@ imports this module, and so SB3, only when ``RRRobotSB3VecEnv`` is first used.
 from __future__ import annotations
 
 import numpy as np
+from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from stable_baselines3.common.vec_env import VecEnv
 
 from ..params import real_number
 from .vector import RRRobotVectorEnv
+
+NOISE_STREAM = 0x6E6F697365
+"""Mixed into :func:`noise_seed`'s entropy: the batch's stream is none of its sub-envs'."""
+
+
+def noise_seed(seeds) -> int:
+    """The int seed of a batch's own generator (its observation noise) from SB3's per-env ``seeds``
+    (None where not given): every (index, seed) given, through a SeedSequence. Without it, SB3's
+    ``seed()`` seeded the robots but not their noise, and no two training runs were alike."""
+    given = [value for i, s in enumerate(seeds) if s is not None for value in (i, int(s))]
+    return int(np.random.SeedSequence([NOISE_STREAM, *given]).generate_state(1, np.uint64)[0])
 
 
 class RRRobotSB3VecEnv(VecEnv):
@@ -60,6 +72,8 @@ class RRRobotSB3VecEnv(VecEnv):
         options = self._options
         if any(options) and any(option != options[0] for option in options):
             raise ValueError("per-env reset options differ; the batched env takes one options dict for all envs")
+        if seeds is not None:  # (a list leaves the batch's own generator, its observation noise, as it is)
+            self.vector_env.np_random = seeding.np_random(noise_seed(seeds))[0]
         observations, info = self.vector_env.reset(seed=seeds, options=options[0] if any(options) else None)
         self.reset_infos = _info_list(info, self.num_envs)
         self._reset_seeds()

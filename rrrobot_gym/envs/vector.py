@@ -24,19 +24,6 @@ from ..params import whole_number
 from . import render, task
 
 
-def _noise_seed(seeds):
-    """The int seed of a batch's own generator from a list of its sub-envs' ``seeds`` (None where
-    not given): every (index, seed) given, through a SeedSequence; None if no seed is given."""
-    given = [value for i, s in enumerate(seeds) if s is not None for value in (i, s)]
-    if not given:
-        return None
-    return int(np.random.SeedSequence([NOISE_STREAM, *given]).generate_state(1, np.uint64)[0])
-
-
-NOISE_STREAM = 0x6E6F697365
-"""Mixed into :func:`_noise_seed`'s entropy: the batch's stream is not a sub-env's."""
-
-
 class RRRobotVectorEnv(VectorEnv, EzPickle):
     """N RRRobot-v0 robots stepped together (``gymnasium.make_vec("RRRobot-v0", num_envs=N)``).
 
@@ -47,11 +34,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     ``render_mode="rgb_array"`` renders one frame per sub-env.
 
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
-    seeds (None keeps that sub-env's generator); the batch's own generator (``np_random``, which
-    draws the observation noise of randomized robots) is seeded by the int, or from every seed of
-    the list (SB3's ``seed()`` gives one), so a seeded batch always repeats itself.
-    ``reset(options=...)`` takes "state", a (13,) or (N, 13) start, and "target_direction", a
-    number or (N,) headings.
+    seeds (None keeps that sub-env's generator). The batch's own generator (``np_random``: the
+    observation noise of randomized robots) is seeded by an int; a list keeps it, so seed it too
+    (``env.np_random = ...``, as the SB3 adapter and :func:`rrrobot_gym.evaluation.run_episodes` do). ``reset(options=...)`` takes "state", a
+    (13,) or (N, 13) start, and "target_direction", a number or (N,) headings.
 
     Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
     ``episode_steps`` (N,) expose the batch; of these only a heading may be written
@@ -168,8 +154,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         option_states, option_targets = task.parse_reset_options(options, self.num_envs)
         if option_states is not None:  # (before anything changes, the generators too: a refused reset keeps the env)
             task.check_start_states(option_states, self.config)
-        # the batch's own generator (the observation noise): Gymnasium's int seed, or one from a list's
-        super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else _noise_seed(seeds))
+        super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)  # (Gymnasium takes ints only)
         for i, sub_seed in enumerate(seeds):
             if sub_seed is not None or self._generators[i] is None:
                 self._generators[i], _ = seeding.np_random(sub_seed)
