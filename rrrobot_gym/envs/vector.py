@@ -36,8 +36,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     ``reset(seed=...)`` takes None, an int (sub-env i gets ``seed + i``) or a list of N
     seeds (None keeps that sub-env's generator). The batch's own generator (``np_random``: the
     observation noise of randomized robots) is seeded by an int; a list keeps it, so seed it too
-    (``env.np_random = ...``, as the SB3 adapter and :func:`rrrobot_gym.evaluation.run_episodes` do). ``reset(options=...)`` takes "state", a
-    (13,) or (N, 13) start, and "target_direction", a number or (N,) headings.
+    (``env.np_random = ...``, as the SB3 adapter and :func:`rrrobot_gym.evaluation.run_episodes` do).
+    ``reset(options=...)`` takes "state", a (13,) or (N, 13) start, and "target_direction", a
+    number or (N,) headings.
 
     Attributes ``states`` (N, 13), ``episode_target_directions`` (N,) rad and
     ``episode_steps`` (N,) expose the batch; of these only a heading may be written
