@@ -704,40 +704,11 @@ def main(argv=None) -> Path:
                     print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
                           f"return {score:,.0f}, heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} "
                           "mean", flush=True)
-                from stable_baselines3.common.evaluation import evaluate_policy
-                policy = self.model.policy
-                raw = {k: v.clone() for k, v in policy.state_dict().items()}
-                line = {"t": self.num_timesteps, "raw": float(speeds.min()), "raw_mean": float(speeds.mean())}
-                for decay, averaged in EMA.items():
-                    policy.load_state_dict(averaged)
-                    evaluate_policy(self.model, self.eval_env, n_eval_episodes=self.n_eval_episodes, deterministic=True)
-                    _, s = heading_speeds(args, self.eval_env.unwrapped.run())
-                    line[str(decay)] = float(s.min()); line[str(decay) + "_mean"] = float(s.mean())
-                policy.load_state_dict(raw)
-                with open(run_dir / "ema.jsonl", "a") as f:
-                    f.write(json.dumps(line) + "\n")
-                print("EMA", line, flush=True)
                 if args.stop_at_speed is not None and speeds.min() >= args.stop_at_speed:
                     print(f"worst heading {speeds.min():.1f} mm/s reached --stop-at-speed {args.stop_at_speed:g}: "
                           "ending training", flush=True)
                     return False
             return result
-
-    EMA = {}
-
-    class Averager(CallbackList.__mro__[1]):
-        def _on_rollout_start(self):
-            current = self.model.policy.state_dict()
-            for decay in (0.9, 0.97, 0.99):
-                if decay not in EMA:
-                    EMA[decay] = {k: v.clone() for k, v in current.items()}
-                else:
-                    for k, v in current.items():
-                        if v.dtype.is_floating_point:
-                            EMA[decay][k].mul_(decay).add_(v, alpha=1 - decay)
-
-        def _on_step(self):
-            return True
 
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
                           eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir))
@@ -754,7 +725,7 @@ def main(argv=None) -> Path:
         with stop.handling_ctrl_c():
             model.learn(total_timesteps=total_timesteps, progress_bar=args.progress_bar, tb_log_name="tb",
                         callback=CallbackList([stop, stop_after(deadline), evaluation, checkpoints,
-                                               threads_for_updates(args.torch_threads), first_update_notice(started), Averager()]),
+                                               threads_for_updates(args.torch_threads), first_update_notice(started)]),
                         reset_num_timesteps=args.resume is None)
     except KeyboardInterrupt:  # a second Ctrl-C: stop at once
         stop.requested = True
