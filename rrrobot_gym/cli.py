@@ -280,6 +280,9 @@ def _add_turn_then_run_parsers(sub):
     ttr.add_argument("--run-gaits", type=Path, required=True, metavar="GAITS.json",
                      help="gait-search file of the running gait (its best gait unless --run-gait)")
     ttr.add_argument("--run-gait", metavar="NAME", help="the running gait by name, e.g. searched-plane-own-2")
+    ttr.add_argument("--evaluations", type=_positive_int,
+                     help="also end the two searches after this many candidates scored in all, shared as the "
+                          "budget: a search that repeats itself on any machine")
     ttr.add_argument("--turning-share", type=_number, default=0.5,
                      help="share of the budget for the turning gait's search (default: %(default)g)")
     ttr.add_argument("--popsize", type=_positive_int, default=64,
@@ -725,7 +728,8 @@ def run_turn_then_run_search(args) -> None:
     from .gait_search import write_json
 
     spec = _run_search(args, (("cma", "search"),), lambda: turn_then_run_search.search(
-        args.run_gaits, model=args.model, budget_seconds=args.budget, seed=args.seed, run_gait=args.run_gait,
+        args.run_gaits, model=args.model, budget_seconds=args.budget, budget_evaluations=args.evaluations, seed=args.seed,
+        run_gait=args.run_gait,
         headings_deg=args.headings or turn_then_run_search.DEFAULT_HEADINGS_DEG, starts=args.starts,
         duration=args.duration, turning_share=args.turning_share, warm_start=args.warm_start,
         run_at_once_below_deg=args.run_at_once_below_deg, popsize=args.popsize,

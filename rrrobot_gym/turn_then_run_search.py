@@ -11,7 +11,8 @@ that gait and runs it. For a running gait of a gait-search file this module find
    agent on ``headings_deg`` x starts: the mean speed along the heading, penalised for leaving the
    model as gait search penalises it (:func:`rrrobot_gym.gait_search.penalised_fitness`).
 
-Steps 2 and 3 are a random screen then CMA-ES within a wall-clock budget
+Steps 2 and 3 are a random screen then CMA-ES within a wall-clock budget, and within a number of
+candidates scored if one is given (a search that repeats itself on any machine)
 (:func:`rrrobot_gym.gait_search.maximise`), each population one batched env or chunks of it as Ray
 tasks. :func:`tune_steering` then tunes the heading correction's gains on a grid through the agent.
 
@@ -250,13 +251,15 @@ def load_run_gait(path, name=None):
     return gait, json.loads(Path(path).read_text())
 
 
-def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, headings_deg=DEFAULT_HEADINGS_DEG,
+def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, seed=0, run_gait=None, headings_deg=DEFAULT_HEADINGS_DEG,
            starts=2, duration=None, turning_share=0.5, warm_start=None, run_at_once_below_deg=10.0,
            popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, progress=None,
            command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
     """The module docstring's steps 1-3 for the running gait of ``run_gaits`` (a gait-search file;
     its best gait, or ``run_gait`` by name) within ``budget_seconds`` of wall clock, a ``turning_share``
-    of it for step 2 (each step scores at least its screen's first candidates).
+    of it for step 2 (each step scores at least its screen's first candidates). With
+    ``budget_evaluations`` the two steps also stop after that many candidates scored in all, the same
+    share of them for step 2: the budget that ends first ends a step.
 
     The maneuver is scored on ``headings_deg`` from the paper's start and ``starts`` - 1 noisy starts
     (reset seeds 1, 2, ...) over ``duration`` s (default 20 s, 30 s for a running gait with a swing
@@ -269,6 +272,8 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     """
     check_model(model)
     budget_seconds = positive_seconds("budget_seconds", budget_seconds)
+    if budget_evaluations is not None:
+        budget_evaluations = whole_number("budget_evaluations", budget_evaluations)
     whole_number("seed", seed, minimum=0)
     whole_number("starts", starts)
     popsize = whole_number("popsize", popsize, minimum=4)
@@ -297,10 +302,12 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     began = time.perf_counter()
     said = {"at": -math.inf}
 
-    def reporter(stage, best):
-        """``report`` for :func:`maximise`: a line at most every 10 s, ``best(row)`` the best so far."""
+    def reporter(stage, best, budget):
+        """``report`` for :func:`maximise`: counts the stage's candidates scored into ``budget``; a
+        line at most every 10 s, ``best(row)`` the best so far."""
 
         def report(archive, rows):
+            budget.scored = len(archive.rows)
             if time.perf_counter() - said["at"] >= 10.0:
                 said["at"] = time.perf_counter()
                 say(f"{stage}: {len(archive.rows)} scored, {time.perf_counter() - began:.0f} s, "
@@ -323,10 +330,12 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
                [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
     to_params, to_unit = unit_box()
+    turning_budget = _Budget(began + turning_share * budget_seconds,
+                             None if budget_evaluations is None else round(turning_share * budget_evaluations))
     turning = maximise(scorer(score_turning, turning_settings), to_params, to_unit, dimension=6,
                        first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize, sigma0=0.2,
-                       seed=seed, remaining=_until(began + turning_share * budget_seconds),
-                       report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s"))  # fmt: skip
+                       seed=seed, remaining=turning_budget.remaining,
+                       report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s", turning_budget))  # fmt: skip
     turn = np.asarray(turning.params[turning.best])
     turn_rate = float(turning.rows[turning.best][1])
     if turn_rate > 0:  # the agent's turning gait turns clockwise (its mirror anticlockwise)
@@ -346,14 +355,16 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     if warm is not None:
         first.append(to_params(to_unit(warm)))
         first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
+    maneuver_budget = _Budget(began + budget_seconds,
+                              None if budget_evaluations is None else budget_evaluations - len(turning.rows))
     maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first,
-                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=_until(began + budget_seconds),
-                         report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"))  # fmt: skip
+                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=maneuver_budget.remaining,
+                         report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s", maneuver_budget))  # fmt: skip
     maneuver, scores = np.asarray(maneuvers.params[maneuvers.best]), maneuvers.rows[maneuvers.best]
     seconds = time.perf_counter() - began
     spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
     spec["search"] = {
-        "seed": seed, "budget_seconds": budget_seconds, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
+        "seed": seed, "budget_seconds": budget_seconds, "budget_evaluations": budget_evaluations, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
         "direction": direction,
         "turning_gait": {"parameters": turning.params[turning.best].tolist(), "yaw_rate_radps": turn_rate,
                          "evaluations": len(turning.rows), "generations": turning.generations, "seeds": TURN_SEEDS,
@@ -366,10 +377,17 @@ def search(run_gaits, *, model, budget_seconds=900.0, seed=0, run_gait=None, hea
     return spec
 
 
-def _until(deadline):
-    """``remaining`` for :func:`rrrobot_gym.gait_search.maximise`: unbounded until ``deadline``
-    (perf_counter s), then none."""
-    return lambda: 0 if time.perf_counter() >= deadline else math.inf
+class _Budget:
+    """A step's budget for :func:`rrrobot_gym.gait_search.maximise`: wall clock until ``deadline``
+    (perf_counter s) and, unless None, ``evaluations`` candidates; its reporter counts ``scored``."""
+
+    def __init__(self, deadline: float, evaluations: int | None):
+        self.deadline, self.evaluations, self.scored = deadline, evaluations, 0
+
+    def remaining(self):
+        if time.perf_counter() >= self.deadline:
+            return 0
+        return math.inf if self.evaluations is None else max(0, self.evaluations - self.scored)
 
 
 def agent_spec(maneuver, gait, run_gaits, out_path, offset_deg, dt, model, env_kwargs, run_at_once_below_deg, command):

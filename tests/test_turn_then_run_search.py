@@ -33,11 +33,12 @@ def _one_line_error(capsys, argv, problem):
 
 @pytest.fixture(scope="module")
 def tiny_agent_file(tmp_path_factory):
-    """A 4 s search for searched-plane-own-1 of plane_own.json, scored on heading 0 deg over 10 s,
-    its screen warm-started from the shipped maneuver (too small a budget to find one from nothing)."""
+    """A search of 40 candidates for searched-plane-own-1 of plane_own.json (the wall-clock budget
+    far beyond it: the same search on any machine), scored on heading 0 deg over 10 s, its screen
+    warm-started from the shipped maneuver (too small a budget to find one from nothing)."""
     out = tmp_path_factory.mktemp("ttr") / "agent.json"
-    argv = ["turn-then-run-search", "--model", "plane", "--run-gaits", str(SEARCHED / "plane_own.json"), "--budget", "4",
-            "--duration", "10", "--headings", "0", "--starts", "1", "--popsize", "4", "--no-progress",
+    argv = ["turn-then-run-search", "--model", "plane", "--run-gaits", str(SEARCHED / "plane_own.json"), "--budget", "600",
+            "--evaluations", "40", "--duration", "10", "--headings", "0", "--starts", "1", "--popsize", "4", "--no-progress",
             "--warm-start", str(SEARCHED / "turn_then_run.json"), "--out", str(out)]  # fmt: skip
     assert cli.main(argv) == 0
     return out
@@ -77,12 +78,17 @@ def test_the_search_record_matches_what_the_agent_file_runs(tiny_agent_file):
     again = ttr.score_maneuvers(np.array([spec["turn_gait"] + [spec["lead_s"], spec["ramp_s"]]]), settings)
     assert again[0, 0] == pytest.approx(found["fitness"], abs=1e-12)
     assert found["evaluations"] >= 5  # (the warm start, its longer blends and the screen)
+    # the two steps used the budget of candidates, half each, and it (not the clock) ended them
+    search = spec["search"]
+    assert search["budget_evaluations"] == 40 and search["seconds"] < search["budget_seconds"]
+    assert search["turning_gait"]["evaluations"] == 20 and found["evaluations"] == 20
 
 
 @pytest.mark.parametrize("args, problem", [
     (["--budget", "0"], "--budget: must be a positive number of seconds"),
     (["--budget", "-60"], "--budget: must be a positive number of seconds"),
     (["--budget", "nan"], "--budget: must be finite"),
+    (["--evaluations", "0"], "--evaluations: must be a positive integer"),
     (["--model", "moon"], "--model: invalid choice: 'moon'"),
     (["--popsize", "2"], "popsize must be an integer >= 4"),
     (["--turning-share", "1"], "turning_share must be a fraction in (0, 1)"),
