@@ -28,7 +28,6 @@ and summarises them (:mod:`rrrobot_gym.seeds`).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import json
 import math
@@ -554,6 +553,7 @@ def stop_on_ctrl_c():
     """A callback that ends training at the next env step after Ctrl-C, so the interrupt never
     lands inside a checkpoint's save (a broken zip, no final model); main() then saves. A second
     Ctrl-C interrupts at once."""
+    import contextlib
     import signal
     import threading
 
@@ -625,39 +625,6 @@ def first_update_notice(started: float):
     return FirstUpdate()
 
 
-def lean_predict(model):
-    """``model.predict`` for deterministic actions (a PPO model on a Box action space), bit for bit,
-    without the per-call cost of SB3's: it switches the policy to evaluation mode and builds a
-    Gaussian for every call, about half of an evaluation's time on five robots. The actor's mean,
-    clipped to the action space as SB3 clips it (tests/test_training.py)."""
-    import torch
-
-    policy = model.policy
-    low, high = model.action_space.low, model.action_space.high
-
-    def predict(observation, state=None, episode_start=None, deterministic=True):
-        if not deterministic:
-            raise ValueError("lean_predict gives deterministic actions only")
-        with torch.no_grad():
-            features = policy.extract_features(torch.as_tensor(observation).float(), policy.pi_features_extractor)
-            actions = policy.action_net(policy.mlp_extractor.forward_actor(features)).numpy()
-        return np.clip(actions, low, high), state
-
-    return predict
-
-
-@contextlib.contextmanager
-def predicting_lean(model):
-    """``model.predict`` is :func:`lean_predict`'s while inside (SB3's EvalCallback scores
-    ``self.model`` through ``evaluate_policy``, which calls it every step), in evaluation mode."""
-    model.policy.set_training_mode(False)
-    model.predict = lean_predict(model)
-    try:
-        yield
-    finally:
-        del model.predict  # (the class's method again)
-
-
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -721,11 +688,7 @@ def main(argv=None) -> Path:
 
         def _on_step(self) -> bool:
             done = len(self.evaluations_results)
-            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:  # (an evaluation: SB3's test)
-                with predicting_lean(self.model):
-                    result = super()._on_step()
-            else:
-                result = super()._on_step()
+            result = super()._on_step()
             if len(self.evaluations_results) > done:
                 self.wall_times.append(time.monotonic() - started)
                 degrees, speeds = heading_speeds(args, self.eval_env.unwrapped.run())

@@ -1,6 +1,5 @@
 """train.py, evaluate.py and agents/, run as a user would: in subprocesses, on tiny budgets."""
 
-import contextlib
 import json
 import math
 import os
@@ -222,40 +221,6 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
         rewards.append([env.step(actions)[1][0] for _ in range(5)])
     assert rewards[0] == rewards[1]
     assert rewards[0][-1] != 0.0
-
-
-def test_evaluations_predict_leanly_and_score_what_sb3_s_predict_scores():
-    """The evaluation's lean predict gives SB3's deterministic actions bit for bit (clipped ones
-    too), and an evaluation through it scores the same returns and heading speeds."""
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.evaluation import evaluate_policy
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    from rrrobot_gym import training
-
-    args = training.parse_args(["--episode-steps", "60", "--num-envs", "4", "--batch-size", "64"])
-    venv = VecNormalize(training.make_env(args, args.num_envs, seed=0), gamma=args.gamma)
-    model = PPO("MlpPolicy", venv, **training.ppo_kwargs(args), seed=0)
-    with torch.no_grad():  # (large weights: some actions leave [-1, 1] and are clipped)
-        model.policy.action_net.weight.mul_(300.0)
-    observations = np.random.default_rng(0).normal(0.0, 3.0, (64, venv.observation_space.shape[0])).astype(np.float32)
-    expected = model.predict(observations, deterministic=True)[0]
-    assert (np.abs(expected) == 1.0).any() and (np.abs(expected) < 1.0).any()
-    assert np.array_equal(training.lean_predict(model)(observations)[0], expected)
-    with pytest.raises(ValueError, match="deterministic"):
-        training.lean_predict(model)(observations, deterministic=False)
-
-    evaluation = VecNormalize(training.make_eval_env(args, seed=1), training=False, norm_reward=False)
-    evaluation.obs_rms = venv.obs_rms
-    scored = []
-    for lean in (False, True):
-        with training.predicting_lean(model) if lean else contextlib.nullcontext():
-            returns, _ = evaluate_policy(model, evaluation, n_eval_episodes=evaluation.num_envs, deterministic=True,
-                                         return_episode_rewards=True)
-        scored.append((returns, training.heading_speeds(args, evaluation.unwrapped.run())[1]))
-    assert scored[0][0] == scored[1][0] and np.array_equal(scored[0][1], scored[1][1])
-    assert "predict" not in vars(model)  # (the model's own predict again)
 
 
 def test_total_timesteps_are_rounded_up_to_whole_rollouts():
