@@ -160,12 +160,17 @@ def run_remote(rows, address: str, folder: Path) -> list:
     return results
 
 
-def runs_at_once(rows) -> int:
-    """How many of the runs ``rows`` ((seed, train.py's argv, ...)) run at once here: as many as
-    the cores hold, each run taking its ``--torch-threads`` (train.py's update threads; the env
-    and the rollouts take one of them), at least one."""
-    threads = max(int(argv[argv.index("--torch-threads") + 1]) for _, argv, *_ in rows)
-    return max(1, min(len(rows), (os.cpu_count() or 1) // threads))
+def torch_threads(argv) -> int:
+    """The ``--torch-threads`` of a run's train.py command line (:func:`rrrobot_gym.training.seed_argv`
+    always gives it)."""
+    return int(argv[argv.index("--torch-threads") + 1])
+
+
+def runs_at_once(threads: int, count: int) -> int:
+    """How many of ``count`` runs run at once here: as many as the cores hold, each run taking
+    ``threads`` (its ``--torch-threads``, train.py's update threads; the env and the rollouts take
+    one of them), at least one."""
+    return max(1, min(count, (os.cpu_count() or 1) // threads))
 
 
 def bar_of(args, trained: dict) -> tuple:
@@ -186,7 +191,7 @@ def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
     folder.mkdir(parents=True, exist_ok=False)
     print(f"seeds {first} ... {last} into {folder}", flush=True)
     if args.ray_address is None:
-        with ThreadPoolExecutor(max_workers=runs_at_once(rows)) as pool:
+        with ThreadPoolExecutor(max_workers=runs_at_once(torch_threads(rows[0][1]), len(rows))) as pool:
             results = list(pool.map(lambda row: _reported(run_one(row[0], row[1], folder)), rows))
     else:
         results = list(map(_reported, run_remote(rows, args.ray_address, folder)))

@@ -75,7 +75,7 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
     folders are named ``env_id``__exp_name__...; ``trained``: the env keywords as JSON)."""
     import optuna
 
-    from .seeds import bar_of, run_one, run_remote, runs_at_once, seed_record
+    from .seeds import bar_of, run_one, run_remote, runs_at_once, seed_record, torch_threads
 
     start = time.monotonic()
     bar, source = bar_of(args, trained)
@@ -110,7 +110,8 @@ def run_sweep(args, argv: list, child_argv, env_id: str, trained: dict) -> Path:
     if all(values[0] <= given[name] <= values[1] if kind != "choice" else given[name] in values
            for name, (kind, values) in SPACE.items()):
         study.enqueue_trial(given)  # trial 0: the settings given (train.py's defaults): does any trial beat them?
-    workers = args.sweep if args.ray_address is not None else runs_at_once([(args.seed, child_argv(argv, args.seed))] * args.sweep)
+    workers = args.sweep if args.ray_address is not None else runs_at_once(torch_threads(child_argv(argv, args.seed)),
+                                                                            args.sweep)
     study.optimize(objective, n_trials=args.sweep, n_jobs=workers)
     records.sort(key=lambda r: (r["score"], r["trial"]))
     summary = {"schema": SCHEMA, "trials": len(records), "seed": args.seed, "bar_mm_s": bar, "bar_source": source,

@@ -169,8 +169,8 @@ def test_each_run_gets_the_options_given_but_those_of_seeds(monkeypatch):
     (2, ["--torch-threads", "3"], 1), (8, [], 3)])  # (never more than the runs)
 def test_runs_at_once_share_the_cores_by_each_runs_torch_threads(monkeypatch, cores, argv, at_once):
     monkeypatch.setattr(seeds.os, "cpu_count", lambda: cores)
-    rows = [(seed, training.seed_argv(["--seeds", "3", "--bar", "5", *argv], seed)) for seed in (1, 2, 3)]
-    assert seeds.runs_at_once(rows) == at_once
+    threads = seeds.torch_threads(training.seed_argv(["--seeds", "3", "--bar", "5", *argv], 1))
+    assert seeds.runs_at_once(threads, 3) == at_once
 
 
 @pytest.mark.parametrize("argv, problem", [
