@@ -251,10 +251,10 @@ def load_run_gait(path, name=None):
     return gait, json.loads(Path(path).read_text())
 
 
-def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, seed=0, run_gait=None, headings_deg=DEFAULT_HEADINGS_DEG,
-           starts=2, duration=None, turning_share=0.5, warm_start=None, run_at_once_below_deg=10.0,
-           popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None, progress=None,
-           command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
+def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, seed=0, run_gait=None,
+           headings_deg=DEFAULT_HEADINGS_DEG, starts=2, duration=None, turning_share=0.5, warm_start=None,
+           run_at_once_below_deg=10.0, popsize=TURN_POPSIZE, reset_noise_scale=0.01, ray_address=None, ray_chunks=None,
+           progress=None, command=None, out_path=None, **env_kwargs) -> dict:  # fmt: skip
     """The module docstring's steps 1-3 for the running gait of ``run_gaits`` (a gait-search file;
     its best gait, or ``run_gait`` by name) within ``budget_seconds`` of wall clock, a ``turning_share``
     of it for step 2 (each step scores at least its screen's first candidates). With
@@ -364,7 +364,8 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     seconds = time.perf_counter() - began
     spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
     spec["search"] = {
-        "seed": seed, "budget_seconds": budget_seconds, "budget_evaluations": budget_evaluations, "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
+        "seed": seed, "budget_seconds": budget_seconds, "budget_evaluations": budget_evaluations,
+        "seconds": round(seconds, 1), "reset_noise_scale": reset_noise_scale,
         "direction": direction,
         "turning_gait": {"parameters": turning.params[turning.best].tolist(), "yaw_rate_radps": turn_rate,
                          "evaluations": len(turning.rows), "generations": turning.generations, "seeds": TURN_SEEDS,
