@@ -690,10 +690,6 @@ def search(
         bar = tqdm(total=budget_evaluations if by_count else round(budget_seconds), unit="gait" if by_count else "s",
                    desc="gait search", dynamic_ncols=True)  # fmt: skip
 
-    def remaining():
-        left = math.inf if budget_evaluations is None else budget_evaluations - evaluations
-        return 0 if budget_seconds is not None and time.perf_counter() - began >= budget_seconds else left
-
     def score(params):  # (fitness, speed, direction, terminated starts) a gait
         scores = evaluate_population(params, **scoring)
         return np.column_stack([scores.fitness, scores.speed_mps, scores.direction_deg, scores.terminated_starts])
@@ -714,7 +710,8 @@ def search(
     try:
         first = [] if start is None else [repair(start)]
         archive = maximise(score, to_params, to_unit, dimension=6, first=first, screen=screen, popsize=popsize,
-                           sigma0=sigma0, seed=seed, remaining=remaining, report=report)  # fmt: skip
+                           sigma0=sigma0, seed=seed, report=report,
+                           remaining=budget(None if budget_seconds is None else began + budget_seconds, budget_evaluations))  # fmt: skip
     finally:
         if bar is not None:
             bar.close()
@@ -798,6 +795,18 @@ class Archive:
         self.rows += list(rows)
 
 
+def budget(deadline: float | None, evaluations: int | None):
+    """``remaining`` for :func:`maximise`: none once the wall clock passes ``deadline``
+    (perf_counter s; None: no clock), else ``evaluations`` less those scored (None: unbounded)."""
+
+    def remaining(scored: int):
+        if deadline is not None and time.perf_counter() >= deadline:
+            return 0
+        return math.inf if evaluations is None else max(0, evaluations - scored)
+
+    return remaining
+
+
 def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsize=64, sigma0=0.25, seed=0, remaining,
              report=None) -> Archive:  # fmt: skip
     """A random screen, then CMA-ES with restarts, maximising the fitness of ``score`` within a budget.
@@ -808,8 +817,8 @@ def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsiz
     ``first`` (a list of candidates) and ``screen`` uniform random points (fewer if the budget is
     smaller), drawn from ``seed``; CMA-ES starts from the fittest candidate so far (the box's centre
     if none) with step ``sigma0``, bounded to the box, and restarts from the fittest with a fresh
-    seed when it converges. ``remaining()`` is how many more candidates the budget allows (checked
-    before each population; a population is cut to it). Returns the :class:`Archive`.
+    seed when it converges. ``remaining(scored)`` is how many more candidates the budget allows after
+    ``scored`` (checked before each population; a population is cut to it): :func:`budget`. Returns the :class:`Archive`.
     """
     try:
         import cma
@@ -826,20 +835,20 @@ def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsiz
         return rows[:, 0]
 
     first = list(first)
-    n_screen = int(min(screen, remaining() - len(first))) if screen else 0
+    n_screen = int(min(screen, remaining(0) - len(first))) if screen else 0
     candidates = first + [to_params(u) for u in rng.uniform(size=(max(0, n_screen), dimension))]
     if candidates:
         scored(np.array(candidates))
     mean = to_unit(archive.params[archive.best]) if archive.rows else np.full(dimension, 0.5)
-    while remaining() >= 1:
+    while remaining(len(archive.rows)) >= 1:
         # cma treats seed 0 as "seed from the clock": shift by one to stay repeatable.
         es = cma.CMAEvolutionStrategy(
             np.clip(mean, 1e-6, 1 - 1e-6), sigma0,
             {"bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + archive.restarts + 1, "verbose": -9},
         )
-        while remaining() >= 1 and not es.stop():
+        while remaining(len(archive.rows)) >= 1 and not es.stop():
             units = es.ask()
-            n = int(min(len(units), remaining()))
+            n = int(min(len(units), remaining(len(archive.rows))))
             fitness = scored(np.array([to_params(u) for u in units[:n]]))
             archive.generations += 1
             if n < len(units):

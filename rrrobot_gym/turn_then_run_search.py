@@ -46,6 +46,7 @@ from .agents.turn_then_run import (
 from .envs import task
 from .gait_search import (
     PARAMETER_NAMES,
+    budget,
     load_gaits,
     maximise,
     penalised_fitness,
@@ -302,12 +303,10 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     began = time.perf_counter()
     said = {"at": -math.inf}
 
-    def reporter(stage, best, budget):
-        """``report`` for :func:`maximise`: counts the stage's candidates scored into ``budget``; a
-        line at most every 10 s, ``best(row)`` the best so far."""
+    def reporter(stage, best):
+        """``report`` for :func:`maximise`: a line at most every 10 s, ``best(row)`` the best so far."""
 
         def report(archive, rows):
-            budget.scored = len(archive.rows)
             if time.perf_counter() - said["at"] >= 10.0:
                 said["at"] = time.perf_counter()
                 say(f"{stage}: {len(archive.rows)} scored, {time.perf_counter() - began:.0f} s, "
@@ -330,12 +329,11 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
                [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
     to_params, to_unit = unit_box()
-    turning_budget = _Budget(began + turning_share * budget_seconds,
-                             None if budget_evaluations is None else round(turning_share * budget_evaluations))
     turning = maximise(scorer(score_turning, turning_settings), to_params, to_unit, dimension=6,
                        first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize, sigma0=0.2,
-                       seed=seed, remaining=turning_budget.remaining,
-                       report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s", turning_budget))  # fmt: skip
+                       seed=seed, report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s"),
+                       remaining=budget(began + turning_share * budget_seconds,
+                                        None if budget_evaluations is None else round(turning_share * budget_evaluations)))  # fmt: skip
     turn = np.asarray(turning.params[turning.best])
     turn_rate = float(turning.rows[turning.best][1])
     if turn_rate > 0:  # the agent's turning gait turns clockwise (its mirror anticlockwise)
@@ -355,11 +353,10 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     if warm is not None:
         first.append(to_params(to_unit(warm)))
         first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
-    maneuver_budget = _Budget(began + budget_seconds,
-                              None if budget_evaluations is None else budget_evaluations - len(turning.rows))
     maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first,
-                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, remaining=maneuver_budget.remaining,
-                         report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s", maneuver_budget))  # fmt: skip
+                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"),
+                         remaining=budget(began + budget_seconds,
+                                          None if budget_evaluations is None else budget_evaluations - len(turning.rows)))  # fmt: skip
     maneuver, scores = np.asarray(maneuvers.params[maneuvers.best]), maneuvers.rows[maneuvers.best]
     seconds = time.perf_counter() - began
     spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
@@ -376,19 +373,6 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
                      "warm_start": None if warm_start is None else str(warm_start)},
     }  # fmt: skip
     return spec
-
-
-class _Budget:
-    """A step's budget for :func:`rrrobot_gym.gait_search.maximise`: wall clock until ``deadline``
-    (perf_counter s) and, unless None, ``evaluations`` candidates; its reporter counts ``scored``."""
-
-    def __init__(self, deadline: float, evaluations: int | None):
-        self.deadline, self.evaluations, self.scored = deadline, evaluations, 0
-
-    def remaining(self):
-        if time.perf_counter() >= self.deadline:
-            return 0
-        return math.inf if self.evaluations is None else max(0, self.evaluations - self.scored)
 
 
 def agent_spec(maneuver, gait, run_gaits, out_path, offset_deg, dt, model, env_kwargs, run_at_once_below_deg, command):
