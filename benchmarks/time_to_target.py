@@ -5,7 +5,7 @@
 
 Runs ``python train.py`` twice at once, side by side on their own cores (one torch thread each,
 the same seed and evaluation every 250,000 steps): with the PPO settings train.py had before its
-defaults were tuned for wall time (:data:`EARLIER`: 64 robots, 256-step rollouts, 10 epochs, the
+defaults were tuned for wall time (:data:`EARLIER`: 64 robots, 256-step rollouts, 10 epochs, tanh, the
 learning rate falling over 20 M steps) and with its defaults, each ended after ``--minutes`` of
 wall time. Both train the default task (the servo, randomized robots); the evaluations run the
 nominal robot on the compass headings. Reports each run's wall time (from its start, imports
@@ -30,7 +30,8 @@ BAR_MM_S = 77.57
 """mm/s: the best searched gait's speed along its own direction from the paper's start under the
 default servo (agents/searched, docs/evaluation)."""
 EARLIER = {"num_envs": 64, "n_steps": 256, "n_epochs": 10, "batch_size": 4096, "learning_rate": 3e-4, "ent_coef": 0.0,
-           "log_std_init": -2.0, "total_timesteps": 20_000_000, "net_arch": "128,128", "eval_freq": 250_000}
+           "log_std_init": -2.0, "total_timesteps": 20_000_000, "net_arch": "128,128", "activation": "tanh",
+           "eval_freq": 250_000}
 """train.py's PPO settings before they were tuned for wall time."""
 
 
@@ -74,8 +75,13 @@ def figure(curves: dict, bar: float, path: str):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4))
+    colours = {}  # (one colour for the seeds of a setting: the label before ", seed")
     for label, c in curves.items():
-        ax.plot(np.asarray(c["wall_time_s"]) / 60, c["worst_mm_s"], marker=".", label=label)
+        setting = label.split(", seed")[0]
+        first = setting not in colours
+        colour = colours.setdefault(setting, f"C{len(colours)}")
+        ax.plot(np.asarray(c["wall_time_s"]) / 60, c["worst_mm_s"], marker=".", ms=3, lw=1, color=colour,
+                label=(setting if label.startswith(setting + ", seed") else label) if first else None)
     ax.axhline(bar, color="k", ls="--", lw=1, label=f"bar {bar:g} mm/s")
     ax.set(xlabel="wall time (min)", ylabel="worst heading speed (mm/s)", ylim=(0, None),
            title="PPO on RRRobot-v0 (servo, randomized robots): time to target")

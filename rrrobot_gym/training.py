@@ -80,6 +80,7 @@ class Args:
     ent_coef: float = _option(hp.ENT_COEF, "entropy bonus coefficient")
     log_std_init: float = _option(hp.LOG_STD_INIT, "initial log std of the Gaussian policy")
     net_arch: str = _option(",".join(map(str, hp.NET_ARCH)), "hidden layer sizes of policy and value nets")
+    activation: str = _option(hp.ACTIVATION, f"their activation: {', '.join(hp.ACTIVATIONS)}")
     healthy_reward: float = _option(1.0, "env reward per step that stays inside the model (survival first, then speed)")
     clock_frequency: float | None = _option(
         None, "rad/s of a gait clock for the policy to observe (e.g. 8, the paper's); default none")
@@ -144,7 +145,7 @@ SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps")
 
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
 """PPO settings a resumed run takes from the command line when given there (else the model's own)."""
-FIXED_ON_RESUME = ("net_arch", "log_std_init", "gamma")
+FIXED_ON_RESUME = ("net_arch", "activation", "log_std_init", "gamma")
 """PPO settings a resumed model keeps: the networks' shape, the initial noise, and the discount its
 value function and return normalisation were trained with."""
 
@@ -307,6 +308,8 @@ def _check_ppo_settings(parser, args):
     low, high = LOG_STD_INIT_RANGE
     if not low <= args.log_std_init <= high:
         parser.error(f"--log-std-init must be in [{low:g}, {high:g}], got {args.log_std_init}")
+    if args.activation not in hp.ACTIVATIONS:
+        parser.error(f"--activation must be one of {', '.join(hp.ACTIVATIONS)}, got {args.activation!r}")
     sizes = args.net_arch.split(",")
     if not all(size.strip().isascii() and size.strip().isdigit() and int(size) > 0 for size in sizes):
         parser.error(f"--net-arch must be positive layer sizes joined by commas, e.g. 128,128, got {args.net_arch!r}")
@@ -401,7 +404,7 @@ def env_config(args: Args) -> dict:
 
 def ppo_kwargs(args: Args) -> dict:
     """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this run's."""
-    settings = RESUME_SETTINGS + ("gamma", "log_std_init")
+    settings = RESUME_SETTINGS + ("gamma", "activation", "log_std_init")
     return hp.ppo_hyperparams(args.num_envs, net_arch=[int(n) for n in args.net_arch.split(",")],
                               **{name: getattr(args, name) for name in settings})
 

@@ -298,10 +298,20 @@ def test_tuned_ppo_hyperparameters_cap_the_minibatch_at_one_rollout_and_learn(tm
     with pytest.raises(ValueError, match="num_envs"):
         ppo_hyperparams(0)
     assert ppo_hyperparams(learning_rate_final=None)["learning_rate"] == 5e-4  # an override: a constant rate
+    with pytest.raises(ValueError, match="activation must be one of tanh, relu, silu, elu, got 'softplus'"):
+        ppo_hyperparams(activation="softplus")
+
+    def activations(model):  # (the networks' layers other than the linear ones)
+        return [type(m).__name__ for m in model.policy.mlp_extractor.modules()
+                if not list(m.children()) and type(m).__name__ != "Linear"]
+
+    tanh = PPO("MlpPolicy", VecNormalize(RRRobotSB3VecEnv(num_envs=2)), **ppo_hyperparams(2, activation="tanh"))
+    assert activations(tanh) == ["Tanh"] * 4  # two hidden layers in each of the policy and value networks
 
     venv = VecNormalize(RRRobotSB3VecEnv(num_envs=2, max_episode_steps=100), **vecnormalize_kwargs())
     model = PPO("MlpPolicy", venv, seed=0, **ppo_hyperparams(num_envs=2))
     assert model.batch_size == 32 and model.n_steps == 16  # one minibatch a rollout at 2 envs
+    assert activations(model) == ["ReLU"] * 4  # the default
     before = [p.detach().clone() for p in model.policy.parameters()]
     model.learn(64)  # two rollouts of 16 steps x 2 envs, each then 5 epochs (the last one's at rate 0)
     assert model.num_timesteps == 64

@@ -40,23 +40,31 @@ def assert_sb3_steps_match(ours, theirs):
             np.testing.assert_allclose(info_a[key], value, atol=atol, err_msg=key)
 
 
-def test_adapter_behaves_like_dummy_vec_env_over_single_envs_across_autoresets():
-    """SB3's own reference: DummyVecEnv over copies of the single env, same seeds."""
+UNLIMITED_LEGS = {"torque_limit": None, "leg_rate_limit": None, "leg_accel_limit": None}
+"""The paper's PD legs: random targets end episodes within a few steps, at different steps."""
+
+
+@pytest.mark.parametrize("env_kwargs", [{}, UNLIMITED_LEGS], ids=["servo", "unlimited"])
+def test_adapter_behaves_like_dummy_vec_env_over_single_envs_across_autoresets(env_kwargs):
+    """SB3's own reference: DummyVecEnv over copies of the single env, same seeds. With the paper's
+    legs some envs end while others go on (their infos filled when read, the ended ones' at once)."""
     num_envs, limit = 3, 4
-    ours = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=limit)
-    theirs = DummyVecEnv([lambda: gymnasium.make("RRRobot-v0", max_episode_steps=limit)] * num_envs)
+    ours = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=limit, **env_kwargs)
+    theirs = DummyVecEnv([lambda: gymnasium.make("RRRobot-v0", max_episode_steps=limit, **env_kwargs)] * num_envs)
     ours.seed(8)
     theirs.seed(8)
     np.testing.assert_allclose(ours.reset(), theirs.reset(), atol=OBS_TOLERANCE)
     actions = np.random.default_rng(2).uniform(-1.1, 1.1, (3 * limit, num_envs, 2)).astype(np.float32)
-    finished = 0
+    finished = mixed = 0
     for action in actions:
         step_a, step_b = ours.step(action), theirs.step(action)
         assert_sb3_steps_match(step_a, step_b)
         finished += step_a[2].sum()
+        mixed += 0 < step_a[2].sum() < num_envs
         for info_a, info_b in zip(ours.reset_infos, theirs.reset_infos):
             assert info_a == pytest.approx(info_b, abs=VALUE_TOLERANCE)
     assert finished >= 3 * num_envs  # every env hits the time limit 3 times; random legs may also touch down
+    assert mixed > 0 or env_kwargs == {}
 
 
 def test_finished_episodes_carry_terminal_observation_and_say_whether_time_ran_out():
@@ -168,3 +176,36 @@ def test_step_infos_filled_on_reading_are_the_batch_info_per_env():
         for same in (info.copy(), dict(info), {**info}, copy.deepcopy(info), pickle.loads(pickle.dumps(info))):
             assert list(same.items()) == list(expected.items())
         assert json.loads(json.dumps(info)) == expected and repr(info) == repr(expected)
+
+
+def test_infos_beside_autoresets_hold_each_envs_own_keys_in_the_batch_order():
+    """Randomized robots: a reset's info holds the robot drawn, which the envs going on in the same
+    step lack. Each env's info (filled when read, or built at once for an ended env) is the batch's
+    row for it, key for key in the batch's order, its masks respected."""
+    venv = RRRobotSB3VecEnv(num_envs=4, max_episode_steps=6, **UNLIMITED_LEGS, randomize="default")
+    batches, step = [], venv.vector_env.step
+    venv.vector_env.step = lambda actions: (out := step(actions)) and batches.append(out[4]) or out
+
+    def row(batch, i, skip=("final_obs", "final_info")):
+        return {key: values[i].item() for key, values in batch.items()
+                if not key.startswith("_") and key not in skip and batch["_" + key][i]}
+
+    venv.seed(3)
+    venv.reset()
+    mixed = 0
+    for action in np.random.default_rng(4).uniform(-1.0, 1.0, (20, 4, 2)).astype(np.float32):
+        _, _, dones, infos = venv.step(action)
+        batch = batches[-1]
+        mixed += 0 < dones.sum() < 4
+        for i, info in enumerate(infos):
+            if dones[i]:
+                expected = row(batch["final_info"], i)
+                assert list(venv.reset_infos[i].items()) == list(row(batch, i).items())
+                assert "randomized_mass_tip" in venv.reset_infos[i]
+                np.testing.assert_array_equal(info.pop("terminal_observation"), batch["final_obs"][i])
+                info.pop("TimeLimit.truncated")  # (tested above)
+            else:
+                expected = {**row(batch, i), "TimeLimit.truncated": False}
+                assert "randomized_mass_tip" not in info
+            assert list(info.items()) == list(expected.items())
+    assert mixed > 0

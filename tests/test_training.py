@@ -182,8 +182,8 @@ def test_a_resumed_run_refuses_settings_its_model_fixed(capsys):
 
     shipped = str(ROOT / "agents" / "pretrained" / "best_model.zip")
     with pytest.raises(SystemExit):
-        training.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98"])
-    assert "--gamma, --net-arch" in capsys.readouterr().err
+        training.parse_args(["--resume", shipped, "--net-arch", "64,64", "--gamma", "0.98", "--activation", "tanh"])
+    assert "--activation, --gamma, --net-arch" in capsys.readouterr().err
     argv = ["--resume", shipped, "--learning-rate", "3e-4", "--learning-rate-final", "none"]
     assert training.resume_overrides(training.parse_args(argv), argv) == {"learning_rate": 3e-4}  # given, though the default
 
@@ -370,6 +370,7 @@ def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(s
         (["--net-arch", "64,x"], "--net-arch"),
         (["--net-arch=-4,4"], "--net-arch"),
         (["--net-arch", "\u00b2"], "--net-arch"),  # (a digit to str.isdigit, not to int())
+        (["--activation", "sigmoid"], "--activation must be one of tanh, relu, silu, elu, got 'sigmoid'"),
         (["--batch-size", "1"], "--batch-size must be at least 2"),  # (SB3's assertion)
         (["--seed", "-1"], "--seed"),
         (["--resume", str(ROOT / "README.md")], "not a Stable-Baselines3 model zip"),

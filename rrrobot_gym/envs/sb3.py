@@ -87,16 +87,17 @@ class RRRobotSB3VecEnv(VecEnv):
         observations, rewards, terminated, truncated, info = self.vector_env.step(self._actions)
         self._actions = None
         dones = terminated | truncated
+        # (the envs that go on get dicts filled when read; each gets a key below, so none is an empty
+        # dict underneath: json's C encoder reads that size)
+        infos = _info_list(info, self.num_envs, exclude=("final_obs", "final_info"), lazy=~dones)
         if dones.any():
-            infos = _info_list(info, self.num_envs, exclude=("final_obs", "final_info"))
-            final_infos = _info_list(info["final_info"], self.num_envs)
-            for i in np.flatnonzero(dones):
+            rows = np.flatnonzero(dones).tolist()
+            final_infos = _info_rows(info["final_info"], rows)
+            for i in rows:
                 self.reset_infos[i] = infos[i]
                 infos[i] = final_infos[i]
                 infos[i]["terminal_observation"] = info["final_obs"][i]
                 infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-        else:  # (each gets a key below, so none is an empty dict underneath: json's C encoder reads that size)
-            infos = _info_list(info, self.num_envs, lazy=True)
         for i in np.flatnonzero(~dones).tolist():
             infos[i]["TimeLimit.truncated"] = False
         return observations, rewards.astype(np.float32), dones, infos
@@ -166,31 +167,61 @@ class RRRobotSB3VecEnv(VecEnv):
             )
 
 
-def _info_list(info, num_envs, exclude=(), lazy=False):
-    """Gymnasium's vector info (dict of arrays with "_key" masks) as SB3's list of per-env dicts; with
-    ``lazy``, :class:`EnvInfo` dicts where every env has every key (a step without resets)."""
-    columns = {key: values for key, values in info.items() if not key.startswith("_") and key not in exclude}
-    masks = [info["_" + key] for key in columns if "_" + key in info]
-    if lazy and all(isinstance(values, np.ndarray) and values.dtype != object for values in columns.values()) and (
-            not masks or np.all(masks)):  # (one call for every mask)
-        return [EnvInfo(columns, i) for i in range(num_envs)]
-    infos = [{} for _ in range(num_envs)]
+def _info_list(info, num_envs, exclude=(), lazy=None):
+    """Gymnasium's vector info (dict of arrays with "_key" masks) as SB3's list of per-env dicts. The
+    rows in the boolean mask ``lazy`` get :class:`EnvInfo` dicts, filled when read, if every one of
+    them has the same keys (each column a number array) and those are all the keys it has; the
+    other rows (or all, if not) are built at once."""
+    rows = list(range(num_envs))
+    infos = [None] * num_envs
+    columns = _shared_columns(info, lazy, exclude) if lazy is not None and lazy.any() else None
+    if columns is not None:
+        for i in np.flatnonzero(lazy).tolist():
+            infos[i] = EnvInfo(columns, i)
+        rows = np.flatnonzero(~lazy).tolist()
+    for i, row_info in _info_rows(info, rows, exclude).items():
+        infos[i] = row_info
+    return infos
+
+
+def _shared_columns(info, rows, exclude):
+    """The columns ``{key: (N,) array}`` every env in the boolean mask ``rows`` has, in the info's
+    order, if those envs have no other keys and each column is a number array; else None."""
+    columns = {}
+    for key, values in info.items():
+        if key.startswith("_") or key in exclude:
+            continue
+        if not (isinstance(values, np.ndarray) and values.dtype != object):
+            return None
+        mask = info.get("_" + key)
+        present = rows if mask is None else mask[rows]
+        if present.all():
+            columns[key] = values
+        elif present.any():  # (some of the rows have it, some not: built at once)
+            return None
+    return columns
+
+
+def _info_rows(info, rows, exclude=()):
+    """``{i: env i's info dict}`` for the env indices ``rows``, from a vector info; nested infos
+    (``final_info``) as dicts of their own."""
+    infos = {i: {} for i in rows}
+    if not rows:
+        return infos
     for key, values in info.items():
         if key.startswith("_") or key in exclude:
             continue
         mask = info.get("_" + key)
+        keep = rows if mask is None else [i for i in rows if mask[i]]
         if isinstance(values, dict):
-            for i, sub_info in enumerate(_info_list(values, num_envs)):
-                if mask is None or mask[i]:
-                    infos[i][key] = sub_info
-            continue
-        items = values.tolist() if isinstance(values, np.ndarray) and values.dtype != object else list(values)
-        if mask is None or mask.all():
-            for env_info, item in zip(infos, items):
-                env_info[key] = item
+            for i, sub_info in _info_rows(values, keep).items():
+                infos[i][key] = sub_info
+        elif isinstance(values, np.ndarray) and values.dtype != object:
+            for i, item in zip(keep, values[keep].tolist()):
+                infos[i][key] = item
         else:
-            for i in np.flatnonzero(mask):
-                infos[i][key] = items[i]
+            for i in keep:
+                infos[i][key] = values[i]
     return infos
 
 
