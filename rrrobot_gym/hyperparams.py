@@ -24,8 +24,8 @@ from __future__ import annotations
 from .params import whole_number
 
 TOTAL_TIMESTEPS = 12_000_000
-"""env steps of a training run (8-11 minutes alone on the 2-core EPYC, as busy as it is); the
-learning rate falls to LEARNING_RATE_FINAL over them."""
+"""env steps of a training run (6.4-7.7 minutes alone on the 2-core EPYC in docs/training/seeds,
+longer when it is busy); the learning rate falls to LEARNING_RATE_FINAL over them."""
 NUM_ENVS = 256
 """robots simulated together in the batched env."""
 N_STEPS = 16
