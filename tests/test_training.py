@@ -370,7 +370,7 @@ def test_env_keywords_given_by_env_are_checked_by_the_env_and_name_the_problem(s
         (["--net-arch", "64,x"], "--net-arch"),
         (["--net-arch=-4,4"], "--net-arch"),
         (["--net-arch", "\u00b2"], "--net-arch"),  # (a digit to str.isdigit, not to int())
-        (["--activation", "sigmoid"], "--activation must be one of tanh, relu, silu, elu, got 'sigmoid'"),
+        (["--activation", "sigmoid"], "--activation must be one of tanh, relu, got 'sigmoid'"),
         (["--batch-size", "1"], "--batch-size must be at least 2"),  # (SB3's assertion)
         (["--seed", "-1"], "--seed"),
         (["--resume", str(ROOT / "README.md")], "not a Stable-Baselines3 model zip"),
