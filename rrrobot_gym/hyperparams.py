@@ -81,6 +81,12 @@ def learning_rate_schedule(start: float, final: float | None):
     return start if final is None else LinearRate(start, final)
 
 
+def check_activation(activation: str) -> None:
+    """ValueError unless ``activation`` is a key of :data:`ACTIVATIONS`."""
+    if activation not in ACTIVATIONS:
+        raise ValueError(f"activation must be one of {', '.join(ACTIVATIONS)}, got {activation!r}")
+
+
 def ppo_hyperparams(num_envs: int = NUM_ENVS, *, learning_rate: float = LEARNING_RATE,
                     learning_rate_final: float | None = LEARNING_RATE_FINAL, n_steps: int = N_STEPS,
                     batch_size: int | None = None, n_epochs: int = N_EPOCHS, gamma: float = GAMMA,
@@ -92,8 +98,7 @@ def ppo_hyperparams(num_envs: int = NUM_ENVS, *, learning_rate: float = LEARNING
     import torch
 
     num_envs = whole_number("num_envs", num_envs)
-    if activation not in ACTIVATIONS:
-        raise ValueError(f"activation must be one of {', '.join(ACTIVATIONS)}, got {activation!r}")
+    check_activation(activation)
     return {
         "learning_rate": learning_rate_schedule(learning_rate, learning_rate_final),
         "n_steps": n_steps,

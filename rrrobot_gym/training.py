@@ -146,8 +146,8 @@ SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps")
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
 """PPO settings a resumed run takes from the command line when given there (else the model's own)."""
 FIXED_ON_RESUME = ("net_arch", "activation", "log_std_init", "gamma")
-"""PPO settings a resumed model keeps: the networks' shape, the initial noise, and the discount its
-value function and return normalisation were trained with."""
+"""PPO settings a resumed model keeps: the networks' shape and activation, the initial noise, and
+the discount its value function and return normalisation were trained with."""
 
 
 def _parser(given_only=False):
@@ -308,8 +308,10 @@ def _check_ppo_settings(parser, args):
     low, high = LOG_STD_INIT_RANGE
     if not low <= args.log_std_init <= high:
         parser.error(f"--log-std-init must be in [{low:g}, {high:g}], got {args.log_std_init}")
-    if args.activation not in hp.ACTIVATIONS:
-        parser.error(f"--activation must be one of {', '.join(hp.ACTIVATIONS)}, got {args.activation!r}")
+    try:
+        hp.check_activation(args.activation)
+    except ValueError as exc:
+        parser.error(f"--{exc}")
     sizes = args.net_arch.split(",")
     if not all(size.strip().isascii() and size.strip().isdigit() and int(size) > 0 for size in sizes):
         parser.error(f"--net-arch must be positive layer sizes joined by commas, e.g. 128,128, got {args.net_arch!r}")
