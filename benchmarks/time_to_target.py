@@ -5,8 +5,8 @@
 
 Runs ``python train.py`` twice at once, side by side on their own cores (one torch thread each,
 the same seed and evaluation every 250,000 steps): with the PPO settings train.py had before its
-defaults were tuned for wall time (:data:`EARLIER`: 64 robots, 256-step rollouts, 10 epochs, tanh, the
-learning rate falling over 20 M steps) and with its defaults, each ended after ``--minutes`` of
+defaults were tuned for wall time (:data:`EARLIER`: 64 robots, 256-step rollouts, 10 epochs, tanh,
+the learning rate falling over 20 M steps) and with its defaults, each ended after ``--minutes`` of
 wall time. Both train the default task (the servo, randomized robots); the evaluations run the
 nominal robot on the compass headings. Reports each run's wall time (from its start, imports
 included) to the first evaluation whose worst heading reaches ``--bar`` (default: the best
@@ -81,7 +81,7 @@ def figure(curves: dict, bar: float, path: str):
         first = setting not in colours
         colour = colours.setdefault(setting, f"C{len(colours)}")
         ax.plot(np.asarray(c["wall_time_s"]) / 60, c["worst_mm_s"], marker=".", ms=3, lw=1, color=colour,
-                label=(setting if label.startswith(setting + ", seed") else label) if first else None)
+                label=setting if first else None)
     ax.axhline(bar, color="k", ls="--", lw=1, label=f"bar {bar:g} mm/s")
     ax.set(xlabel="wall time (min)", ylabel="worst heading speed (mm/s)", ylim=(0, None),
            title="PPO on RRRobot-v0 (servo, randomized robots): time to target")

@@ -2,11 +2,11 @@
 
     python -m benchmarks.train_time [--steps 262144] [--rounds 2] [--quick] [--json FILE] [--threads]
 
-Runs train.py with its defaults (its PPO settings, batch of robots and evaluation cadence) for ``--steps`` env steps, once per backend per round, alternating numpy and
-numba in fresh processes so both see the same machine; the whole process is timed (imports,
-numba's compilation or cache load, the evaluations, saving). Reports the median seconds per
-backend, their ratio, and the default run's steps (train.py's default --total-timesteps)
-projected at that rate.
+Runs train.py with its defaults (its PPO settings, batch of robots and evaluation cadence) for
+``--steps`` env steps, once per backend per round, alternating numpy and numba in fresh processes
+so both see the same machine; the whole process is timed (imports, numba's compilation or cache
+load, the evaluations, saving). Reports the median seconds per backend, their ratio, and the
+default run's steps (train.py's default --total-timesteps) projected at that rate.
 
 ``--threads`` compares ``--torch-threads 1`` with ``--torch-threads 2`` instead (torch's threads
 for PPO's updates, train.threads_for_updates), both on the default backend, and says whether
