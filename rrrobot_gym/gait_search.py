@@ -709,9 +709,9 @@ def search(
 
     try:
         first = [] if start is None else [repair(start)]
+        deadline = None if budget_seconds is None else began + budget_seconds
         archive = maximise(score, to_params, to_unit, dimension=6, first=first, screen=screen, popsize=popsize,
-                           sigma0=sigma0, seed=seed, report=report,
-                           remaining=budget(None if budget_seconds is None else began + budget_seconds, budget_evaluations))  # fmt: skip
+                           sigma0=sigma0, seed=seed, remaining=budget(deadline, budget_evaluations), report=report)
     finally:
         if bar is not None:
             bar.close()
@@ -818,7 +818,8 @@ def maximise(score, to_params, to_unit, *, dimension, first=(), screen=0, popsiz
     smaller), drawn from ``seed``; CMA-ES starts from the fittest candidate so far (the box's centre
     if none) with step ``sigma0``, bounded to the box, and restarts from the fittest with a fresh
     seed when it converges. ``remaining(scored)`` is how many more candidates the budget allows after
-    ``scored`` (checked before each population; a population is cut to it): :func:`budget`. Returns the :class:`Archive`.
+    ``scored`` (checked before each population; a population is cut to it): :func:`budget`. Returns
+    the :class:`Archive`.
     """
     try:
         import cma

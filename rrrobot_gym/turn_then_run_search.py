@@ -329,11 +329,11 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     guesses = [gait.as_array(), [1.5, 0.0, 1.57, 1.57, 8.6, 0.0], [0.0, 1.5, 1.57, 1.57, 8.6, 0.0],
                [1.5, 1.5, 1.57, 1.57, 8.6, 0.0], [1.5, 1.5, 1.57, 1.57, 8.6, math.pi]]  # fmt: skip
     to_params, to_unit = unit_box()
+    turning_evaluations = None if budget_evaluations is None else round(turning_share * budget_evaluations)
     turning = maximise(scorer(score_turning, turning_settings), to_params, to_unit, dimension=6,
                        first=[repair(np.array(g)) for g in guesses], screen=8 * popsize, popsize=popsize, sigma0=0.2,
-                       seed=seed, report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s"),
-                       remaining=budget(began + turning_share * budget_seconds,
-                                        None if budget_evaluations is None else round(turning_share * budget_evaluations)))  # fmt: skip
+                       seed=seed, remaining=budget(began + turning_share * budget_seconds, turning_evaluations),
+                       report=reporter("turning gait", lambda row: f"{row[1]:+.3f} rad/s"))  # fmt: skip
     turn = np.asarray(turning.params[turning.best])
     turn_rate = float(turning.rows[turning.best][1])
     if turn_rate > 0:  # the agent's turning gait turns clockwise (its mirror anticlockwise)
@@ -353,10 +353,11 @@ def search(run_gaits, *, model, budget_seconds=900.0, budget_evaluations=None, s
     if warm is not None:
         first.append(to_params(to_unit(warm)))
         first += [to_params(to_unit(np.r_[warm[:7], b])) for b in (4.0, 6.0, 8.0) if b <= blend_max]
+    maneuver_evaluations = None if budget_evaluations is None else budget_evaluations - len(turning.rows)
     maneuvers = maximise(scorer(score_maneuvers, settings), to_params, to_unit, dimension=8, first=first,
-                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed, report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"),
-                         remaining=budget(began + budget_seconds,
-                                          None if budget_evaluations is None else budget_evaluations - len(turning.rows)))  # fmt: skip
+                         screen=popsize, popsize=popsize // 2, sigma0=0.2, seed=seed,
+                         remaining=budget(began + budget_seconds, maneuver_evaluations),
+                         report=reporter("maneuver", lambda row: f"fitness {1e3 * row[0]:.1f} mm/s"))  # fmt: skip
     maneuver, scores = np.asarray(maneuvers.params[maneuvers.best]), maneuvers.rows[maneuvers.best]
     seconds = time.perf_counter() - began
     spec = agent_spec(maneuver, gait, run_gaits, out_path, offset, dt, model, env_kwargs, run_at_once_below_deg, command)
