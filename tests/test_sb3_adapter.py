@@ -184,7 +184,13 @@ def test_infos_beside_autoresets_hold_each_envs_own_keys_in_the_batch_order():
     row for it, key for key in the batch's order, its masks respected."""
     venv = RRRobotSB3VecEnv(num_envs=4, max_episode_steps=6, **UNLIMITED_LEGS, randomize="default")
     batches, step = [], venv.vector_env.step
-    venv.vector_env.step = lambda actions: (out := step(actions)) and batches.append(out[4]) or out
+
+    def recording_step(actions):  # (keeps each step's vector info, the adapter's input)
+        result = step(actions)
+        batches.append(result[4])
+        return result
+
+    venv.vector_env.step = recording_step
 
     def row(batch, i, skip=("final_obs", "final_info")):
         return {key: values[i].item() for key, values in batch.items()
