@@ -31,7 +31,7 @@ BAR_MM_S = 77.57
 default servo (agents/searched, docs/evaluation)."""
 EARLIER = {"num_envs": 64, "n_steps": 256, "n_epochs": 10, "batch_size": 4096, "learning_rate": 3e-4, "ent_coef": 0.0,
            "log_std_init": -2.0, "total_timesteps": 20_000_000, "net_arch": "128,128", "activation": "tanh",
-           "eval_freq": 250_000}
+           "slip_margin": 0.0, "eval_freq": 250_000}
 """train.py's PPO settings before they were tuned for wall time."""
 
 

@@ -94,6 +94,9 @@ class Args:
     randomize: str | None = _option(
         "default", "domain randomization of the training robots (the env's randomize: a new robot each episode; "
         "evaluations run the nominal robot); none: off")
+    slip_margin: float = _option(
+        hp.SLIP_MARGIN, "m/s: the training robots leave the model at the env's max_slip_velocity less this, a margin "
+        "from the hop (plane model; the evaluations, env_kwargs.json and evaluate.py keep the robot's envelope); 0: none")
     backend: str = _option(
         "auto", "simulator backend (the env's backend): auto (numba where installed), numba or numpy")
     env: list[str] | None = _option(
@@ -239,9 +242,12 @@ def parse_args(argv=None) -> Args:
     if args.leg_rate_limit is not None and args.torque_limit is None:
         parser.error("--leg-rate-limit needs --torque-limit (a motor's speed limit is where its torque reaches zero)")
     try:  # the env's own checks, on every keyword together (a step past the servo's stability limit, ...)
-        make_task_config(**env_kwargs(args))
+        config = make_task_config(**env_kwargs(args))
     except (TypeError, ValueError) as exc:
         parser.error(f"--env {' '.join(args.env)}: {exc}" if args.env else str(exc))
+    if not (math.isfinite(args.slip_margin) and 0 <= args.slip_margin < config.max_slip_velocity):
+        parser.error(f"--slip-margin must be >= 0 and under the env's max_slip_velocity ({config.max_slip_velocity} "
+                     f"m/s), got {args.slip_margin}")
     for name in ("total_timesteps", "num_envs", "n_steps", "batch_size", "n_epochs", "episode_steps", "eval_freq",
                  "checkpoint_freq", "torch_threads"):
         if getattr(args, name) < 1:
@@ -399,6 +405,14 @@ def env_kwargs(args: Args) -> dict:
             "randomize": args.randomize, "backend": args.backend, **extra_env_kwargs(args.env)}
 
 
+def train_env_kwargs(args: Args) -> dict:
+    """The training robots' keywords: :func:`env_kwargs` with the slip tolerance less --slip-margin."""
+    kwargs = env_kwargs(args)
+    if args.slip_margin > 0:
+        kwargs["max_slip_velocity"] = make_task_config(**kwargs).max_slip_velocity - args.slip_margin
+    return kwargs
+
+
 def env_config(args: Args) -> dict:
     """Every env keyword of the training env, defaults included, as JSON (saved as env_kwargs.json)."""
     return config_to_json(make_task_config(**env_kwargs(args)))
@@ -421,7 +435,7 @@ def make_env(args: Args, num_envs: int, seed: int):
     """The batched env behind SB3's VecEnv API, with episode statistics."""
     from .envs.sb3 import RRRobotSB3VecEnv
 
-    venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **env_kwargs(args))
+    venv = RRRobotSB3VecEnv(num_envs=num_envs, max_episode_steps=args.episode_steps, **train_env_kwargs(args))
     return _as_policy_sees(args, venv, seed)
 
 

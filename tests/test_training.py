@@ -193,23 +193,26 @@ def test_the_evaluation_env_scores_the_same_reward_as_the_training_env(heading):
     """best_model.zip is chosen on the evaluation's reward: it must be the reward that is logged."""
     import dataclasses
 
-    from rrrobot_gym import training
+    from rrrobot_gym import hyperparams as hp, training
 
     args = training.parse_args(["--healthy-reward", "0.7", "--clock-frequency", "8", "--episode-steps", "123",
                              "--torque-limit", "0.5", "--leg-rate-limit", "10", "--randomize", "none", *heading,
                              "--env", "contact_quadrature=trapezoid", "--env", "max-slip-velocity=0.03"])  # fmt: skip
     train_env = training.make_env(args, 2, seed=0).venv.vector_env
     evaluation = training.make_eval_env(args, seed=1).venv.vector_env
-    # the same keywords but the start noise (evaluations start from the paper's start), the same episode
-    assert evaluation.config == dataclasses.replace(train_env.config, reset_noise_scale=0.0)
+    # the same keywords but the start noise (evaluations start from the paper's start) and the training margin from
+    # the slip tolerance (evaluations keep the robot's), the same episode
+    assert evaluation.config == dataclasses.replace(train_env.config, reset_noise_scale=0.0, max_slip_velocity=0.03)
     # (by default training draws a robot an episode, and evaluations run the nominal one)
     randomized = training.parse_args(heading)
     assert training.make_env(randomized, 2, seed=0).venv.vector_env.config.randomize == "default"
     assert training.make_eval_env(randomized, seed=1).venv.vector_env.config.randomize is None
     assert evaluation.max_episode_steps == train_env.max_episode_steps == 123
     assert (train_env.config.torque_limit, train_env.config.leg_rate_limit) == (0.5, 10.0)
-    assert (train_env.config.contact_quadrature, train_env.config.max_slip_velocity) == ("trapezoid", 0.03)
-    assert training.env_config(args)["contact_quadrature"] == "trapezoid"  # (env_kwargs.json: evaluate.py reads it)
+    assert train_env.config.contact_quadrature == "trapezoid"
+    assert train_env.config.max_slip_velocity == pytest.approx(0.03 - hp.SLIP_MARGIN)
+    saved = training.env_config(args)  # (env_kwargs.json: evaluate.py reads it) the robot's, not the training margin
+    assert (saved["contact_quadrature"], saved["max_slip_velocity"]) == ("trapezoid", 0.03)
     if heading:
         assert train_env.config.target_direction == pytest.approx(math.radians(30.0))
     train_env.reset(seed=0)
@@ -237,6 +240,9 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
     (["--leg-accel-limit", "-60"], "--leg-accel-limit"),
     (["--randomize", "sometimes"], "randomize"),
     (["--clock-frequency", "0"], "--clock-frequency"),
+    (["--slip-margin", "-0.001"], "--slip-margin"),
+    (["--slip-margin", "nan"], "--slip-margin"),
+    (["--slip-margin", "0.02"], "--slip-margin must be >= 0 and under the env's max_slip_velocity (0.02"),
     (["--sweep", "2", "--bar", "50"], "--sweep needs --max-minutes"),
     (["--sweep", "2", "--max-minutes", "1"], "--sweep needs a bar"),
     (["--sweep", "2", "--seeds", "2", "--bar", "50", "--max-minutes", "1"], "cannot be combined"),
