@@ -10,11 +10,10 @@ loop over the batched env and the same ``predict`` interface (:mod:`rrrobot_gym.
     python evaluate.py --turn-then-run agents/searched/turn_then_run.json \
         --turn-then-run agents/searched/turn_then_run_pivot.json   # the closed-loop baseline, plane and pivot
     python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
-    python evaluate.py --gaits agents/searched/plane_own.json --randomize 16   # and over 16 drawn robots, on every heading
+    python evaluate.py --gaits agents/searched/plane_own.json --randomize 16   # and over 16 drawn robots per heading
 
 Every agent runs the nominal robot, whatever a policy was trained on; ``--randomize N`` also
-scores every agent over N robots drawn with the env's domain randomization, the same N on every
-compass heading.
+scores every agent over N robots per compass heading drawn with the env's domain randomization.
 Writes Markdown tables to stdout (``--markdown FILE`` too), records with ``--json FILE`` (keys:
 agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...; the randomized
 robots under "randomized") and plots with ``--plots DIR``. Loading a policy unpickles it: load
@@ -266,11 +265,10 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     return records, runs
 
 
-def robot_seeds(seed: int, n: int) -> list:
-    """The seeds of the ``n`` randomized robots, the same for every agent, every compass heading and
-    every gait's own direction, so that a comparison between agents or headings is one between
-    controllers on the same robots; other ``seed``s, other robots."""
-    return [int(s) for s in np.random.SeedSequence(seed).generate_state(n)]
+def robot_seeds(seed: int, slot: int, n: int) -> list:
+    """The seeds of the ``n`` randomized robots of heading slot ``slot`` (the compass headings in
+    order, then the gaits' own directions), the same for every agent; other ``seed``s, other robots."""
+    return [int(s) for s in np.random.SeedSequence([seed, slot]).generate_state(n)]
 
 
 def rows_of(run: dict, rows) -> dict:
@@ -295,8 +293,8 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
     """Every agent over ``n`` randomized robots per compass heading, on each model.
 
     The robots are drawn with the env's ``randomize=ranges`` (a name of ``task.RANDOMIZATIONS`` or
-    {name: (low, high)}), robot j seeded by :func:`robot_seeds`: every agent meets the same robots
-    on every heading and, run alone in an env seeded alike, the same observation noise. Each
+    {name: (low, high)}), robot j of a heading seeded by :func:`robot_seeds`: every agent meets
+    the same robots and, run alone in an env seeded alike, the same observation noise. Each
     open-loop gait named in ``own`` ({model: {name: heading_deg}}, its nominal own direction)
     also runs ``n`` robots along it. Agents, ``per_model`` and ``physics`` as in :func:`evaluate`.
     Returns (one section per model: {"model", "robots_per_heading", "ranges", "seed",
@@ -310,7 +308,7 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
         on_model = agents_on(model, agents, per_model)
         imposed = physics_on(model, on_model, physics)
         headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
-        seeds = robot_seeds(seed, n) * len(COMPASS_DEG)
+        seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
         own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}
         searched = [name for name, agent in on_model.items()
                     if name not in GAIT_AGENT_NAMES and name != "ppo" and not getattr(agent, "closed_loop", False)]
@@ -333,7 +331,8 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
                                       "draws": {key: values[r].tolist() for key, values in run["draws"].items()}}
                                      for h, r in zip(COMPASS_DEG, rows)]  # fmt: skip
             if name in own_here:
-                own_seeds = robot_seeds(seed, n)
+                slot = len(COMPASS_DEG) + list(own_here).index(name)
+                own_seeds = robot_seeds(seed, slot, n)
                 own_run = run_episodes({name: agent}, model, [own_here[name]] * n, duration, seed, randomize=ranges,
                                        robot_seeds=own_seeds, **imposed)[name]  # fmt: skip
                 runs[(name, model)]["own_direction"] = own_run
@@ -382,10 +381,10 @@ def randomized_markdown(sections, records) -> str:
         ranges = section["ranges"] if isinstance(section["ranges"], str) else "custom"
         lines.append(f"### {model}, {n} randomized robots per heading: median / P10 of the speed along the commanded "
                      f"heading (mm/s), {seconds_text(section['duration_s'])} from rest\n")  # fmt: skip
-        lines.append(f"Robots drawn with the {ranges!r} ranges of the env's domain randomization, the same {n} robots "
-                     f"for every agent and heading (seed {section['seed']}), {physics_text(section['physics'])}. "
+        lines.append(f"Robots drawn with the {ranges!r} ranges of the env's domain randomization, robot j of a heading "
+                     f"the same for every agent (seed {section['seed']}), {physics_text(section['physics'])}. "
                      "P10: the 10th percentile (numpy's, linear interpolation). Worst heading: the compass heading of "
-                     "lowest P10. Own direction: an open-loop gait's nominal one. Ended: the "
+                     "lowest P10. Own direction: an open-loop gait's nominal one, on robots of its own. Ended: the "
                      "share of the compass episodes that ended early (left the model or tipped over); such a robot "
                      "counts with its displacement up to then over the whole duration.\n")  # fmt: skip
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | worst heading | own direction | ended |")
@@ -629,7 +628,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--randomize", type=int, default=0, metavar="N",
                         help="also score every agent over N robots per compass heading drawn with the env's domain "
                              "randomization, e.g. python evaluate.py --gaits agents/searched/plane_own.json --randomize "
-                             "16: the same N robots for every agent and heading (seeded by --seed; open-loop gaits also along their "
+                             "16: the same N robots for every agent (seeded by --seed; open-loop gaits also along their "
                              "own direction), per heading the median and 10th-percentile (P10) speed and the share of "
                              "episodes that ended, and whether PPO's targets hold: P10 on its worst heading at least "
                              "0.8 x its nominal worst heading and at least every searched gait's P10 (the larger of "
