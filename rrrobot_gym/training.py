@@ -159,7 +159,9 @@ def _parser(given_only=False):
                                      argument_default=argparse.SUPPRESS if given_only else None)
     for f in dataclasses.fields(Args):
         flag = "--" + f.name.replace("_", "-")
-        help_text = f"{f.metadata['help']} (default: {f.default})"
+        per_model = "".join(f"; --model {model}: {values[f.name]}" for model, values in hp.MODEL_DEFAULTS.items()
+                            if f.name in values)
+        help_text = f"{f.metadata['help']} (default: {f.default}{per_model})"
         default = {} if given_only else {"default": f.default}
         if f.type in ("bool", "bool | None"):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
@@ -207,8 +209,12 @@ def learning_rate(args: Args):
 def parse_args(argv=None) -> Args:
     parser = _parser()
     args = Args(**vars(parser.parse_args(argv)))
-    if args.model not in ("plane", "pivot"):
-        parser.error(f"--model must be plane or pivot, got {args.model!r}")
+    if args.model not in hp.MODEL_DEFAULTS:
+        parser.error(f"--model must be one of {', '.join(hp.MODEL_DEFAULTS)}, got {args.model!r}")
+    given = given_flags(argv)
+    for name, value in hp.MODEL_DEFAULTS[args.model].items():  # (the model's own defaults, where not given)
+        if name not in given:
+            setattr(args, name, value)
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
     resumed_mirrored = args.resume is not None and is_mirrored(run_directory(args.resume))
@@ -267,7 +273,7 @@ def parse_args(argv=None) -> Args:
     if args.resume is not None:
         if not Path(args.resume).is_file():
             parser.error(f"--resume: no model file at {args.resume}")
-        fixed = sorted(given_flags(argv) & set(FIXED_ON_RESUME))
+        fixed = sorted(given & set(FIXED_ON_RESUME))
         if fixed:
             parser.error(f"--resume keeps the model's {', '.join('--' + n.replace('_', '-') for n in fixed)}: "
                          "leave it out")
@@ -284,9 +290,9 @@ def parse_args(argv=None) -> Args:
         if args.max_minutes is None:
             parser.error("--sweep needs --max-minutes: each trial's wall-time budget")
     if args.seeds is None and args.sweep is None:
-        given = sorted(given_flags(argv) & set(SEEDS_OPTIONS))
-        if given:
-            parser.error(f"--{given[0].replace('_', '-')} is an option of --seeds and --sweep")
+        seeds_options = sorted(given & set(SEEDS_OPTIONS))
+        if seeds_options:
+            parser.error(f"--{seeds_options[0].replace('_', '-')} is an option of --seeds and --sweep")
     else:
         from .seeds import check_seeds_args
 

@@ -233,6 +233,26 @@ def test_total_timesteps_are_rounded_up_to_whole_rollouts():
     assert training.rounded_timesteps(training.parse_args(["--total-timesteps", "4096"])) == 4_096
 
 
+def test_a_model_takes_its_own_defaults_where_none_are_given():
+    from rrrobot_gym import hyperparams as hp, training
+
+    plane, pivot = training.parse_args([]), training.parse_args(["--model", "pivot"])
+    assert hp.MODEL_DEFAULTS["pivot"]  # (else the checks below hold trivially)
+    for name, value in hp.MODEL_DEFAULTS["pivot"].items():
+        assert getattr(pivot, name) == value
+        assert getattr(plane, name) != value  # the plane keeps the table's defaults
+    # the shipped pivot policy was trained with them (its args.json predates --activation: tanh, then the only one)
+    shipped = json.loads((ROOT / "agents" / "pretrained_pivot" / "args.json").read_text())
+    for name, value in hp.MODEL_DEFAULTS["pivot"].items():
+        assert shipped.get(name, "tanh" if name == "activation" else None) == value, name
+    # an option given on the command line wins over the model's default
+    given = training.parse_args(["--model", "pivot", "--n-steps", "16", "--activation", "relu"])
+    assert (given.n_steps, given.activation, given.ent_coef) == (16, "relu", 0.0)
+    # and a resumed run takes the resumed model's settings where none are given, whatever the model's defaults
+    argv = ["--model", "pivot", "--resume", str(ROOT / "agents" / "pretrained_pivot" / "best_model.zip")]
+    assert training.resume_overrides(training.parse_args(argv), argv) == {}
+
+
 @pytest.mark.parametrize("argv, named", [
     (["--torque-limit", "-1"], "--torque-limit"),
     (["--torque-limit", "nan"], "--torque-limit"),
