@@ -68,9 +68,10 @@ MODEL_DEFAULTS = {
     "pivot": {"total_timesteps": 20_000_000, "n_steps": 64, "learning_rate": 3e-4, "ent_coef": 0.0, "activation": "tanh"},
 }
 """``train.py``'s defaults where a model's differ from the above (which were tuned on the plane). The
-pivot's are the settings of the shipped pivot policy (agents/pretrained_pivot/args.json): with the
-plane's, a pivot run was slower (worst heading 90.3-91.0 mm/s against 93.3) and ended 5.9-7.0 % of
-its randomized episodes against 0.8 % (docs/notes/randomized_robustness.md)."""
+pivot's are the settings of the shipped pivot policy (agents/pretrained_pivot/args.json). One pivot
+run of each on validation robots: with the plane's, worst heading 90.3-91.0 mm/s and 5.9-7.0 % of
+randomized episodes ended; with these, 91.1-93.9 mm/s and 2.7-3.1 % (best and final model;
+docs/notes/randomized_robustness.md)."""
 
 
 class LinearRate:
