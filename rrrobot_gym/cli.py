@@ -152,6 +152,13 @@ def _env_keyword(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _gait_name(text: str) -> str:
+    """A name for searched gaits: letters, digits, '-', '_' and '.' (agent names in tables and on the command line)."""
+    if not text or not all(c.isalnum() or c in "-_." for c in text):
+        raise argparse.ArgumentTypeError(f"must be letters, digits, '-', '_' or '.', got {text!r}")
+    return text
+
+
 def _positive_int(text: str, minimum: int = 1) -> int:
     try:
         value = int(text)
@@ -225,6 +232,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="every gait grows its swing in over this many seconds from the start at rest, 0: none "
                              "(default: gait_search.DEFAULT_RAMP_S, 2 s)")
     search.add_argument("--keep", type=_positive_int, default=3, help="best gaits written (default: %(default)s)")
+    search.add_argument("--name", type=_gait_name,
+                        help="the gaits' names, NAME-1, NAME-2, ... (default: searched-MODEL-OBJECTIVE); files "
+                             "evaluate.py compares need distinct names")
     search.add_argument("--robustness-seeds", type=_count, default=8,
                         help="fresh start seeds the best gaits are re-scored on, 0: none (default: %(default)s)")
     search.add_argument("--robustness-duration", type=_positive_seconds, default=50.0,
@@ -654,7 +664,7 @@ def run_gait_search(args) -> None:
         budget_evaluations=args.evaluations, budget_seconds=budget_seconds, seed=args.seed,
         popsize=args.popsize, screen=args.screen, duration=args.duration,
         start_seeds=tuple(range(args.starts)), reset_noise_scale=args.reset_noise_scale,
-        ramp_s=gait_search.DEFAULT_RAMP_S if args.ramp_s is None else args.ramp_s, keep=args.keep,
+        ramp_s=gait_search.DEFAULT_RAMP_S if args.ramp_s is None else args.ramp_s, keep=args.keep, name=args.name,
         robustness_seeds=args.robustness_seeds, robustness_duration=args.robustness_duration,
         robust_pool=args.robust_pool, progress=not args.no_progress, ray_address=args.ray_address,
         command=args.command_line, **dict(args.env),

@@ -615,6 +615,7 @@ def search(
     reset_noise_scale: float = 0.01,
     ramp_s: float = DEFAULT_RAMP_S,
     keep: int = 3,
+    name: str | None = None,
     robustness_seeds: int = 8,
     robustness_duration: float | None = 50.0,
     robust_pool: int = 32,
@@ -633,7 +634,8 @@ def search(
     and grows its swing in over ``ramp_s`` s. Populations are large by CMA-ES's standards (its
     own default for 6 parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
 
-    ``keep`` best gaits are returned. With ``robustness_seeds``, the ``max(keep, robust_pool)``
+    ``keep`` best gaits are returned, named ``name``-1, -2, ... (default ``searched-<model>-<objective>``;
+    evaluate.py needs distinct names across the files it compares). With ``robustness_seeds``, the ``max(keep, robust_pool)``
     fittest distinct gaits (:func:`distinct_fittest`) are re-scored (:func:`robustness`) on that many
     new start seeds over ``robustness_duration`` s (None: ``duration``) and from the paper's start,
     and those that stayed in the model on every start come first (:func:`rank_robust_first`): the
@@ -746,7 +748,7 @@ def search(
         for gait, report in zip(gaits, reports):
             gait["robustness"] = report
         gaits = rank_robust_first(gaits)
-    label = f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
+    label = name or f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
     gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits[:keep], start=1)]
     settings = {
         "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": with_servo(env_kwargs),

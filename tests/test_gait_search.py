@@ -22,6 +22,7 @@ from rrrobot_gym.gait_search import (
     SinusoidGait,
     evaluate_population,
     fitness_from_runs,
+    load_gaits,
     repair,
     search,
 )
@@ -214,6 +215,13 @@ def test_cli_search_writes_its_json_with_the_command(tmp_path):
     assert data["env_kwargs"] == {"torque_limit": 0.5, "leg_rate_limit": 10.0, "leg_accel_limit": 60.0, "max_slip_velocity": 0.05}
     assert data["command"].startswith("rrrobot gait-search --model plane")
     assert "gait search" not in result.stderr  # --no-progress
+    assert [g["name"] for g in data["gaits"]] == ["searched-plane-heading90-1", "searched-plane-heading90-2",
+                                                  "searched-plane-heading90-3"]
+    named = tmp_path / "named.json"
+    result = _cli("--model", "plane", "--evaluations", "4", "--popsize", "2", "--screen", "2", "--duration", "0.5",
+                  "--robustness-seeds", "0", "--keep", "2", "--name", "plane-50s", "--no-progress", "--out", named)
+    assert result.returncode == 0, result.stderr
+    assert [g.name for g in load_gaits(named)] == ["plane-50s-1", "plane-50s-2"]
 
 
 @pytest.mark.parametrize(
@@ -226,6 +234,7 @@ def test_cli_search_writes_its_json_with_the_command(tmp_path):
         (["--evaluations", "0"], "positive integer"),
         (["--popsize", "1"], "popsize"),
         (["--out", "gaits.txt"], ".json"),
+        (["--name", "two words"], "--name"),
     ],
 )
 @pytest.mark.slow
