@@ -634,12 +634,13 @@ def search(
     and grows its swing in over ``ramp_s`` s. Populations are large by CMA-ES's standards (its
     own default for 6 parameters is 9) because the batched env steps 128 robots in about the time it steps 8.
 
-    ``keep`` best gaits are returned, named ``name``-1, -2, ... (default ``searched-<model>-<objective>``;
-    evaluate.py needs distinct names across the files it compares). With ``robustness_seeds``, the ``max(keep, robust_pool)``
-    fittest distinct gaits (:func:`distinct_fittest`) are re-scored (:func:`robustness`) on that many
-    new start seeds over ``robustness_duration`` s (None: ``duration``) and from the paper's start,
-    and those that stayed in the model on every start come first (:func:`rank_robust_first`): the
-    fastest gaits sit on the envelope's edge, where two starts can miss one that ends the episode.
+    ``keep`` best gaits are returned, named ``name``-1, -2, ... (default
+    ``searched-<model>-<objective>``; evaluate.py needs distinct names across the files it
+    compares). With ``robustness_seeds``, the ``max(keep, robust_pool)`` fittest distinct gaits
+    (:func:`distinct_fittest`) are re-scored (:func:`robustness`) on that many new start seeds
+    over ``robustness_duration`` s (None: ``duration``) and from the paper's start, and those that
+    stayed in the model on every start come first (:func:`rank_robust_first`): the fastest gaits
+    sit on the envelope's edge, where two starts can miss one that ends the episode.
     """
     _check_objective(objective, heading_deg)
     if budget_evaluations is None and budget_seconds is None:
