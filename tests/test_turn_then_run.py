@@ -362,3 +362,23 @@ def test_a_turn_then_run_file_with_a_nan_or_negative_lead_is_refused(tmp_path, k
         (tmp_path / gaits.name).write_text(gaits.read_text())
     with pytest.raises(ValueError, match=f"turn-then-run file {bad}: {named} must be"):
         load_turn_then_run_agent(bad)
+
+
+TUNED_FILES = sorted(p for p in FILE.parent.glob("turn_then_run*.json") if "steer_tune" in json.loads(p.read_text()))
+
+
+@pytest.mark.parametrize("path", TUNED_FILES, ids=lambda p: p.name)
+def test_each_shipped_file_scores_again_what_its_steering_tune_recorded(path):
+    """`rrrobot turn-then-run-steer` recorded, for the setting it kept, the speed from the paper's
+    start along the 8 compass headings (its first 8 episodes). evaluate.py's loop must give them
+    again: the file, the agent and the physics the same as when the file was made."""
+    from rrrobot_gym.evaluation import COMPASS_DEG, run_episodes, score
+
+    spec = json.loads(path.read_text())
+    kept = {key: value for key, value in spec.items() if key.startswith("steer_") and key != "steer_tune"}
+    (row,) = [row for row in spec["steer_tune"]["rows"] if row["combo"] == kept]
+    agent = load_turn_then_run_agent(path)
+    run = run_episodes({"ttr": agent}, agent.model, COMPASS_DEG, spec["steer_tune"]["duration_s"], 0)["ttr"]
+    speeds = [record["speed_mps"] for record in score(run, COMPASS_DEG)]
+    np.testing.assert_allclose(speeds, row["speeds_mps"][: len(COMPASS_DEG)], rtol=0, atol=1e-6)
+
