@@ -29,7 +29,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from . import control, dynamics
+from . import control, dynamics, numerics
 
 RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper
@@ -454,209 +454,38 @@ def _unpadded(y, rows, summary, first, count, yp, rp, sp):
             summary[j, first + i] = sp[j, i]
 
 
-# The env's whole step in one call (rrrobot_gym.envs.task.CompiledTask): the servo's motion profile,
-# the physics with its record, the model's measures, the outcome and the observation, robot by robot,
-# each the same numbers as the numpy task code (the reference; tests/test_compiled_task.py).
-TASK_PARAMS = ("dt", "h", "n_steps", "accel_limit", "profile_rate_limit", "linear", "plane", "max_slip_velocity",
-               "max_liftoff_time", "forward_scale", "ctrl_cost_weight", "healthy_reward", "terminate_outside_model",
-               "radius", "limited_friction", "clock_frequency", "positions", "target_mid", "target_half_range",
-               "grace", "tilt_limit")  # fmt: skip
-"""The scalars :func:`_task_step` takes in one array, in this order (0 or 1 for flags; an accel limit
-or clock frequency of 0: none)."""
-TASK_INFO = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction", "x_velocity",
-             "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "normal_force", "friction_ratio",
-             "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak", "liftoff_fraction", "liftoff_time",
-             "slip_velocity", "reward_survive")  # fmt: skip
-"""The rows of :func:`_task_step`'s float info; its flags are numerical_failure and outside_model."""
-profile_rates = upright_scale = None  # (rrrobot_gym.envs.task's, given to the compiled copy)
-
-
-def _clip_unit(v):
-    """A float32 observation entry clipped to [-1, 1] (NaN stays NaN, as numpy's clip)."""
-    if v > 1.0:
-        return np.float32(1.0)
-    if v < -1.0:
-        return np.float32(-1.0)
-    return v
-
-
-def _observe_robot(o, c, rows, cos_t, sin_t, time, p):
-    """One robot's observation into o (float32), from its state c and rotation rows (task.observe)."""
-    for m in range(3):
-        o[m] = _clip_unit(np.float32(rows[2][m]))
-        o[3 + m] = _clip_unit(np.float32(rows[0][m] * cos_t + rows[1][m] * sin_t))
-    for m in range(3):  # body rate (state 8:11), then the leg angles (6:8) and rates (11:13)
-        o[6 + m] = np.float32(c[8 + m])
-    for m in range(2):
-        o[9 + m], o[11 + m] = np.float32(c[6 + m]), np.float32(c[11 + m])
-    o[13], o[14] = np.float32(cos_t), np.float32(sin_t)
-    end = 15
-    if p[16] > 0.0:
-        o[15], o[16] = np.float32(c[0]), np.float32(c[1])
-        end = 17
-    if p[15] > 0.0:
-        phase = p[15] * time
-        o[end], o[end + 1] = np.float32(np.sin(phase)), np.float32(np.cos(phase))
-
-
-def _measures(rows, summary, i, lost, mu, mass, p, out):
-    """Robot i's model measures (validity.step_measures, rectangle quadrature) into out[11:20] (the
-    TASK_INFO order); returns the spell without contact going at the end."""
-    samples = rows.shape[0]
-    least_normal = summary[0, i]
-    ratio = summary[1, i]
-    if least_normal <= 0.0:  # (the numpy path's friction_ratio, inf where the floor would pull)
-        ratio = -np.inf
-        for s in range(samples):
-            normal = rows[s, 5, i]
-            ratio = _greater(ratio, np.inf if normal <= 0.0 else rows[s, 6, i] / normal)
-    out[11], out[12], out[13] = least_normal, ratio, summary[2, i]
-    out[14] = np.sqrt(summary[3, i] / (2 * samples))
-    out[15], out[16] = summary[4, i], summary[5, i]
-    if p[6] == 0.0:  # pivot: the joint holds any force
-        out[17], out[18], out[19] = 0.0, 0.0, 0.0
-        return 0.0
-    step = p[1]
-    last_contact, longest, spell, off_count = 0.0, -np.inf, 0.0, 0
-    for s in range(samples):
-        count = s + 1.0
-        if rows[s, 5, i] <= 0.0:
-            off_count += 1
-        else:
-            last_contact = count
-        spell = (count - last_contact) * step + (lost if last_contact == 0.0 else 0.0)
-        longest = _greater(longest, spell)
-    out[17], out[18] = off_count / samples, np.maximum(lost, longest)
-    limited = p[14] > 0.0
-    beyond = limited and not ratio <= mu * (1 - 1e-12)
-    if least_normal > 0.0 and not beyond:
-        out[19] = 0.0
-    else:
-        total = 0.0
-        for s in range(samples):
-            normal = rows[s, 5, i]
-            missing = np.maximum(-normal, 0.0)
-            if limited:
-                missing = missing + np.maximum(rows[s, 6, i] - mu * np.maximum(normal, 0.0), 0.0)
-            total = missing if s == 0 else total + missing
-        out[19] = total * step / mass
-    return spell
-
-
-def _task_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
-               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, robot, friction,
-               mass, y, ends, rates, obs, info, flags, rewards, terminated, lost_after):
-    """One control step of the robots ``before`` (N, 13) into the arrays from ``y`` on
-    (rrrobot_gym.envs.task.CompiledTask.step: made by the caller, as numba's boxing of arrays it
-    returns costs more than the caller's np.empty); ``scene``: the shared scene's constants, contact
-    constants and gains in one array (cheaper to pass than tuples)."""
-    n = before.shape[0]
-    dt, h, n_steps, accel = p[0], p[1], int(p[2]), p[3]
-    linear = p[5] > 0.0
-    params = np.empty((n, 8 if linear else 2))
-    for i in range(n):
-        for j in range(2):
-            start = previous_targets[i, j]
-            goal = p[17] + p[18] * applied[i, j]
-            if accel > 0.0:
-                rate = profile_rates(goal - start, previous_rates[i, j], dt, accel, p[4])
-                end = start + rate * dt
-            else:
-                end, rate = goal, (goal - start) / dt
-            ends[i, j], rates[i, j] = end, rate
-            if linear:
-                change = end - start
-                params[i, j], params[i, 2 + j], params[i, 4 + j], params[i, 6 + j] = start, end, change, change / dt
-            else:
-                params[i, j] = end
-    y[:] = before
-    rows = np.empty((n_steps, RECORD_ROWS, n))
-    summary = np.empty((SUMMARY_ROWS, n))
-    shared = np.array([0.0, dt])
-    kind = _RAMP if linear else _HELD
-    _task_physics(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot)
-    size = last_obs.shape[1]
-    out = np.empty(len(TASK_INFO))
-    for i in range(n):
-        cos_t, sin_t = heading[0, i], heading[1, i]
-        failed = False
-        for j in range(13):
-            if not np.isfinite(y[i, j]):
-                failed = True
-        if not failed:
-            r = rotation_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
-            _observe_robot(obs[i], y[i], r, cos_t, sin_t, obs_times[i], p)
-            for j in range(size):
-                if not np.isfinite(obs[i, j]):
-                    failed = True
-        if failed:  # the last finite state and observation, the servo's reference kept
-            for j in range(13):
-                y[i, j] = before[i, j]
-            for j in range(size):
-                obs[i, j] = last_obs[i, j]
-            for j in range(2):
-                ends[i, j], rates[i, j] = previous_targets[i, j], previous_rates[i, j]
-            r = rotation_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
-        scale = upright_scale(r[0][2], r[1][2], r[2][2], p[13])
-        out[0], out[1] = y[i, 0], y[i, 1]
-        out[2], out[3] = y[i, 0] - scale * r[0][2], y[i, 1] - scale * r[1][2]
-        out[4] = np.arccos(min(max(r[2][2], -1.0), 1.0))
-        out[5] = targets[i]
-        if failed:
-            out[6] = out[7] = out[8] = out[9] = out[10] = 0.0
-            for m in range(11, 20):
-                out[m] = np.nan
-            lost_after[i] = contact_lost[i]
-        else:
-            out[6], out[7] = (y[i, 0] - before[i, 0]) / dt, (y[i, 1] - before[i, 1]) / dt
-            out[8] = ((out[2] - upright_before[i, 0]) * cos_t + (out[3] - upright_before[i, 1]) * sin_t) / dt
-            out[9] = p[9] * out[8]
-            out[10] = -p[10] * (actions[i, 0] * actions[i, 0] + actions[i, 1] * actions[i, 1])
-            lost_after[i] = _measures(rows, summary, i, contact_lost[i], friction[i], mass[i], p, out)
-        started = elapsed[i] >= p[19]
-        left = out[19] > p[7] or out[18] > p[8]
-        outside = out[13] <= 0.0 or (p[6] > 0.0 and started and left)
-        outside = outside and not failed
-        if p[6] > 0.0 and (left or elapsed[i] < p[19]):
-            out[9] = 0.0
-        done = failed or out[4] >= p[20] or (p[12] > 0.0 and outside)
-        out[20] = 0.0 if done else p[11]
-        rewards[i] = out[9] + out[10] + out[20]
-        terminated[i] = done
-        flags[0, i], flags[1, i] = failed, outside
-        for m in range(len(TASK_INFO)):
-            info[m, i] = out[m]
-
-
-def _physics_shared(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
-    """:func:`_task_step`'s physics for robots that share the config: its constants, contact
-    constants and gains from ``scene`` (one array: cheaper to pass than tuples)."""
+def _physics_shared(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot):
+    """The env step's physics (rrrobot_gym.envs.task.fused_step) for robots that share the config:
+    from t = 0, the targets a ramp over ``dt`` (``linear``) or held, per robot ``params``; its
+    constants, contact constants and gains from ``scene`` (one array: cheaper to pass than tuples)."""
     k = Constants(scene[0], scene[1], scene[2], scene[3], scene[4], scene[5], scene[6], scene[7], scene[8], scene[9],
                   scene[10], scene[11], scene[12], scene[13], scene[14], scene[15], scene[16], scene[17], scene[18],
                   scene[19])  # fmt: skip
     kc = ContactConstants(scene[20], scene[21], scene[22], scene[23], scene[24], scene[25], scene[26])
-    _batch(y, 0.0, h, n_steps, k, kc, _Gains(scene[27], scene[28]), torque_limit, rate_limit, kind, params, shared,
-           rows, summary, robot)  # fmt: skip
+    _batch(y, 0.0, h, n_steps, k, kc, _Gains(scene[27], scene[28]), torque_limit, rate_limit, _RAMP if linear else _HELD,
+           params, np.array([0.0, dt]), rows, summary, robot)  # fmt: skip
 
 
-def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
-    """:func:`_task_step`'s physics for robots of their own values (``robot``, :func:`robot_rows`)."""
-    _batch(y, 0.0, h, n_steps, None, None, None, torque_limit, rate_limit, kind, params, shared, rows, summary, robot)
+def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot):
+    """:func:`_physics_shared` for robots of their own values (``robot``, :func:`robot_rows`)."""
+    _batch(y, 0.0, h, n_steps, None, None, None, torque_limit, rate_limit, _RAMP if linear else _HELD, params,
+           np.array([0.0, dt]), rows, summary, robot)  # fmt: skip
 
 
 _STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded_robot, _padded,
             _unpadded, _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
 """This module's functions the compiled :func:`_batch` calls."""
-_TASK = (_batch, _clip_unit, _observe_robot, _measures)
-"""This module's functions the compiled :func:`_task_step` calls, besides its physics (:func:`_physics_shared`
-or :func:`_physics_own`, as ``_task_physics``) and :data:`_STEPPER`'s."""
 _LANE_INLINED = (_limit, _robot, _own, _lane_state, _lane_torques, _lane_derivatives, _lane_combine)
 """Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
 
 
+SOURCES = (__file__, dynamics.__file__, control.__file__, numerics.__file__)
+"""The files whose functions every stepper compiles (the env's step also its task's modules')."""
+
+
 def cache_dir(sources=None):
-    """Where compiled code is cached: one directory per content of the compiled sources (this module,
-    dynamics, control), numba and Python (numba itself re-checks only a function's own file).
+    """Where compiled code is cached: one directory per content of the compiled sources (:data:`SOURCES`
+    unless given), numba and Python (numba itself re-checks only a function's own file).
     ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
     import hashlib
     import platform
@@ -664,7 +493,7 @@ def cache_dir(sources=None):
     import numba
 
     digest = hashlib.sha256(f"{numba.__version__} {sys.version} {platform.machine()}".encode())
-    for path in sources or (__file__, dynamics.__file__, control.__file__):
+    for path in sources or SOURCES:
         with open(path, "rb") as f:
             digest.update(f.read())
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
@@ -737,18 +566,17 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None = None):
+def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None):
     """The compiled :func:`_batch` (``per_robot``: a copy for robots of their own values, cached
-    under a name of its own; with ``task_kernels``, the task module's functions it calls,
-    :func:`_task_step` over that stepper), threaded over robots if ``parallel``: loaded from the
-    disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process. (The task
-    module passes its kernels, as it imports this one.)"""
+    under a name of its own), threaded over robots if ``parallel``; with ``task`` = (entry, kernels),
+    the compiled ``entry`` instead (:func:`task_stepper`): loaded from the disk cache (:func:`cache_dir`)
+    or compiled, with a line on stderr, once a process."""
     import numba
 
-    task = task_kernels is not None
-    # (the task step also compiles the task module's functions: its cache is named by that source too)
-    sources = (__file__, dynamics.__file__, control.__file__, *sorted({fn.__code__.co_filename for fn in task_kernels or ()}))
-    directory = cache_dir(sources if task else None)
+    entry, task_kernels = task if task is not None else (_batch, ())
+    # (the task step also compiles the task's modules: its cache is named by their sources too)
+    sources = None if task is None else (*SOURCES, *sorted({fn.__code__.co_filename for fn in (entry, *task_kernels)}))
+    directory = cache_dir(sources)
     try:
         os.makedirs(directory, exist_ok=True)
         cache = os.access(directory, os.W_OK)
@@ -759,7 +587,6 @@ def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None
         _content_keyed_locator()
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    entry = _task_step if task else _batch
     name = entry.__name__ + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
         print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
@@ -772,9 +599,13 @@ def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
         inline = functools.partial(njit, forceinline=True)  # inlined into the lanes' loops, which lets them vectorise
         namespace = dict(globals(), prange=numba.prange)
-        kernels = _copies(dynamics.KERNELS, inline, dict(vars(dynamics)))
+        # numerics' functions on floats (its select and anywhere in their scalar forms), inlined
+        scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
+        scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
+        kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar})
         namespace.update(derivative_kernel=kernels["derivative_kernel"], contact_kernel=kernels["contact_kernel"])
-        namespace["robot_derivative_kernel"] = _copies(dynamics.KERNELS, njit, dict(vars(dynamics)))["derivative_kernel"]
+        robot_kernels = _copies(dynamics.KERNELS, njit, {**vars(dynamics), **scalar})
+        namespace["robot_derivative_kernel"] = robot_kernels["derivative_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         suffix = "_per_robot" if per_robot else ""  # (copies with other globals: names of their own in the cache)
@@ -782,18 +613,35 @@ def _stepper(parallel: bool, per_robot: bool = False, task_kernels: tuple | None
         if not per_robot:
             namespace["_own"] = _copies((_given,), inline, namespace)["_given"]
         _copies(_STEPPER, njit, namespace, suffix)
-        if task:
-            namespace["rotation_rows"] = _copies((dynamics.rotation_rows,), njit, dict(vars(dynamics)))["rotation_rows"]
-            kernels = _copies(task_kernels, njit, dict(task_kernels[0].__globals__))
-            namespace.update((fn.__name__, kernels[fn.__name__]) for fn in task_kernels)
-            physics = _physics_own if per_robot else _physics_shared
-            namespace["_task_physics"] = _copies((physics,), njit, namespace)[physics.__name__]
-            _copies(_TASK, njit, namespace, suffix)
-        batch = types.FunctionType(entry.__code__, namespace, entry.__name__)
-        batch.__qualname__ = name
-        return njit(batch, parallel=parallel)
+        if task is None:
+            return njit(_named_copy(_batch, namespace, name), parallel=parallel)
+        # The task's own functions, each module's with its own globals, on floats: numerics' select
+        # and anywhere in their scalar forms, and the functions compiled before them.
+        compiled = dict(scalar)
+        compiled["_quaternion_rows"] = _copies((dynamics.rotation_rows,), njit, dict(vars(dynamics)))["rotation_rows"]
+        for module in dict.fromkeys(fn.__module__ for fn in task_kernels):
+            functions = [fn for fn in task_kernels if fn.__module__ == module]
+            compiled.update(_copies(functions, njit, {**functions[0].__globals__, **compiled}))
+        physics = _physics_own if per_robot else _physics_shared
+        compiled["_physics"] = _copies((_batch, physics), njit, namespace, suffix)[physics.__name__]
+        return njit(_named_copy(entry, {**entry.__globals__, **compiled}, name), parallel=parallel)
     finally:
         numba.config.CACHE_DIR = previous
+
+
+def _named_copy(fn, namespace, name):
+    """A copy of ``fn`` with the globals ``namespace``, under the qualified name ``name`` (its cache's)."""
+    copy = types.FunctionType(fn.__code__, namespace, fn.__name__)
+    copy.__qualname__ = name
+    return copy
+
+
+def task_stepper(per_robot: bool, entry, kernels: tuple):
+    """The compiled ``entry`` (``rrrobot_gym.envs.task.fused_step``: the env's whole step), which
+    calls the physics (:func:`_physics_shared`, or :func:`_physics_own` where ``per_robot``) as
+    ``_physics`` and the task's ``kernels`` (functions of the modules above this one, compiled from
+    their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread."""
+    return _stepper(False, per_robot, (entry, tuple(kernels)))
 
 
 @functools.lru_cache(maxsize=32)

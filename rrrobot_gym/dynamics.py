@@ -58,6 +58,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .numerics import sincos
 from .params import RobotParams, rotation_point_depth
 
 STATE_FIELDS = (
@@ -150,44 +151,11 @@ def constants(params: RobotParams, depth: float) -> Constants:
     )
 
 
-# _sincos's constants. pi/2 in three parts, the first two of 33 significant bits, so that k times
-# either is exact for |k| < 2^20 (Cody and Waite's reduction); 1/n! for the Taylor series on
-# [-pi/4, pi/4], to r^15 for sin and r^16 for cos (the next terms are below 1e-16 there).
-_ROUNDER = 6755399441055744.0  # 1.5 * 2^52: (v + it) - it is v rounded to an integer, |v| < 2^51
-_TWO_OVER_PI = 0.6366197723675814
-_HALF_PI_1, _HALF_PI_2, _HALF_PI_3 = 1.5707963267341256, 6.077100506303966e-11, 2.0222662487959506e-21
-_SIN_1, _SIN_2, _SIN_3, _SIN_4 = -0.16666666666666666, 0.008333333333333333, -0.0001984126984126984, 2.7557319223985893e-06
-_SIN_5, _SIN_6, _SIN_7 = -2.505210838544172e-08, 1.6059043836821613e-10, -7.647163731819816e-13
-_COS_1, _COS_2, _COS_3, _COS_4 = -0.5, 0.041666666666666664, -0.001388888888888889, 2.48015873015873e-05
-_COS_5, _COS_6, _COS_7, _COS_8 = -2.755731922398589e-07, 2.08767569878681e-09, -1.1470745597729725e-11, 4.779477332387385e-14
-
-
-def _sincos(x):
-    """(sin x, cos x) of a float by arithmetic alone, within 1.4 ulp for |x| <= 1e4 rad and 2 ulp
-    to 1e6 (libm: 0.5); NaN for inf or NaN. Written without calls or branches that data could
-    not share so that the compiled stepper can take it on several robots in one SIMD instruction
-    (libm's sin and cos have no such form) and still match the float stepper to the bit."""
-    k = (x * _TWO_OVER_PI + _ROUNDER) - _ROUNDER  # the nearest multiple of pi/2
-    r = ((x - k * _HALF_PI_1) - k * _HALF_PI_2) - k * _HALF_PI_3  # in [-pi/4, pi/4]
-    z = r * r
-    s = r + r * z * (_SIN_1 + z * (_SIN_2 + z * (_SIN_3 + z * (_SIN_4 + z * (_SIN_5 + z * (_SIN_6 + z * _SIN_7))))))
-    c = 1.0 + z * (_COS_1 + z * (_COS_2 + z * (_COS_3 + z * (_COS_4 + z * (_COS_5 + z * (_COS_6 + z * (_COS_7 + z * _COS_8)))))))
-    q = k - 4.0 * ((k * 0.25 + _ROUNDER) - _ROUNDER)  # the quadrant, k mod 4, in {-2, -1, 0, 1, 2}
-    odd = q == 1.0 or q == -1.0
-    sin_x = c if odd else s
-    cos_x = s if odd else c
-    if q == -1.0 or q == 2.0 or q == -2.0:
-        sin_x = -sin_x
-    if q == 1.0 or q == 2.0 or q == -2.0:
-        cos_x = -cos_x
-    return sin_x, cos_x
-
-
 def _leg_trig(phi1, phi2):
     """cos and sin of both leg angles (times nothing): (c1, s1, c2, s2)."""
-    if isinstance(phi1, float):
-        s1, c1 = _sincos(phi1)
-        s2, c2 = _sincos(phi2)
+    if isinstance(phi1, float):  # (arithmetic alone: the compiled stepper's bits, on any CPU)
+        s1, c1 = sincos(phi1)
+        s2, c2 = sincos(phi2)
         return c1, s1, c2, s2
     # numpy's float64 sin and cos have no SIMD kernel and cost ~15x a tan: use the
     # half-angle tangent t, cos = 2/(1+t^2) - 1, sin = t (2/(1+t^2)) (errors ~1e-16
@@ -504,9 +472,10 @@ def contact_kernel(c, d, k: ContactConstants):
     )  # fmt: skip
 
 
-KERNELS = (_sincos, _leg_trig, _rotation_products, _configuration, _sym_cofactors, _sym_apply, _sym_solve,
+KERNELS = (_leg_trig, _rotation_products, _configuration, _sym_cofactors, _sym_apply, _sym_solve,
            tangential_force, _contact_force, derivative_kernel, contact_kernel)
-"""The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it)."""
+"""The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
+:data:`rrrobot_gym.numerics.KERNELS`)."""
 
 
 def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):

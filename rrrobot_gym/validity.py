@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import dynamics, simulation
+from .numerics import anywhere, select
 from .params import RobotParams, rotation_point_depth
 
 
@@ -102,10 +103,13 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     if not (lost >= 0.0).all():  # (NaN too)
         raise ValueError(f"contact_lost must be spells of seconds >= 0, got {contact_lost!r}")
     summary = {key: np.reshape(value, num_robots) for key, value in record.summary().items()}
-    # The usual case, every sample pushing: the sums below are then skipped (ms at N = 4096), and
-    # the grip needed is the summary's plain quotient.
+    if quadrature == "rectangle":
+        values = record_measures(normal, tangential, *(summary[key] for key in SUMMARY_KEYS), lost, friction_coefficient,
+                                 mass, record.step, config.model == "plane")  # fmt: skip
+        measures = {key: np.array(np.broadcast_to(value, (num_robots,)), dtype=float) for key, value in zip(MEASURE_KEYS, values)}
+        return measures, measures.pop("contact_lost")
+    # The trapezoid quadrature (numpy only): the usual case, every sample pushing, skips the sums.
     in_contact = not (summary["least_normal"] <= 0.0).any()
-    off = None if in_contact else normal <= 0.0
     measures = {
         "normal_force": summary["least_normal"],
         "friction_ratio": summary["most_ratio"] if in_contact else friction_ratio(None, normal, tangential).max(axis=0),
@@ -118,38 +122,94 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
         zero = np.zeros(num_robots)
         measures.update(liftoff_fraction=zero, liftoff_time=zero.copy(), slip_velocity=zero.copy())
         return measures, zero.copy()
-    trapezoid = quadrature == "trapezoid"
-    lifted = ~(summary["least_normal"] > 0.0) if trapezoid else None  # the robots that lost contact
+    lifted = ~(summary["least_normal"] > 0.0)  # the robots that lost contact
     if in_contact:  # any spell carried in ended at the first sample
         longest, lost, fraction = lost, np.zeros(num_robots), np.zeros(num_robots)
-    elif trapezoid:  # on the robots that lost contact (the rest as in the branch above)
+    else:  # on the robots that lost contact (the rest as in the branch above)
         longest, after, fraction = lost.copy(), np.zeros(num_robots), np.zeros(num_robots)
         spells = _interpolated_spells(normal[:, lifted], lost[lifted], record.step)
         longest[lifted], after[lifted], fraction[lifted] = spells
         lost = after
-    else:
-        spells = _spells_without_contact(off, lost, record.step)
-        longest, lost = np.maximum(lost, spells.max(axis=0)), spells[-1].copy()
-        fraction = off.sum(axis=0) / samples
     # With every sample pushing and the grip needed below the floor's by more than rounding, the
     # floor gives all of the force: unprovided_force is exactly 0 there (and so is every line
     # between two samples, each below 0).
     beyond = np.zeros(num_robots, dtype=bool) if friction_coefficient is None else ~(
-        measures["friction_ratio"] <= friction_coefficient * (1 - 1e-12)
+        measures["friction_ratio"] <= friction_coefficient * (1 - FRICTION_ROUNDING)
     )  # the robots that needed more grip than that
-    if in_contact and not beyond.any():
-        slip = np.zeros(num_robots)
-    elif trapezoid:  # on the robots that lost contact or needed more grip (the rest: 0, as above)
-        short = lifted | beyond
-        slip = np.zeros(num_robots)
+    slip = np.zeros(num_robots)
+    short = lifted | beyond  # the robots that lost contact or needed more grip (the rest: 0, as above)
+    if short.any():
         grip = friction_coefficient if np.ndim(friction_coefficient) == 0 else friction_coefficient[short]
         slip[short] = _unprovided_impulse(normal[:, short], tangential[:, short], grip, record.step)
         slip /= mass
-    else:
-        missing = unprovided_force(normal, tangential, friction_coefficient)
-        slip = _sample_sum(missing) * record.step / mass
     measures.update(liftoff_fraction=fraction, liftoff_time=longest, slip_velocity=slip)
     return measures, lost
+
+
+SUMMARY_KEYS = simulation.SUMMARY_KEYS
+MEASURE_KEYS = ("normal_force", "friction_ratio", "liftoff_fraction", "liftoff_time", "slip_velocity", "leg_clearance",
+                "torque_rms", "torque_peak", "leg_rate_peak", "contact_lost")  # fmt: skip
+"""What :func:`record_measures` returns, in order: :func:`step_measures`' measures, then the spell
+without contact going at the end."""
+FRICTION_ROUNDING = 1e-12
+"""A grip needed within this share of the floor's is taken as given (the floor gives all of the
+force): so a contact that needs exactly the floor's friction does not slip by rounding."""
+
+
+def record_measures(normal, tangential, least_normal, most_ratio, least_clearance, torque_squares, peak_torque,
+                    peak_leg_rate, carried, friction, mass, step, plane):
+    """The measures of :func:`step_measures` (rectangle quadrature) and the spell without contact
+    going at the end, in :data:`MEASURE_KEYS`' order: the one implementation, for numpy arrays
+    (a batch) and compiled into the env's step (one robot at a time, floats).
+
+    ``normal`` and ``tangential`` are the record's S samples, each a float (one robot) or an (N,)
+    array; the next six arguments the record's summary (:data:`SUMMARY_KEYS`); ``carried`` the
+    spell without contact going at the record's start (s); ``friction`` the floor's grip (None:
+    unlimited); ``mass`` (kg) the robot's; ``step`` (s) the record's; ``plane`` False for the pivot
+    model, whose joint holds any force. Each sample stands for its whole substep.
+    """
+    samples = len(normal)
+    pulled = least_normal <= 0.0
+    ratio = most_ratio
+    if anywhere(pulled):  # the grip needed is inf where the floor would have to pull
+        worst = -np.inf
+        for s in range(samples):
+            off = normal[s] <= 0.0
+            worst = np.maximum(worst, select(off, np.inf, tangential[s] / select(off, 1.0, normal[s])))
+        ratio = select(pulled, worst, ratio)
+    torque_rms = np.sqrt(torque_squares / (2 * samples))
+    if not plane:
+        return least_normal, ratio, 0.0, 0.0, 0.0, least_clearance, torque_rms, peak_torque, peak_leg_rate, 0.0
+    fraction, longest, lost = 0.0, carried, 0.0  # in contact throughout: a spell carried in ended at once
+    if anywhere(pulled):
+        last_contact, worst, spell, off_count = 0.0, -np.inf, 0.0, 0.0
+        for s in range(samples):
+            count = s + 1.0
+            off = normal[s] <= 0.0
+            off_count = off_count + select(off, 1.0, 0.0)
+            last_contact = select(off, last_contact, count)  # (0 while none yet)
+            spell = (count - last_contact) * step + select(last_contact == 0.0, carried, 0.0)
+            worst = np.maximum(worst, spell)
+        fraction = select(pulled, off_count / samples, fraction)
+        longest = select(pulled, np.maximum(carried, worst), longest)
+        lost = select(pulled, spell, lost)
+    short = pulled
+    if friction is not None:
+        short = pulled | ~(ratio <= friction * (1.0 - FRICTION_ROUNDING))  # more grip than the floor gives
+    slip = 0.0
+    if anywhere(short):  # the impulse the floor could not give, per unit mass
+        total = 0.0
+        for s in range(samples):
+            missing = np.maximum(-normal[s], 0.0)
+            if friction is not None:
+                missing = missing + np.maximum(tangential[s] - friction * np.maximum(normal[s], 0.0), 0.0)
+            total = missing if s == 0 else total + missing
+        slip = select(short, total * step / mass, slip)
+    return least_normal, ratio, fraction, longest, slip, least_clearance, torque_rms, peak_torque, peak_leg_rate, lost
+
+
+KERNELS = (record_measures,)
+"""This module's functions :mod:`rrrobot_gym.compiled` compiles into the env's step."""
 
 
 def _friction(friction_coefficient, num_robots: int):
@@ -204,7 +264,7 @@ def _unprovided_impulse(normal, tangential, friction_coefficient, step):
 def _interpolated_spells(normal, carried, step):
     """(longest spell, spell going at the end, share of the record's time), each (N,), without
     contact, ``normal`` (S, N) being a line between samples (held over the last substep) and
-    ``carried`` (N,) s the spell going at the first sample: as :func:`_spells_without_contact`,
+    ``carried`` (N,) s the spell going at the first sample: as :func:`record_measures`' rectangle spells,
     with each spell starting and ending where the line crosses 0 instead of at samples."""
     samples = normal.shape[0]
     off = normal <= 0.0
@@ -223,16 +283,6 @@ def _interpolated_spells(normal, carried, step):
     before = np.take_along_axis(total, np.maximum(began - 1, 0), axis=0)
     spells = total[1:] - before + np.where(began == 0, carried, 0.0)
     return np.maximum(carried, spells.max(axis=0)), spells[-1].copy(), total[-1] / (samples * step)
-
-
-def _spells_without_contact(off, carried, step):
-    """(S, N) s: how long each robot has been without contact after each sample, ``off`` (S, N)
-    marking the samples without contact (each standing for ``step`` s) and ``carried`` (N,) s the
-    spell already going at the first sample. Vectorised over the samples: the spell after
-    sample k is the time since the last sample with contact, or carried + (k + 1) step if none yet."""
-    count = np.arange(1, off.shape[0] + 1, dtype=float)[:, None]
-    last_contact = np.maximum.accumulate(np.where(off, 0.0, count), axis=0)  # 0: none yet
-    return (count - last_contact) * step + np.where(last_contact == 0.0, carried, 0.0)
 
 
 def unprovided_force(normal, tangential, friction_coefficient):

@@ -1,3 +1,5 @@
+import contextlib
+
 import numpy as np
 import pytest
 
@@ -25,6 +27,42 @@ def random_states(rng, n, max_tilt=0.6, max_rate=1.5):
     states[:, dynamics.LEG_RATES] = rng.uniform(-3 * max_rate, 3 * max_rate, size=(n, 2))
     states[:, 0:2] = rng.uniform(-1, 1, size=(n, 2))
     return states
+
+
+ARRAY_TRANSCENDENTALS = ("sin", "cos", "tan", "arcsin", "arccos", "arctan", "arctan2", "hypot", "sinh", "cosh", "tanh",
+                         "exp", "exp2", "expm1", "log", "log2", "log10", "log1p", "cbrt")
+"""numpy's functions whose array kernels depend on the CPU (SIMD: AVX-512's differ from AVX2's) and
+may differ by an ulp from libm, which ``math`` and numba's compiled code call."""
+
+
+@contextlib.contextmanager
+def array_transcendentals_one_ulp_off():
+    """numpy's :data:`ARRAY_TRANSCENDENTALS` returning results one ulp above their own: what another
+    CPU's SIMD kernels may give. A quantity promised to the bit across backends or batch sizes that
+    comes from one of them fails a comparison made inside this, on any machine. Run the compiled
+    side first: numba must not compile while these are patched (it could not type them)."""
+    originals = {name: getattr(np, name) for name in ARRAY_TRANSCENDENTALS}
+
+    def nudged(ufunc):
+        def call(*args, **kwargs):
+            result = ufunc(*args, **kwargs)
+            out = kwargs.get("out")
+            target = (out[0] if isinstance(out, tuple) else out) if out is not None else None
+            if target is not None:
+                np.nextafter(target, np.inf, out=target)
+                return result
+            return np.nextafter(result, np.inf)
+
+        return call
+
+    try:
+        for name, ufunc in originals.items():
+            setattr(np, name, nudged(ufunc))
+        assert np.sin(np.ones(3))[0] != originals["sin"](np.ones(3))[0]  # (the patch is live)
+        yield
+    finally:
+        for name, ufunc in originals.items():
+            setattr(np, name, ufunc)
 
 
 @pytest.fixture

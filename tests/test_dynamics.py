@@ -154,34 +154,6 @@ def test_attitude_round_trips_through_paper_angles(model, rng):
     )
 
 
-def _ulps(got, true):
-    import math
-
-    import mpmath
-
-    return float(abs(mpmath.mpf(got) - true) / math.ulp(float(true)))
-
-
-@pytest.mark.parametrize("scale, bound", [(4.0, 1.5), (1e4, 1.5), (1e6, 2.0)])
-def test_sincos_is_within_two_ulp_of_the_true_values(scale, bound, rng):
-    # dynamics._sincos is the leg angles' trig on floats (arithmetic, so that SIMD code can match it
-    # to the bit); judged against 40-digit values, not against libm
-    import mpmath
-
-    mpmath.mp.dps = 40
-    worst = 0.0
-    for x in np.concatenate([rng.uniform(-scale, scale, 1500), np.arange(-8, 9) * (np.pi / 4)]):
-        s, c = dynamics._sincos(float(x))
-        worst = max(worst, _ulps(s, mpmath.sin(mpmath.mpf(float(x)))), _ulps(c, mpmath.cos(mpmath.mpf(float(x)))))
-    assert worst <= bound
-
-
-def test_sincos_of_inf_or_nan_is_nan_and_zero_is_exact():
-    for bad in (np.inf, -np.inf, np.nan):
-        assert all(np.isnan(v) for v in dynamics._sincos(bad))
-    assert dynamics._sincos(0.0) == (0.0, 1.0)
-
-
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 def test_contact_kernel_is_what_the_derivative_evaluation_records(model, rng):
     # The lane stepper records contact_kernel(state, derivative); the float stepper takes

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 
 import gymnasium
 import numpy as np
@@ -118,8 +117,9 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     (N, the ground's push on the shell), `friction_ratio` (the friction coefficient no-slip
     rolling needs), `leg_clearance` (m, the lower leg tip's height), `slip_velocity` (m/s),
     `liftoff_fraction` (of the step), `liftoff_time` (s, the longest spell off the ground),
-    `torque_rms`, `torque_peak` (N m, the leg torques applied), `leg_rate_peak` (rad/s) and
-    `outside_model` (bool). `reset()`'s info holds `x_position`, `y_position`, `x_upright`,
+    `torque_rms`, `torque_peak` (N m, the leg torques applied), `leg_rate_peak` (rad/s),
+    `outside_model` (bool) and `termination` (str: why the step ended the episode, "" if it did
+    not; see Episode End). `reset()`'s info holds `x_position`, `y_position`, `x_upright`,
     `y_upright`, `tilt` and `target_direction`.
 
     ## Starting State
@@ -182,6 +182,11 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
        servo kick) the slip measure grows with the step, to about twice the missing impulse at
        the default step; `"trapezoid"` takes the force as a line between samples, and its slip
        and lift-off measures converge with the step (down to about 1/200 s).
+
+    `info["termination"]` names the cause, the info entry that crossed its limit: `"numerical_failure"`,
+    `"tilt"`, `"leg_clearance"`, `"liftoff_time"` or `"slip_velocity"` (the first of these where
+    several did at once; `rrrobot_gym.envs.task.TERMINATIONS`), and `""` for a step that did not
+    terminate, a truncated one included.
 
     ### Truncation
     `gymnasium.make`'s `TimeLimit` truncates after the registered `max_episode_steps`, 1000
@@ -288,7 +293,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
                 upright = task.upright_contact_points(before[None], self.config.sim.robot.radius)
             after, targets, rates, observations, values, flags, rewards, terminations, lost = self.compiled_task.step(
                 before[None], self._observation[None], self.leg_targets[None], self.leg_target_rates[None],
-                applied[None], action[None], np.array([[math.cos(target)], [math.sin(target)]]), np.array([target]),
+                applied[None], action[None], np.array(task.heading_vectors([target])).reshape(2, 1), np.array([target]),
                 np.array([self.time]), np.array([self.time + self.dt]), np.array([self.contact_lost]), upright,
             )  # fmt: skip
             self.state, observation, self.leg_targets, self.leg_target_rates = after[0], observations[0], targets[0], rates[0]

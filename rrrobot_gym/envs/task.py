@@ -32,6 +32,8 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import compiled, dynamics, simulation, validity
+from ..numerics import arctan2, select, sincos
+from ..validity import record_measures
 from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
 from ..simulation import DEFAULT_TIMESTEP, LEG_MODES, MAX_SAMPLES, NumericalFailure, SimConfig, advance, check_state
@@ -56,16 +58,16 @@ OBSERVATION_FIELDS = (
 
 RESET_INFO_KEYS = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction")
 """Keys of the info ``reset()`` returns (and a vector env's top-level info for a sub-env it reset)."""
-MEASURE_KEYS = (
-    "normal_force", "friction_ratio", "liftoff_fraction", "liftoff_time", "slip_velocity",
-    "leg_clearance", "torque_rms", "torque_peak", "leg_rate_peak",
-)  # fmt: skip
+MEASURE_KEYS = validity.MEASURE_KEYS[:-1]
 """The step-record summaries in a step's info (:func:`rrrobot_gym.validity.step_measures`)."""
+TERMINATIONS = ("", "numerical_failure", "tilt", "leg_clearance", "liftoff_time", "slip_velocity")
+"""What ``info["termination"]`` names: why a step ended its episode, "" where it did not (a truncation
+included). Each names the info entry that crossed its limit (``numerical_failure``: the integration
+blew up); where several did at once, the first of these."""
 STEP_INFO_KEYS = RESET_INFO_KEYS + (
     "x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "reward_survive",
-    "numerical_failure",
-) + MEASURE_KEYS + ("outside_model",)  # fmt: skip
-"""Keys of the info ``step()`` returns."""
+) + MEASURE_KEYS + ("numerical_failure", "outside_model", "termination")  # fmt: skip
+"""Keys of the info ``step()`` returns, in order."""
 RESET_OPTIONS = ("state", "target_direction")
 """Keys ``reset(options=...)`` accepts: an exact start state (no noise) and the episode's heading."""
 
@@ -436,6 +438,9 @@ class TaskConfig:
         _choice("action_hold", self.action_hold, ACTION_HOLDS)
         put("_ranges", randomization_ranges(self.randomize, self))
         _choice("contact_quadrature", self.contact_quadrature, validity.QUADRATURES)
+        params = _kernel_params_of(self)
+        params.setflags(write=False)
+        put("_kernel_params", params)
 
     @property
     def sim(self) -> SimConfig:
@@ -451,6 +456,11 @@ class TaskConfig:
     def observation_size(self) -> int:
         size = 15 if self.exclude_current_positions_from_observation else 17
         return size + (2 if self.clock_frequency is not None else 0)
+
+    @property
+    def kernel_params(self) -> np.ndarray:
+        """The scene's scalars as the task's kernels read them (:data:`TASK_PARAMS`; read-only)."""
+        return self._kernel_params
 
     @property
     def ranges(self) -> dict:
@@ -700,34 +710,17 @@ def check_start_states(states, config: TaskConfig) -> None:
 
 def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=None) -> np.ndarray:
     """Observations (N, config.observation_size) float32 (layout :data:`OBSERVATION_FIELDS`) of
-    states (N, 13), targets (N,) rad and ``times`` (N,) s since each episode began (for the clock).
-    ``rows`` and ``heading``: the states' :func:`rotation_rows` and the targets'
-    :func:`heading_vectors`, if the caller already has them."""
+    states (N, 13), targets (N,) rad and ``times`` (N,) s since each episode began (for the clock):
+    :func:`observe_into` on the batch. ``rows`` and ``heading``: the states' :func:`rotation_rows`
+    and the targets' :func:`heading_vectors`, if the caller already has them."""
     rows = rotation_rows(states) if rows is None else rows
     cos_t, sin_t = heading_vectors(targets) if heading is None else heading
+    times = np.zeros(len(states)) if times is None else np.asarray(times, dtype=float)
     # Filled by rows, then transposed: writing columns of (N, size) is a strided write, slower.
     obs = np.empty((config.observation_size, len(states)), dtype=np.float32)
     # A blown-up state may overflow float32; finite_rows() catches that, so no warning here.
     with np.errstate(over="ignore", invalid="ignore"):
-        for i in range(3):
-            obs[i] = rows[2][i]
-            # (R^T d)_i = R_0i d_x + R_1i d_y, with d horizontal.
-            obs[3 + i] = rows[0][i] * cos_t + rows[1][i] * sin_t
-        obs[0:6].clip(-1.0, 1.0, out=obs[0:6])
-        obs[6:9] = states[:, dynamics.BODY_RATE].T
-        obs[9:11] = states[:, dynamics.LEG_ANGLES].T
-        obs[11:13] = states[:, dynamics.LEG_RATES].T
-        obs[13] = cos_t
-        obs[14] = sin_t
-        end = 15
-        if not config.exclude_current_positions_from_observation:
-            obs[15:17] = states[:, 0:2].T
-            end = 17
-        if config.clock_frequency is not None:
-            # A gait clock: with it a sinusoidal gait is a linear function of the observation.
-            phase = config.clock_frequency * (np.zeros(len(states)) if times is None else np.asarray(times, dtype=float))
-            obs[end] = np.sin(phase)
-            obs[end + 1] = np.cos(phase)
+        observe_into(obs, states.T, rows, cos_t, sin_t, times, config.kernel_params)
     return obs.T.copy()
 
 
@@ -768,49 +761,20 @@ def rotation_rows(states):
 
 
 def heading_vectors(targets):
-    """cos and sin of the headings ``targets`` (N,) rad: Python floats for one robot (as
-    :func:`rotation_rows`), (N,) arrays for a batch."""
-    if len(targets) == 1:
-        target = float(targets[0])
-        return math.cos(target), math.sin(target)
-    return np.cos(targets), np.sin(targets)
-
-
-def _tilt(cos_tilt):
-    """rad, :func:`rrrobot_gym.dynamics.tilt` from its cosine, R[2, 2] (a float or an array)."""
-    if isinstance(cos_tilt, float):
-        return math.acos(min(max(cos_tilt, -1.0), 1.0))
-    return np.arccos(np.clip(cos_tilt, -1.0, 1.0))
+    """cos and sin of the headings ``targets`` (N,) rad (:func:`rrrobot_gym.numerics.sincos`, the same
+    bits on every CPU): Python floats for one robot (as :func:`rotation_rows`), (N,) arrays for a batch."""
+    targets = float(targets[0]) if len(targets) == 1 else np.asarray(targets, dtype=float)
+    sin_t, cos_t = sincos(targets)
+    return cos_t, sin_t
 
 
 def upright_contact_points(states, radius, rows=None):
-    """(N, 2) m: where the contact point would be if the shell rolled back upright without slip.
-
-    That roll moves the contact by r * tilt against the body axis's horizontal lean
-    b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt), so the point is p - r (tilt / sin(tilt)) b_h: it
-    stays put while the shell rocks or tips over and moves only with net travel.
-    ``rows``: the states' :func:`rotation_rows`, if already computed.
-    """
+    """(N, 2) m: where the contact point would be if the shell rolled back upright without slip
+    (:func:`upright_pose`). ``rows``: the states' :func:`rotation_rows`, if already computed."""
     rows = rotation_rows(states) if rows is None else rows
-    lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
-    # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
-    if isinstance(lean_x, float):  # one robot (see rotation_rows)
-        scale = upright_scale(lean_x, lean_y, cos_tilt, radius)
-    else:
-        sin_tilt = np.hypot(lean_x, lean_y)
-        leaning = sin_tilt > 1e-9
-        scale = radius * np.where(leaning, np.arctan2(sin_tilt, cos_tilt) / np.where(leaning, sin_tilt, 1.0), 1.0)
     points = np.empty((len(states), 2))  # (cheaper than np.stack for one robot)
-    points[:, 0] = states[:, 0] - scale * lean_x
-    points[:, 1] = states[:, 1] - scale * lean_y
+    points[:, 0], points[:, 1], _ = upright_pose(states[:, 0], states[:, 1], rows, radius)
     return points
-
-
-def upright_scale(lean_x, lean_y, cos_tilt, radius):
-    """m per unit lean, one robot's (floats): :func:`upright_contact_points` moves its contact
-    point back by this times (``lean_x``, ``lean_y``). Also compiled (:data:`KERNELS`)."""
-    sin_tilt = math.hypot(lean_x, lean_y)
-    return radius * (math.atan2(sin_tilt, cos_tilt) / sin_tilt if sin_tilt > 1e-9 else 1.0)
 
 
 def reset_info(states, targets, config: TaskConfig, rows=None, draws=None):
@@ -818,14 +782,14 @@ def reset_info(states, targets, config: TaskConfig, rows=None, draws=None):
     states' :func:`rotation_rows`, if already computed), and with ``draws`` (:func:`draw_robots`)
     each drawn quantity as ``"randomized_" + name``."""
     rows = rotation_rows(states) if rows is None else rows
-    upright = upright_contact_points(states, config.sim.robot.radius, rows)
+    x_upright, y_upright, tilt = upright_pose(states[:, 0], states[:, 1], rows, config.sim.robot.radius)
     return {
         **{"randomized_" + name: values.copy() for name, values in (draws or {}).items()},
         "x_position": states[:, 0].copy(),
         "y_position": states[:, 1].copy(),
-        "x_upright": upright[:, 0],
-        "y_upright": upright[:, 1],
-        "tilt": np.array(_tilt(rows[2][2]), ndmin=1),  # (a copy; (1,) from one robot's float)
+        "x_upright": x_upright,
+        "y_upright": y_upright,
+        "tilt": np.array(tilt, dtype=float, ndmin=1),  # (a copy; (1,) from one robot's float)
         "target_direction": np.array(targets, dtype=np.float64),
     }
 
@@ -834,40 +798,32 @@ def step_outcome(
     states_before, states_after, targets, actions, failed, config: TaskConfig, measures, elapsed, upright_before=None,
     rows_after=None, heading=None,
 ):
-    """Reward (N,), terminated (N,) and info (dict of (N,) arrays) of one control step: the
-    RRRobotEnv docstring's Rewards and Episode End. A ``failed`` robot (numerical blow-up; its
-    ``states_after`` is its last finite state) gets reward 0 and terminates.
-    ``upright_before`` (N, 2), ``rows_after`` and ``heading``: the :func:`upright_contact_points` of
-    ``states_before``, the :func:`rotation_rows` of ``states_after`` and the targets'
-    :func:`heading_vectors`, if the caller already has them.
+    """Reward (N,), terminated (N,) and info (dict of (N,) arrays, :data:`STEP_INFO_KEYS`) of one
+    control step: :func:`outcome` on the batch, the RRRobotEnv docstring's Rewards and Episode End.
+    A ``failed`` robot (numerical blow-up; its ``states_after`` is its last finite state) gets
+    reward 0 and terminates. ``upright_before`` (N, 2), ``rows_after`` and ``heading``: the
+    :func:`upright_contact_points` of ``states_before``, the :func:`rotation_rows` of
+    ``states_after`` and the targets' :func:`heading_vectors`, if the caller already has them.
     """
-    dt = config.dt
-    elapsed = np.asarray(elapsed, dtype=float)
     info = reset_info(states_after, targets, config, rows_after)
     before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
     cos_t, sin_t = heading_vectors(targets) if heading is None else heading
-    forward_velocity = ((info["x_upright"] - before[:, 0]) * cos_t + (info["y_upright"] - before[:, 1]) * sin_t) / dt
-    info["x_velocity"] = (states_after[:, 0] - states_before[:, 0]) / dt
-    info["y_velocity"] = (states_after[:, 1] - states_before[:, 1]) / dt
-    info["forward_velocity"] = forward_velocity
-    info["reward_forward"] = config.forward_reward_weight * FORWARD_VELOCITY_UNIT * forward_velocity
-    info["reward_ctrl"] = -config.ctrl_cost_weight * np.einsum("ij,ij->i", actions, actions)
-    info["numerical_failure"] = np.array(failed, dtype=bool)
-    if info["numerical_failure"].any():
-        for key in ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl"):
-            info[key][failed] = 0.0
-    info.update(measures)  # (N,) float64 arrays (validity.step_measures, failed_measures)
-    info["outside_model"] = outside_model(info, config, elapsed) & ~info["numerical_failure"]
-    # Travel the floor could not have given earns nothing (else a policy learns to kick and fall).
-    if config.sim.model == "plane":
-        # Nor does travel in the start-up grace, where slip is forgiven (a kick off the start).
-        unearned = left_the_floor(info, config) | (elapsed < STARTUP_GRACE - 1e-9)
-        info["reward_forward"] = np.where(unearned, 0.0, info["reward_forward"])
-    terminated = info["numerical_failure"] | tilt_reached_limit(info["tilt"])
-    if config.terminate_outside_model:
-        terminated |= info["outside_model"]
-    info["reward_survive"] = np.where(terminated, 0.0, config.healthy_reward)
-    return info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"], terminated, info
+    failed = np.array(failed, dtype=bool)
+    values = outcome(
+        states_before[:, 0], states_before[:, 1], states_after[:, 0], states_after[:, 1], before[:, 0], before[:, 1],
+        info["x_upright"], info["y_upright"], cos_t, sin_t, effort(np.asarray(actions, dtype=float).T), failed,
+        info["tilt"], measures["leg_clearance"], measures["liftoff_time"], measures["slip_velocity"],
+        np.asarray(elapsed, dtype=float), config.kernel_params,
+    )  # fmt: skip
+    n = len(states_after)
+    reward, outside, terminated, reason = (np.array(np.broadcast_to(v, (n,))) for v in values[1:])
+    for key, value in zip(OUTCOME_KEYS, values[0]):
+        info[key] = np.array(np.broadcast_to(value, (n,)), dtype=float)
+    info.update((key, measures[key]) for key in MEASURE_KEYS)  # (N,) float64 arrays (validity.step_measures)
+    info["numerical_failure"] = failed
+    info["outside_model"] = outside
+    info["termination"] = np.array(TERMINATIONS)[reason.astype(int)]
+    return reward.astype(float), terminated, info
 
 
 def failed_measures(num_robots: int) -> dict:
@@ -888,15 +844,8 @@ def step_targets(actions, previous_targets, previous_rates, config: TaskConfig, 
     per step, a the limit. ``action_hold`` "linear" ramps the reference through the step at that
     rate; "zero_order" holds its end.
     """
-    goal = action_to_leg_targets(actions)
-    dt = config.dt
-    if config.leg_accel_limit is None:
-        end = goal
-        rates = (goal - previous_targets) / dt
-    else:
-        top = np.inf if config.leg_rate_limit is None else config.leg_rate_limit
-        rates = profile_rates(goal - previous_targets, previous_rates, dt, config.leg_accel_limit, top)
-        end = previous_targets + rates * dt
+    end, rates = servo_reference(np.asarray(actions, dtype=np.float64), previous_targets, previous_rates,
+                                 config.kernel_params)
     return held_targets(previous_targets, end, config, t), end, rates
 
 
@@ -944,27 +893,6 @@ STARTUP_GRACE = 0.1
 abruptly, makes even the Table II gaits slip at up to 0.63 m/s for an instant)."""
 
 
-def outside_model(info, config: TaskConfig, elapsed):
-    """True where a robot left the model (the RRRobotEnv docstring's Episode End): a leg tip at or
-    below the ground, or on a plane, from :data:`STARTUP_GRACE` on (``elapsed`` (N,) s at the
-    step's start), :func:`left_the_floor`. ``info`` holds the step's measures."""
-    out = info["leg_clearance"] <= 0.0
-    if config.sim.model == "plane":
-        started = np.asarray(elapsed, dtype=float) >= STARTUP_GRACE - 1e-9
-        out |= started & left_the_floor(info, config)
-    return out
-
-
-def left_the_floor(info, config: TaskConfig):
-    """True where a step lifted off or slipped beyond the task's tolerances (plane model)."""
-    return (info["slip_velocity"] > config.max_slip_velocity) | (info["liftoff_time"] > config.max_liftoff_time)
-
-
-def tilt_reached_limit(tilts):
-    """True where the rim touches the ground, where the paper's rolling model ends."""
-    return tilts >= dynamics.TILT_LIMIT
-
-
 def finite_rows(states, observations):
     """True for robots whose state and float32 observation (which a huge state overflows) are finite."""
     if len(states) < FINITE_BY_DOT_MIN:
@@ -981,37 +909,235 @@ FINITE_BY_DOT_MIN = 256
 """Batches from this size on are checked by :func:`finite_rows`' dot products (faster for large batches)."""
 
 
-KERNELS = (profile_rates, upright_scale)
-"""This module's functions :mod:`rrrobot_gym.compiled` compiles into the env's step (:class:`CompiledTask`)."""
+# ---------------------------------------------------------------------------
+# The task's arithmetic, written once: every function below takes one robot's floats (the compiled
+# step calls them robot by robot, rrrobot_gym.compiled compiles them from this source) or a batch's
+# arrays (the numpy functions above call them), and uses only operations that round the same on
+# every CPU (rrrobot_gym.numerics), so both give the same bits anywhere.
+
+TASK_PARAMS = ("dt", "h", "n_steps", "accel_limit", "profile_rate_limit", "linear", "plane", "max_slip_velocity",
+               "max_liftoff_time", "forward_scale", "ctrl_cost_weight", "healthy_reward", "terminate_outside_model",
+               "radius", "clock_frequency", "positions", "grace", "tilt_limit")  # fmt: skip
+"""The scalars the kernels read from one array (:attr:`TaskConfig.kernel_params`), in this order: 0 or
+1 for flags; an accel limit or clock frequency of 0: none; a profile rate limit of inf: none."""
+(_DT, _H, _N_STEPS, _ACCEL_LIMIT, _PROFILE_RATE_LIMIT, _LINEAR, _PLANE, _MAX_SLIP, _MAX_LIFTOFF, _FORWARD_SCALE,
+ _CTRL_COST, _HEALTHY, _TERMINATE_OUTSIDE, _RADIUS, _CLOCK, _POSITIONS, _GRACE, _TILT_LIMIT) = range(len(TASK_PARAMS))  # fmt: skip
+OUTCOME_KEYS = ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "reward_survive")
+"""The info entries of :func:`outcome`'s first value, in order."""
+
+
+def _kernel_params_of(config: TaskConfig) -> np.ndarray:
+    """:data:`TASK_PARAMS` of a config, as the kernels read them."""
+    n_steps, h = simulation._substeps(config.dt, config.sim.step)
+    values = dict(
+        dt=config.dt, h=h, n_steps=n_steps, accel_limit=config.leg_accel_limit or 0.0,
+        profile_rate_limit=np.inf if config.leg_rate_limit is None else config.leg_rate_limit,
+        linear=config.action_hold == "linear", plane=config.sim.model == "plane", max_slip_velocity=config.max_slip_velocity,
+        max_liftoff_time=config.max_liftoff_time, forward_scale=config.forward_reward_weight * FORWARD_VELOCITY_UNIT,
+        ctrl_cost_weight=config.ctrl_cost_weight, healthy_reward=config.healthy_reward,
+        terminate_outside_model=config.terminate_outside_model, radius=config.sim.robot.radius,
+        clock_frequency=config.clock_frequency or 0.0, positions=not config.exclude_current_positions_from_observation,
+        grace=STARTUP_GRACE - 1e-9, tilt_limit=dynamics.TILT_LIMIT,
+    )  # fmt: skip
+    return np.array([float(values[name]) for name in TASK_PARAMS])
+
+
+def servo_reference(action, start, previous_rate, p):
+    """(end, rate): the servo's reference at the end of a control step (rad) and its rate over the
+    step (rad/s), from an ``action`` in [-1, 1] (its target, :func:`action_to_leg_targets`), the
+    reference's ``start`` and its ``previous_rate``: :func:`step_targets`' motion profile."""
+    goal = _LEG_TARGET_MID + _LEG_TARGET_HALF_RANGE * action
+    dt = p[_DT]
+    if p[_ACCEL_LIMIT] > 0.0:
+        rate = profile_rates(goal - start, previous_rate, dt, p[_ACCEL_LIMIT], p[_PROFILE_RATE_LIMIT])
+        return start + rate * dt, rate
+    return goal, (goal - start) / dt
+
+
+def observe_into(o, c, rows, cos_t, sin_t, time, p):
+    """The observation (layout :data:`OBSERVATION_FIELDS`) into ``o`` (float32, entries first) of a
+    state's components ``c``, their :func:`rotation_rows`, the heading's cos and sin and the
+    episode's ``time`` (s, for the clock)."""
+    for m in range(3):
+        o[m] = rows[2][m]
+        # (R^T d)_m = R_0m d_x + R_1m d_y, with d horizontal.
+        o[3 + m] = rows[0][m] * cos_t + rows[1][m] * sin_t
+    for m in range(6):  # (in float32, where a unit vector's rounding could pass 1)
+        o[m] = np.minimum(np.maximum(o[m], -1.0), 1.0)
+    for m in range(3):
+        o[6 + m] = c[8 + m]
+    for m in range(2):
+        o[9 + m], o[11 + m] = c[6 + m], c[11 + m]
+    o[13], o[14] = cos_t, sin_t
+    end = 15
+    if p[_POSITIONS] > 0.0:
+        o[15], o[16] = c[0], c[1]
+        end = 17
+    if p[_CLOCK] > 0.0:  # a gait clock: with it a sinusoidal gait is a linear function of the observation
+        o[end], o[end + 1] = sincos(p[_CLOCK] * time)
+
+
+def upright_pose(x, y, rows, radius):
+    """(x, y) of the upright contact point (m) and the tilt (rad) of a contact point (x, y) and its
+    attitude's :func:`rotation_rows`.
+
+    The upright contact point is where the contact point would be if the shell rolled back
+    upright without slip: that roll moves it by r tilt against the body axis's horizontal lean
+    b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt), so it is p - r (tilt / sin(tilt)) b_h. It stays put
+    while the shell rocks or tips over, and moves only with net travel."""
+    lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
+    sin_tilt = np.sqrt(lean_x * lean_x + lean_y * lean_y)
+    tilt = arctan2(sin_tilt, cos_tilt)
+    # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
+    leaning = sin_tilt > 1e-9
+    scale = radius * select(leaning, tilt / select(leaning, sin_tilt, 1.0), 1.0)
+    return x - scale * lean_x, y - scale * lean_y, tilt
+
+
+def effort(actions):
+    """The sum of the squares of one robot's actions, leg by leg (``actions`` (legs,) or (legs, N))."""
+    total = actions[0] * actions[0]
+    for k in range(1, len(actions)):
+        total = total + actions[k] * actions[k]
+    return total
+
+
+def outcome(x_before, y_before, x_after, y_after, upright_x_before, upright_y_before, upright_x, upright_y, cos_t,
+            sin_t, action_effort, failed, tilt, leg_clearance, liftoff_time, slip_velocity, elapsed, p):
+    """(the step's velocities and reward terms (:data:`OUTCOME_KEYS`), the reward, outside the
+    model, terminated, why (an index into :data:`TERMINATIONS`)): the RRRobotEnv docstring's
+    Rewards and Episode End, from the contact point and upright contact point before
+    and after (m), the heading's cos and sin, :func:`effort`, whether the step ``failed``
+    numerically, the tilt after and the step's measures, and ``elapsed`` (s) at its start."""
+    dt = p[_DT]
+    x_velocity = select(failed, 0.0, (x_after - x_before) / dt)
+    y_velocity = select(failed, 0.0, (y_after - y_before) / dt)
+    forward = select(failed, 0.0, ((upright_x - upright_x_before) * cos_t + (upright_y - upright_y_before) * sin_t) / dt)
+    reward_forward = select(failed, 0.0, p[_FORWARD_SCALE] * forward)
+    reward_ctrl = select(failed, 0.0, -p[_CTRL_COST] * action_effort)
+    beside = leg_clearance <= 0.0  # a leg tip at or below the floor
+    lifted = slipped = beside & False
+    if p[_PLANE] > 0.0:
+        # Slip and lift-off leave the model from the end of the start-up grace, where slip is forgiven.
+        started = elapsed >= p[_GRACE]
+        lifted, slipped = started & (liftoff_time > p[_MAX_LIFTOFF]), started & (slip_velocity > p[_MAX_SLIP])
+        # Travel the floor could not have given earns nothing (else a policy learns to kick and
+        # fall), nor does travel in the grace (a kick off the start).
+        unearned = (liftoff_time > p[_MAX_LIFTOFF]) | (slip_velocity > p[_MAX_SLIP]) | (elapsed < p[_GRACE])
+        reward_forward = select(unearned, 0.0, reward_forward)
+    outside = select(failed, False, beside | lifted | slipped)
+    tilted = tilt >= p[_TILT_LIMIT]
+    reason = select(tilted, 2.0, 0.0)
+    if p[_TERMINATE_OUTSIDE] > 0.0:
+        reason = select(tilted, reason, select(beside, 3.0, select(lifted, 4.0, select(slipped, 5.0, 0.0))))
+    reason = select(failed, 1.0, reason)  # (TERMINATIONS' order)
+    terminated = reason > 0.0
+    reward_survive = select(terminated, 0.0, p[_HEALTHY])
+    terms = (x_velocity, y_velocity, forward, reward_forward, reward_ctrl, reward_survive)
+    return terms, reward_forward + reward_ctrl + reward_survive, outside, terminated, reason
+
+
+KERNELS = (profile_rates, servo_reference, observe_into, upright_pose, effort, outcome)
+"""This module's functions :mod:`rrrobot_gym.compiled` compiles into the env's step (with
+:func:`fused_step`, which calls them robot by robot)."""
+
+
+INFO_ROWS = RESET_INFO_KEYS + OUTCOME_KEYS + MEASURE_KEYS + ("termination",)
+"""The rows of :func:`fused_step`'s float info (its flags: numerical_failure, outside_model)."""
+_physics = None  # (the compiled step's physics, given to its compiled copy by rrrobot_gym.compiled)
+_quaternion_rows = dynamics.rotation_rows
+_RECORD_ROWS, _SUMMARY_ROWS = compiled.RECORD_ROWS, compiled.SUMMARY_ROWS
+
+
+def fused_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
+               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, robot, friction, mass, y,
+               ends, rates, obs, info, flags, rewards, terminated, lost_after):
+    """One control step of the robots ``before`` (N, 13) into the arrays from ``y`` on, the env's
+    whole step robot by robot (:class:`CompiledTask`): the kernels above, the physics (compiled
+    lanes, with the record) and :func:`rrrobot_gym.validity.record_measures`. The caller makes
+    the output arrays (numba's boxing of arrays it returns costs more than the caller's np.empty);
+    ``scene``, ``torque_limit``, ``rate_limit`` and ``robot`` are the physics' (the shared scene's
+    constants and gains in one array, or each robot's own); ``friction`` (N,) the floors' grip
+    (used where ``limited``), ``mass`` (N,) the robots'. Only compiled (``rrrobot_gym.compiled``)."""
+    n, legs = before.shape[0], previous_targets.shape[1]
+    dt, h, n_steps = p[_DT], p[_H], int(p[_N_STEPS])
+    linear = p[_LINEAR] > 0.0
+    params = np.empty((n, 4 * legs if linear else legs))
+    for i in range(n):
+        for j in range(legs):
+            start = previous_targets[i, j]
+            end, rate = servo_reference(applied[i, j], start, previous_rates[i, j], p)
+            ends[i, j], rates[i, j] = end, rate
+            if linear:  # control.RampTargets' parameters: start, end, change, slope
+                change = end - start
+                params[i, j], params[i, legs + j], params[i, 2 * legs + j], params[i, 3 * legs + j] = (
+                    start, end, change, change / dt)
+            else:
+                params[i, j] = end
+    y[:] = before
+    rows = np.empty((n_steps, _RECORD_ROWS, n))
+    summary = np.empty((_SUMMARY_ROWS, n))
+    _physics(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot)
+    size = last_obs.shape[1]
+    limited = not np.isnan(friction[0]) if n else False
+    out = np.empty(len(INFO_ROWS))
+    for i in range(n):
+        cos_t, sin_t = heading[0, i], heading[1, i]
+        failed = False
+        for j in range(y.shape[1]):
+            if not np.isfinite(y[i, j]):
+                failed = True
+        if not failed:
+            r = _quaternion_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
+            observe_into(obs[i], y[i], r, cos_t, sin_t, obs_times[i], p)
+            for j in range(size):
+                if not np.isfinite(obs[i, j]):
+                    failed = True
+        if failed:  # the last finite state and observation, the servo's reference kept
+            y[i] = before[i]
+            obs[i] = last_obs[i]
+            ends[i], rates[i] = previous_targets[i], previous_rates[i]
+            r = _quaternion_rows(y[i, 2], y[i, 3], y[i, 4], y[i, 5])
+            nan = np.nan
+            measures = (nan, nan, nan, nan, nan, nan, nan, nan, nan, contact_lost[i])
+        elif limited:
+            measures = record_measures(
+                rows[:, 5, i], rows[:, 6, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
+                summary[4, i], summary[5, i], contact_lost[i], friction[i], mass[i], h, p[_PLANE] > 0.0)  # fmt: skip
+        else:
+            measures = record_measures(
+                rows[:, 5, i], rows[:, 6, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
+                summary[4, i], summary[5, i], contact_lost[i], None, mass[i], h, p[_PLANE] > 0.0)  # fmt: skip
+        x_up, y_up, tilt = upright_pose(y[i, 0], y[i, 1], r, p[_RADIUS])
+        terms, reward, outside, done, reason = outcome(
+            before[i, 0], before[i, 1], y[i, 0], y[i, 1], upright_before[i, 0], upright_before[i, 1], x_up, y_up, cos_t,
+            sin_t, effort(actions[i]), failed, tilt, measures[5], measures[3], measures[4], elapsed[i], p)  # fmt: skip
+        out[0], out[1], out[2], out[3], out[4], out[5] = y[i, 0], y[i, 1], x_up, y_up, tilt, targets[i]
+        for m in range(len(terms)):
+            out[6 + m] = terms[m]
+        for m in range(9):
+            out[6 + len(terms) + m] = measures[m]
+        out[len(out) - 1] = reason
+        lost_after[i] = measures[9]
+        rewards[i] = reward
+        terminated[i] = done
+        flags[0, i], flags[1, i] = failed, outside
+        for m in range(len(INFO_ROWS)):
+            info[m, i] = out[m]
 
 
 class CompiledTask:
-    """One control step of N robots, task and physics, in one compiled call
-    (:func:`rrrobot_gym.compiled._task_step`): the servo's motion profile (:func:`step_targets`),
-    :func:`advance_and_check`, the observation (:func:`observe`) and :func:`step_outcome`, robot by
-    robot, the same numbers as these numpy functions, which the envs run where it does not apply
-    (:meth:`applies`) and which are its reference."""
+    """One control step of N robots, task and physics, in one compiled call (:func:`fused_step`):
+    the servo's motion profile (:func:`step_targets`), :func:`advance_and_check`, the observation
+    (:func:`observe`) and :func:`step_outcome`, robot by robot, each calling the same kernels as
+    these numpy functions, which the envs run where it does not apply (:meth:`applies`)."""
 
     def __init__(self, config: TaskConfig, num_envs: int):
         self.config = config
         sim = config.sim
-        n_steps, h = simulation._substeps(config.dt, sim.step)
-        values = dict(
-            dt=config.dt, h=h, n_steps=n_steps, accel_limit=config.leg_accel_limit or 0.0,
-            profile_rate_limit=np.inf if config.leg_rate_limit is None else config.leg_rate_limit,
-            linear=config.action_hold == "linear", plane=sim.model == "plane", max_slip_velocity=config.max_slip_velocity,
-            max_liftoff_time=config.max_liftoff_time, forward_scale=config.forward_reward_weight * FORWARD_VELOCITY_UNIT,
-            ctrl_cost_weight=config.ctrl_cost_weight, healthy_reward=config.healthy_reward,
-            terminate_outside_model=config.terminate_outside_model, radius=sim.robot.radius, limited_friction=False,
-            clock_frequency=config.clock_frequency or 0.0, positions=not config.exclude_current_positions_from_observation,
-            target_mid=_LEG_TARGET_MID, target_half_range=_LEG_TARGET_HALF_RANGE, grace=STARTUP_GRACE - 1e-9,
-            tilt_limit=dynamics.TILT_LIMIT,
-        )  # fmt: skip
-        self._params = np.array([float(values[name]) for name in compiled.TASK_PARAMS])
+        self._params = config.kernel_params
         k, kc, gains = compiled._scene(sim.robot, sim.depth, sim.gains)
         self._shared = np.array([*k, *kc, *gains], dtype=float)
-        if len(self._shared) != 29:
-            raise AssertionError("compiled._task_step reads 20 constants, 7 contact constants and 2 gains")
         self.set_robots({}, num_envs)
 
     @staticmethod
@@ -1033,20 +1159,20 @@ class CompiledTask:
             robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
             self._robot = (*limits, robot)
             self._mass = simulation.total_mass(values)
-        self._step = compiled._stepper(False, physics is not None, KERNELS)
+        self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS)
         grip = self.config.friction_coefficient if friction is None else friction
-        self._params[compiled.TASK_PARAMS.index("limited_friction")] = grip is not None
-        self._friction = np.array(np.broadcast_to(1.0 if grip is None else grip, (num_envs,)), dtype=float)
+        # (NaN: unlimited grip, the same for every robot)
+        self._friction = np.array(np.broadcast_to(np.nan if grip is None else grip, (num_envs,)), dtype=float)
 
     def step(self, states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
              times, contact_lost, upright):
         """One control step: (states, leg targets, their rates, observations, float info (rows
-        ``compiled.TASK_INFO``), flags (numerical_failure, outside_model), rewards, terminated,
+        :data:`INFO_ROWS`), flags (numerical_failure, outside_model), rewards, terminated,
         contact_lost after), each with a leading or trailing axis of N robots. A failed robot keeps
         its state, observation (``observations``, the last) and servo reference."""
         n = len(states)
         out = (np.empty((n, dynamics.STATE_SIZE)), np.empty((n, 2)), np.empty((n, 2)),
-               np.empty((n, self.config.observation_size), dtype=np.float32), np.empty((len(compiled.TASK_INFO), n)),
+               np.empty((n, self.config.observation_size), dtype=np.float32), np.empty((len(INFO_ROWS), n)),
                np.empty((2, n), dtype=bool), np.empty(n), np.empty(n, dtype=bool), np.empty(n))  # fmt: skip
         self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
                    times, contact_lost, upright, self._params, self._shared, *self._robot, self._friction, self._mass,
@@ -1055,15 +1181,13 @@ class CompiledTask:
 
 
 def compiled_info(values, flags, robot=None) -> dict:
-    """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays in its order of keys, or
-    one ``robot``'s Python floats and bools (the single env's info)."""
+    """:meth:`CompiledTask.step`'s info as :func:`step_outcome`'s: (N,) arrays keyed
+    :data:`STEP_INFO_KEYS`, or one ``robot``'s Python floats, bools and str (the single env's info)."""
     if robot is None:
-        rows, (failed, outside) = list(values), list(flags)
+        rows, (failed, outside) = dict(zip(INFO_ROWS, values)), flags
+        termination = np.array(TERMINATIONS)[rows["termination"].astype(int)]
     else:
-        rows, (failed, outside) = values[:, robot].tolist(), flags[:, robot].tolist()
-    return dict(zip(_COMPILED_INFO_ORDER, rows[:11] + [failed] + rows[11:20] + [outside, rows[20]]))
-
-
-_COMPILED_INFO_ORDER = compiled.TASK_INFO[:11] + ("numerical_failure",) + compiled.TASK_INFO[11:20] + (
-    "outside_model", "reward_survive")
-"""A step's info keys in :func:`step_outcome`'s order (its measures in :func:`rrrobot_gym.validity.step_measures`')."""
+        rows, (failed, outside) = dict(zip(INFO_ROWS, values[:, robot].tolist())), flags[:, robot].tolist()
+        termination = TERMINATIONS[int(rows["termination"])]
+    rows.update(numerical_failure=failed, outside_model=outside, termination=termination)
+    return {key: rows[key] for key in STEP_INFO_KEYS}
