@@ -650,6 +650,17 @@ def first_update_notice(started: float):
     return FirstUpdate()
 
 
+def best_model_line(args: Args, run_dir: Path, best) -> str:
+    """The run's last line: what best_model.zip is (``best``: (steps, heading speeds in mm/s) of its
+    evaluation, None if none ran) and where it and the final model are saved."""
+    files = f"{run_dir / 'best_model.zip'} (final model: {run_dir / 'final_model.zip'})"
+    if best is None:
+        return f"no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of the final model: {files}"
+    steps, speeds = best
+    return (f"best model: heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} mean, the evaluation at "
+            f"{steps:,} steps of highest {args.select_by} heading return; saved as {files}")
+
+
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -705,10 +716,12 @@ def main(argv=None) -> Path:
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
     class SaveBest(EvalCallback):
-        """Saves best_model.zip and its statistics at the best evaluation by --select-by, and adds
-        each evaluation's wall time and heading speeds to evaluations.npz."""
+        """Saves best_model.zip and its statistics at the best evaluation by --select-by, adds each
+        evaluation's wall time and heading speeds to evaluations.npz, and prints one line an
+        evaluation (SB3's own lines are off: its "best" is the mean return's, not --select-by's)."""
 
         best_score = -math.inf
+        best = None  # (steps, heading speeds) of the evaluation saved as best_model.zip
         wall_times, speeds = [], []
 
         def _on_step(self) -> bool:
@@ -722,13 +735,14 @@ def main(argv=None) -> Path:
                     np.savez(self.log_path, **saved, wall_time_s=self.wall_times, heading_speeds_mm_s=self.speeds,
                              speed_headings_deg=degrees)
                 score = selection_score(self.evaluations_results[-1], args.select_by)  # (as the seeds' summary)
-                if score > self.best_score:
-                    self.best_score = score
+                saved = score > self.best_score
+                if saved:
+                    self.best_score, self.best = score, (self.num_timesteps, speeds)
                     self.model.save(run_dir / "best_model.zip")
                     train_env.save(str(run_dir / "vecnormalize.pkl"))
-                    print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
-                          f"return {score:,.0f}, heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} "
-                          "mean", flush=True)
+                print(f"evaluation at {self.num_timesteps:,} steps: heading speeds {speeds.min():.1f} mm/s worst, "
+                      f"{speeds.mean():.1f} mean; {args.select_by} heading return {score:,.0f}"
+                      + (", the best yet: saved as best_model.zip" if saved else ""), flush=True)
                 if args.stop_at_speed is not None and speeds.min() >= args.stop_at_speed:
                     print(f"worst heading {speeds.min():.1f} mm/s reached --stop-at-speed {args.stop_at_speed:g}: "
                           "ending training", flush=True)
@@ -736,7 +750,7 @@ def main(argv=None) -> Path:
             return result
 
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
-                          eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir))
+                          eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir), verbose=0)
     checkpoints = CheckpointCallback(save_freq=max(1, args.checkpoint_freq // args.num_envs),
                                      save_path=str(run_dir / "checkpoints"), name_prefix="ppo", save_vecnormalize=True)
     print(f"run: {run_dir}", flush=True)
@@ -762,8 +776,7 @@ def main(argv=None) -> Path:
         # No evaluation ran (a run shorter than --eval-freq): the final model stands in, chosen by nothing.
         shutil.copy(run_dir / "final_model.zip", run_dir / "best_model.zip")
         shutil.copy(run_dir / "final_vecnormalize.pkl", run_dir / "vecnormalize.pkl")
-        print("no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of final_model.zip", flush=True)
-    print(f"saved: {run_dir / 'final_model.zip'} (best: {run_dir / 'best_model.zip'})", flush=True)
+    print(best_model_line(args, run_dir, evaluation.best), flush=True)
     train_env.close()
     eval_env.close()
     if interrupted:

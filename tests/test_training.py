@@ -74,6 +74,21 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
         assert (run_dir / name).is_file(), name
     assert list((run_dir / "checkpoints").glob("ppo_*_steps.zip"))
     assert list(run_dir.glob("tb_*/events.out.tfevents.*"))
+    # the log says "best" in one sense, --select-by's (the worst heading's return): once an evaluation that
+    # improved on it, SB3's "New best mean reward!" (the mean's) never; its last line restates the best model
+    evaluations = np.load(run_dir / "evaluations.npz")
+    worst_returns = evaluations["results"].min(axis=1)
+    best = int(np.argmax(worst_returns))
+    speeds = evaluations["heading_speeds_mm_s"][best]
+    lines = trained.stdout.strip().splitlines()
+    assert lines[-1] == (f"best model: heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} mean, the "
+                         f"evaluation at {evaluations['timesteps'][best]:,} steps of highest worst heading return; "
+                         f"saved as {run_dir / 'best_model.zip'} (final model: {run_dir / 'final_model.zip'})")
+    improved = sum(worst_returns[k] > worst_returns[:k].max(initial=-np.inf) for k in range(len(worst_returns)))
+    assert [line for line in lines[:-1] if "best" in line.lower()] == [
+        line for line in lines if line.startswith("evaluation at ") and line.endswith("the best yet: saved as best_model.zip")]
+    assert sum(line.startswith("evaluation at ") for line in lines) == len(worst_returns) and improved >= 1
+    assert sum("best yet" in line for line in lines) == improved
 
     out = tmp_path / "eval.json"
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane",
