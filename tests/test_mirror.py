@@ -198,7 +198,8 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
         training.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
     assert "--mirror" in capsys.readouterr().err
     assert training.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
-    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    evaluated = evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated
 
 
 @pytest.mark.parametrize("shipped", ["pretrained", "pretrained_pivot"])

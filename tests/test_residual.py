@@ -173,7 +173,8 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path, 
     actions, _ = agent.predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     base_actions, _ = load_turn_then_run_agent(BASE).predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     assert 0.0 < np.abs(actions - base_actions).max() <= 0.1 + 1e-6  # the residual acts, within its scale
-    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    evaluated = evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated
 
 
 def test_the_shipped_residual_policy_loads_from_its_directory_alone():

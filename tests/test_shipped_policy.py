@@ -85,6 +85,9 @@ def test_evaluate_uses_the_shipped_policies_by_default(tmp_path):
     records = json.loads(out.read_text())["records"]
     agents = {r["agent"] for r in records}
     assert "ppo" in agents and "gait1" in agents
+    # each model's ppo rows name its file: the plane's and the pivot's shipped policies, each on its own model
+    assert {(r["model"], r["policy_file"], r["trained_on"]) for r in records if r["agent"] == "ppo"} == {
+        ("plane", "agents/pretrained/best_model.zip", "plane"), ("pivot", "agents/pretrained_pivot/best_model.zip", "pivot")}
     # each model's ppo is its shipped policy: every agent there runs under the servo it was trained with
     for model, policy in (("plane", SHIPPED), ("pivot", SHIPPED_PIVOT)):
         trained = json.loads((policy.parent / "env_kwargs.json").read_text())

@@ -94,7 +94,7 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane",
                      "--duration", "2", "--json", str(out)])
     assert evaluated.returncode == 0, evaluated.stderr
-    assert "| ppo |" in evaluated.stdout and "| gait1 |" in evaluated.stdout
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated.stdout and "| gait1 |" in evaluated.stdout
     records = json.loads(out.read_text())["records"]
     agents = {r["agent"] for r in records}
     assert agents == {"ppo", "gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped"}

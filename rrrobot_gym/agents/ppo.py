@@ -107,7 +107,8 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     :func:`normalization_path`) and its run's ``env_kwargs.json``; a run missing a file it needs
     is refused (:func:`check_run_files`). A run with ``residual.json`` gives a
     :class:`~rrrobot_gym.agents.residual.ResidualAgent`, one with ``mirror.json`` a
-    :class:`~rrrobot_gym.agents.mirror.MirroredAgent`. Unpickles the files: trusted files only.
+    :class:`~rrrobot_gym.agents.mirror.MirroredAgent`; each with ``path``, the model file (what
+    evaluate.py labels its rows with). Unpickles the files: trusted files only.
     """
     from stable_baselines3 import PPO
 
@@ -125,6 +126,9 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         stats = pickle.load(handle)
     agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
     if is_mirrored(run_dir):  # train.py --mirror: -Y headings run as mirror images
-        return MirroredAgent(agent)
-    base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
-    return agent if base is None else ResidualAgent(agent, *base)
+        agent = MirroredAgent(agent)
+    else:
+        base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
+        agent = agent if base is None else ResidualAgent(agent, *base)
+    agent.path = model_path
+    return agent
