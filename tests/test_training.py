@@ -140,22 +140,22 @@ def test_ctrl_c_saves_the_model_before_exiting(interrupted_run, capsys):
     returncode, run_dir = interrupted_run
     assert returncode == 130
     assert (run_dir / "final_model.zip").is_file()
-    from stable_baselines3 import PPO
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
     # the model saved is the one training had reached: at or past its last checkpoint
-    assert PPO.load(run_dir / "final_model.zip", device="cpu").num_timesteps >= int(checkpoint.stem.split("_")[1])
+    assert load_sb3_model(run_dir / "final_model.zip").num_timesteps >= int(checkpoint.stem.split("_")[1])
 
 
 def _resume(interrupted_run, tmp_path, *flags):
     """train.py --resume from the interrupted run's last checkpoint for 512 more steps, here:
     (the checkpoint's steps, the resumed run's final model)."""
-    from stable_baselines3 import PPO
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
     *_, run_dir = interrupted_run
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
     resumed = train_here(["--total-timesteps", "512", "--runs-dir", tmp_path, "--resume", checkpoint, *TINY, *flags])
-    return int(checkpoint.stem.split("_")[1]), PPO.load(resumed / "final_model.zip", device="cpu")
+    return int(checkpoint.stem.split("_")[1]), load_sb3_model(resumed / "final_model.zip")
 
 
 @pytest.mark.slow
@@ -381,6 +381,7 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
     shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
+    shutil.copy(shipped / "mirror.json", tmp_path / "mirror.json")  # (the shipped run is mirrored: its zip says so)
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
     assert agent.env_kwargs["torque_limit"] == 0.4 and agent.env_kwargs["leg_rate_limit"] == 8.0
