@@ -12,8 +12,10 @@ loop over the batched env and the same ``predict`` interface (:mod:`rrrobot_gym.
     python evaluate.py --also-policy residual=agents/pretrained_residual/best_model.zip   # a second policy beside
     python evaluate.py --gaits agents/searched/plane_own.json --randomize 16   # and over 16 drawn robots per heading
 
-Every agent runs the nominal robot, whatever a policy was trained on; ``--randomize N`` also
-scores every agent over N robots per compass heading drawn with the env's domain randomization.
+A policy is scored on the model it was trained on (its run's ``env_kwargs.json``; ``--cross-model``
+scores it on every model of ``--models``), in rows labelled with its file. Every agent runs the
+nominal robot, whatever a policy was trained on; ``--randomize N`` also scores every agent over N
+robots per compass heading drawn with the env's domain randomization.
 Writes Markdown tables to stdout (``--markdown FILE`` too), records with ``--json FILE`` (keys:
 agent, model, heading_deg, speed_mps, lateral_drift_m, effort_rms_torque_nm, ...; the randomized
 robots under "randomized") and plots with ``--plots DIR``. Loading a policy unpickles it: load
@@ -229,8 +231,10 @@ def parse_physics(specs) -> dict:
 
 
 def agents_on(model: str, agents: dict, per_model=None) -> dict:
-    """The agents scored on ``model``: ``agents`` with ``per_model[model]``'s in place of same-named ones."""
-    return {**agents, **(per_model or {}).get(model, {})}
+    """The agents scored on ``model``: ``agents`` with ``per_model[model]``'s in place of same-named ones,
+    "ppo" first."""
+    merged = {**agents, **(per_model or {}).get(model, {})}
+    return dict(sorted(merged.items(), key=lambda item: item[0] != "ppo"))  # (stable: the rest as given)
 
 
 def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None, physics=None):
@@ -259,10 +263,34 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
             runs[(name, model)] = (headings, run)
             for record in score(run, headings):
                 record.update(agent=name, model=model, compass=record["heading_deg"] in COMPASS_DEG,
-                              physics=physics_shown(imposed))
+                              physics=physics_shown(imposed), **policy_source(on_model[name]))
                 record["own_direction_of"] = [g for g, h in own.items() if h == record["heading_deg"]]
                 records.append(record)
     return records, runs
+
+
+def policy_source(agent) -> dict:
+    """What a record says of a policy loaded from a file (``agent.path``, set by
+    :func:`rrrobot_gym.agents.load_ppo_agent`): ``policy_file`` (relative to the working directory
+    where it lies inside it) and ``trained_on``, its training env's model; {} for other agents."""
+    path = getattr(agent, "path", None)
+    if path is None:
+        return {}
+    path = Path(path)
+    try:
+        shown = path.resolve().relative_to(Path.cwd().resolve())
+    except ValueError:
+        shown = path
+    return {"policy_file": str(shown), "trained_on": agent.env_config.get("model", "plane")}
+
+
+def row_label(name: str, source: dict, model: str) -> str:
+    """A table row's agent: a policy's name with its file, and the model it was trained on where that
+    is not the table's (``source``: :func:`policy_source`'s)."""
+    if "policy_file" not in source:
+        return name
+    elsewhere = f", trained on {source['trained_on']}" if source["trained_on"] != model else ""
+    return f"{name} ({source['policy_file']}{elsewhere})"
 
 
 def robot_seeds(seed: int, slot: int, n: int) -> list:
@@ -322,7 +350,7 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
             per_heading = [spread(rows_of(run, r), h) for h, r in zip(COMPASS_DEG, rows)]
             worst = min(per_heading, key=lambda x: x["p10_mps"])
             summary = section["agents"][name] = {
-                "headings": per_heading, "worst_heading_deg": worst["heading_deg"],
+                **policy_source(agent), "headings": per_heading, "worst_heading_deg": worst["heading_deg"],
                 "worst_median_mps": worst["median_mps"], "worst_p10_mps": worst["p10_mps"],
                 "share_ended": float(np.mean([e for x in per_heading for e in x["ended"]])),
             }
@@ -397,7 +425,7 @@ def randomized_markdown(sections, records) -> str:
             cells.append(f"{own['median_mps'] * 1e3:.1f} / {own['p10_mps'] * 1e3:.1f} at {own['heading_deg']:.0f} deg"
                          if own else "")
             cells.append(f"{summary['share_ended']:.1%}")
-            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+            lines.append(f"| {row_label(name, summary, model)} | " + " | ".join(cells) + " |")
         lines.append("")
         target = randomized_targets(section, records)
         if target is not None:
@@ -488,6 +516,7 @@ def markdown(records, ratio_list, duration: float = 50.0):
         physics = next(r["physics"] for r in records if r["model"] == model)
         lines.append(f"Every agent on the nominal robot, {physics_text(physics)}\n")
         agents = list(dict.fromkeys(r["agent"] for r in records if r["model"] == model))  # some score on one model only
+        label = {r["agent"]: row_label(r["agent"], r, model) for r in records if r["model"] == model}
         lines.append("| agent | " + " | ".join(f"{h} deg" for h in COMPASS_DEG) + " | own direction |")
         lines.append("|---" * (len(COMPASS_DEG) + 2) + "|")
         for agent in agents:
@@ -498,7 +527,7 @@ def markdown(records, ratio_list, duration: float = 50.0):
             for h in COMPASS_DEG:
                 r = rows[float(h)]
                 cells.append(f"{r['speed_mps'] * 1e3:.2f}" + (" (T)" if r["terminated"] else ""))
-            lines.append(f"| {agent} | " + " | ".join(cells) + f" | {own_text} |")
+            lines.append(f"| {label[agent]} | " + " | ".join(cells) + f" | {own_text} |")
         if any(r["terminated"] for r in records if r["model"] == model and r["compass"]):
             lines.append("\n" + TERMINATED_NOTE)
         lines.append("")
@@ -508,7 +537,7 @@ def markdown(records, ratio_list, duration: float = 50.0):
         for agent in agents:
             rows = {r["heading_deg"]: r for r in records if r["model"] == model and r["agent"] == agent}
             cells = [f"{rows[float(h)]['lateral_drift_m']:+.3f} / {rows[float(h)]['effort_rms_torque_nm']:.3f}" for h in COMPASS_DEG]
-            lines.append(f"| {agent} | " + " | ".join(cells) + " |")
+            lines.append(f"| {label[agent]} | " + " | ".join(cells) + " |")
         lines.append("")
         lines.append(f"Effort over the compass headings (worst heading), {model}:\n")
         lines.append("| agent | peak torque (N m) | peak leg rate (rad/s) | time without ground contact | episodes ended |")
@@ -516,7 +545,7 @@ def markdown(records, ratio_list, duration: float = 50.0):
         for agent in agents:
             rows = [r for r in records if r["model"] == model and r["agent"] == agent and r["compass"]]
             lines.append(
-                f"| {agent} | {max(r['peak_torque_nm'] for r in rows):.3f} | {max(r['peak_leg_rate_radps'] for r in rows):.1f} | "
+                f"| {label[agent]} | {max(r['peak_torque_nm'] for r in rows):.3f} | {max(r['peak_leg_rate_radps'] for r in rows):.1f} | "
                 f"{max(r['liftoff_fraction'] for r in rows):.2%} | {sum(r['terminated'] for r in rows)} of {len(rows)} |"
             )
         lines.append("")
@@ -596,10 +625,14 @@ def _reach(run):
 def build_parser() -> argparse.ArgumentParser:
     """evaluate.py's command line."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--policy", type=Path, default=None, help="PPO model zip (default: the shipped one)")
+    parser.add_argument("--policy", type=Path, default=None,
+                        help="PPO model zip, scored as 'ppo' on the model it was trained on (its run's env_kwargs.json) "
+                             "(default: the shipped plane and pivot policies, each on its model)")
     parser.add_argument("--pivot-policy", type=Path, default=None,
-                        help="PPO model zip scored on the pivot model instead of --policy (default: the shipped pivot "
-                             "policy when --policy is the shipped plane one)")
+                        help="PPO model zip scored as 'ppo' on the pivot model beside a plane --policy")
+    parser.add_argument("--cross-model", action="store_true",
+                        help="score every policy on every model of --models, not only on the one it was trained on "
+                             "(--pivot-policy still takes the pivot)")
     parser.add_argument("--no-policy", action="store_true", help="score only the gaits")
     parser.add_argument("--physics", action="append", default=[], metavar="KEY=VALUE",
                         help="hold every agent on every model to this env keyword too, e.g. torque_limit=0.5 (motors, "
@@ -624,7 +657,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "model is scored as 'FILESTEM/turn-then-run')")
     parser.add_argument("--also-policy", action="append", default=[], metavar="NAME=FILE",
                         help="also score the PPO model zip FILE as agent NAME, on the model it was trained on "
-                             "(its env_kwargs.json; default plane); repeatable")
+                             "(its env_kwargs.json; default plane; --cross-model: every model); repeatable")
     parser.add_argument("--randomize", type=int, default=0, metavar="N",
                         help="also score every agent over N robots per compass heading drawn with the env's domain "
                              "randomization, e.g. python evaluate.py --gaits agents/searched/plane_own.json --randomize "
@@ -650,6 +683,41 @@ def load_policy(parser, flag: str, path):
         return load_ppo_agent(path)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(f"{flag}: {exc}")
+
+
+def trained_on(policy) -> str:
+    """The model a loaded policy was trained on (its run's env_kwargs.json; plane if it names none)."""
+    return policy.env_config.get("model", "plane")
+
+
+def place_policy(parser, args, flag: str, name: str, policy, agents: dict, per_model: dict, required: bool):
+    """Put ``policy`` as agent ``name`` on the model it was trained on (``per_model``), or with
+    --cross-model on every model (``agents``). A policy given on the command line (``required``)
+    whose model --models leaves out is the command line's error; a default one is left out."""
+    model = trained_on(policy)
+    if args.cross_model:
+        agents[name] = policy
+    elif model in args.models:
+        per_model.setdefault(model, {})[name] = policy
+    elif required:
+        parser.error(f"{flag}: {policy.path} was trained on the {model} model, which --models leaves out: add it to "
+                     "--models, or give --cross-model to score it on the others")
+
+
+def place_pivot_policy(parser, args, policy, per_model: dict):
+    """Put --pivot-policy ``policy`` as 'ppo' on the pivot model: refused if it was trained on another
+    model (unless --cross-model) or if --policy was trained on the pivot (it is scored there)."""
+    flag = "--pivot-policy"
+    if trained_on(policy) != "pivot" and not args.cross_model:
+        parser.error(f"{flag}: {policy.path} was trained on the {trained_on(policy)} model, not the pivot: give "
+                     "--cross-model to score it on the pivot")
+    if "ppo" in per_model.get("pivot", {}):
+        parser.error(f"--policy {per_model['pivot']['ppo'].path} was trained on the pivot model, where {flag} is "
+                     "scored: give one of them")
+    if "pivot" in args.models:
+        per_model.setdefault("pivot", {})["ppo"] = policy
+    elif args.pivot_policy is not None:
+        parser.error(f"{flag}: --models leaves out the pivot model")
 
 
 def main(argv=None, default_policy=None, default_pivot_policy=None):
@@ -689,13 +757,19 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         policy = args.policy if args.policy is not None else default_policy
         if policy is None:
             parser.error("--policy: give a PPO model zip (this installation has no default), or --no-policy")
-        agents["ppo"] = load_policy(parser, "--policy", policy)
+        given = args.policy is not None
+        loaded = load_policy(parser, "--policy", policy)
+        place_policy(parser, args, "--policy", "ppo", loaded, agents, per_model, required=given)
         pivot_policy = args.pivot_policy
-        if (pivot_policy is None and args.policy is None and default_pivot_policy is not None
+        if (pivot_policy is None and not given and default_pivot_policy is not None
                 and default_pivot_policy.is_file()):
             pivot_policy = default_pivot_policy
         if pivot_policy is not None:
-            per_model["pivot"] = {"ppo": load_policy(parser, "--pivot-policy", pivot_policy)}
+            place_pivot_policy(parser, args, load_policy(parser, "--pivot-policy", pivot_policy), per_model)
+        bare = [model for model in args.models if "ppo" not in agents_on(model, agents, per_model)]
+        if given and bare:  # (a user who asked for a policy is told where it was not scored)
+            print(f"--policy: {loaded.path} was trained on the {trained_on(loaded)} model: not scored on "
+                  f"{' and '.join(bare)} (--cross-model scores it there)", file=sys.stderr)
     for name in GAIT_AGENT_NAMES:
         agents[name] = gait_agent(name)
     for path in args.gaits:
@@ -735,8 +809,8 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         taken = set(agents) | {"ppo"} | {n for on_model in per_model.values() for n in on_model}
         if name in taken:
             parser.error(f"--also-policy {spec}: agent name {name!r} already taken")
-        policy = load_policy(parser, f"--also-policy {spec}", path)
-        per_model.setdefault(policy.env_config.get("model", "plane"), {})[name] = policy
+        flag = f"--also-policy {spec}"
+        place_policy(parser, args, flag, name, load_policy(parser, flag, path), agents, per_model, required=True)
     try:
         records, runs = evaluate(agents, args.models, args.duration, args.seed, per_model, physics)
     except ValueError as exc:

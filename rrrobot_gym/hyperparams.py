@@ -24,8 +24,9 @@ from __future__ import annotations
 from .params import whole_number
 
 TOTAL_TIMESTEPS = 12_000_000
-"""env steps of a training run (7.0-9.7 minutes alone on the 2-core EPYC in docs/training/seeds,
-longer when it is busy); the learning rate falls to LEARNING_RATE_FINAL over them."""
+"""env steps of a training run (5.5 minutes from a fresh clone on the 2-core EPYC, 7.0-9.7 in
+docs/training/seeds: the shared host's speed varies); the learning rate falls to
+LEARNING_RATE_FINAL over them."""
 NUM_ENVS = 256
 """robots simulated together in the batched env."""
 N_STEPS = 16

@@ -11,7 +11,9 @@ Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard lo
 ``--eval-freq`` steps; a run too short for any is given a copy of the final model),
 checkpoints, ``final_model.zip`` (also on Ctrl-C), each model's VecNormalize statistics beside
 it, ``env_kwargs.json`` (every env keyword, from which ``rrrobot_gym.agents.load_ppo_agent``
-rebuilds the env), ``args.json`` and ``command.txt``. ``--total-timesteps`` is rounded up to
+rebuilds the env), ``args.json`` and ``command.txt``. The models of a mirrored (the default) or
+residual run name a policy class SB3's ``PPO.load`` refuses, naming ``load_ppo_agent``, the loader
+that runs them right (:mod:`rrrobot_gym.agents.ppo`). ``--total-timesteps`` is rounded up to
 whole rollouts of ``num_envs x n_steps``. Loading a model unpickles it: trusted files only.
 
 ``evaluations.npz`` holds SB3's ``timesteps``, ``results`` (each evaluation's returns) and
@@ -40,8 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .agents.mirror import MIRROR_FILE, is_mirrored, make_mirrored_vec_env, save_mirror
-from .agents.ppo import normalization_path
+from .agents.mirror import MIRROR_FILE, MirroredPolicy, is_mirrored, make_mirrored_vec_env, save_mirror
+from .agents.ppo import load_sb3_model, normalization_path, policy_class_to_save, saved_policy_class
 from .agents.residual import FEATURES, RESIDUAL_FILE, check_scale, load_base, make_residual_vec_env, run_directory, save_residual
 from .agents.turn_then_run import load_turn_then_run_agent
 from .cli import env_keyword
@@ -217,7 +219,7 @@ def parse_args(argv=None) -> Args:
             setattr(args, name, value)
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
-    resumed_mirrored = args.resume is not None and is_mirrored(run_directory(args.resume))
+    resumed_mirrored = args.resume is not None and resumes_mirrored(args.resume)
     if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
         if args.direction_deg is not None or args.residual_on is not None:
             args.mirror = False
@@ -279,8 +281,8 @@ def parse_args(argv=None) -> Args:
                          "leave it out")
         _check_resumed_residual(parser, args)
         if resumed_mirrored and not args.mirror:
-            parser.error(f"--resume: {args.resume} was trained mirrored ({run_directory(args.resume) / MIRROR_FILE}): "
-                         "give --mirror")
+            parser.error(f"--resume: {args.resume} was trained mirrored (its run's {MIRROR_FILE}, or the policy class "
+                         "its zip names): give --mirror")
         _check_resumed_model(parser, args)
     if args.sweep is not None:
         if args.seeds is not None:
@@ -301,6 +303,18 @@ def parse_args(argv=None) -> Args:
         except ValueError as exc:
             parser.error(str(exc))
     return args
+
+
+def resumes_mirrored(model_path) -> bool:
+    """Whether the --resume model was trained mirrored: its run holds mirror.json, or its zip names
+    :class:`~rrrobot_gym.agents.mirror.MirroredPolicy` (a file that is no model zip: no; the resume's
+    checks name it)."""
+    if is_mirrored(run_directory(model_path)):
+        return True
+    try:
+        return saved_policy_class(model_path) is MirroredPolicy
+    except (OSError, ValueError):
+        return False
 
 
 LOG_STD_INIT_RANGE = (-20.0, 5.0)
@@ -650,6 +664,17 @@ def first_update_notice(started: float):
     return FirstUpdate()
 
 
+def best_model_line(args: Args, run_dir: Path, best) -> str:
+    """The run's last line: what best_model.zip is (``best``: (steps, heading speeds in mm/s) of its
+    evaluation, None if none ran) and where it and the final model are saved."""
+    files = f"{run_dir / 'best_model.zip'} (final model: {run_dir / 'final_model.zip'})"
+    if best is None:
+        return f"no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of the final model: {files}"
+    steps, speeds = best
+    return (f"best model: heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} mean, the evaluation at "
+            f"{steps:,} steps of highest {args.select_by} heading return; saved as {files}")
+
+
 def run_name(args: Args) -> str:
     return f"{ENV_ID}__{args.exp_name}__{args.seed}__{int(time.time())}"
 
@@ -696,19 +721,24 @@ def main(argv=None) -> Path:
         train_env = VecNormalize.load(str(normalization_path(args.resume)), train_env)  # (parse_args found it)
         train_env.training = True
         overrides = resume_overrides(args, argv)
-        model = PPO.load(args.resume, env=train_env, device="cpu", tensorboard_log=str(run_dir), **overrides)
+        model = load_sb3_model(args.resume, env=train_env, tensorboard_log=str(run_dir), **overrides)
         if overrides:
             print("resumed with " + ", ".join(f"{name} {value}" for name, value in overrides.items()), flush=True)
     else:
         train_env = VecNormalize(train_env, **hp.vecnormalize_kwargs(gamma=args.gamma))
         model = PPO("MlpPolicy", train_env, **ppo_kwargs(args), tensorboard_log=str(run_dir), seed=args.seed, verbose=0)
+    saved_class = policy_class_to_save(run_dir)
+    if saved_class is not None:  # (SB3 builds its policy once, above: this is only what every save names)
+        model.policy_class = saved_class  # a mirrored or residual model that PPO.load refuses, naming load_ppo_agent
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
     class SaveBest(EvalCallback):
-        """Saves best_model.zip and its statistics at the best evaluation by --select-by, and adds
-        each evaluation's wall time and heading speeds to evaluations.npz."""
+        """Saves best_model.zip and its statistics at the best evaluation by --select-by, adds each
+        evaluation's wall time and heading speeds to evaluations.npz, and prints one line an
+        evaluation (SB3's own lines are off: its "best" is the mean return's, not --select-by's)."""
 
         best_score = -math.inf
+        best = None  # (steps, heading speeds) of the evaluation saved as best_model.zip
         wall_times, speeds = [], []
 
         def _on_step(self) -> bool:
@@ -722,13 +752,14 @@ def main(argv=None) -> Path:
                     np.savez(self.log_path, **saved, wall_time_s=self.wall_times, heading_speeds_mm_s=self.speeds,
                              speed_headings_deg=degrees)
                 score = selection_score(self.evaluations_results[-1], args.select_by)  # (as the seeds' summary)
-                if score > self.best_score:
-                    self.best_score = score
+                saved = score > self.best_score
+                if saved:
+                    self.best_score, self.best = score, (self.num_timesteps, speeds)
                     self.model.save(run_dir / "best_model.zip")
                     train_env.save(str(run_dir / "vecnormalize.pkl"))
-                    print(f"new best_model.zip at {self.num_timesteps:,} steps: {args.select_by} evaluation "
-                          f"return {score:,.0f}, heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} "
-                          "mean", flush=True)
+                print(f"evaluation at {self.num_timesteps:,} steps: heading speeds {speeds.min():.1f} mm/s worst, "
+                      f"{speeds.mean():.1f} mean; {args.select_by} heading return {score:,.0f}"
+                      + (", the best yet: saved as best_model.zip" if saved else ""), flush=True)
                 if args.stop_at_speed is not None and speeds.min() >= args.stop_at_speed:
                     print(f"worst heading {speeds.min():.1f} mm/s reached --stop-at-speed {args.stop_at_speed:g}: "
                           "ending training", flush=True)
@@ -736,7 +767,7 @@ def main(argv=None) -> Path:
             return result
 
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
-                          eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir))
+                          eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir), verbose=0)
     checkpoints = CheckpointCallback(save_freq=max(1, args.checkpoint_freq // args.num_envs),
                                      save_path=str(run_dir / "checkpoints"), name_prefix="ppo", save_vecnormalize=True)
     print(f"run: {run_dir}", flush=True)
@@ -762,8 +793,7 @@ def main(argv=None) -> Path:
         # No evaluation ran (a run shorter than --eval-freq): the final model stands in, chosen by nothing.
         shutil.copy(run_dir / "final_model.zip", run_dir / "best_model.zip")
         shutil.copy(run_dir / "final_vecnormalize.pkl", run_dir / "vecnormalize.pkl")
-        print("no evaluation ran (shorter than --eval-freq): best_model.zip is a copy of final_model.zip", flush=True)
-    print(f"saved: {run_dir / 'final_model.zip'} (best: {run_dir / 'best_model.zip'})", flush=True)
+    print(best_model_line(args, run_dir, evaluation.best), flush=True)
     train_env.close()
     eval_env.close()
     if interrupted:

@@ -102,7 +102,51 @@ def test_a_second_policy_is_scored_by_name_on_its_own_model_as_the_policy_itself
     assert {r["model"] for r in records if r["agent"] == "again"} == {"pivot"}
     assert set(COMPASS_DEG) <= set(again) and again == ppo  # (and along the gaits' own directions, as every agent)
     assert not any("again" in r["own_direction_of"] for r in records)
-    assert "| again |" in capsys.readouterr().out
+    assert "| again (agents/pretrained_pivot/best_model.zip) |" in capsys.readouterr().out
+
+
+def test_a_policy_is_scored_on_the_model_it_was_trained_on_in_rows_named_by_its_file(capsys):
+    """--policy FILE (a plane policy) was scored on the pivot model too, in a row named only "ppo".
+    Now its rows name the file and it runs on the plane only, saying so; --cross-model scores it on
+    the pivot too, in rows that say where it was trained."""
+    from rrrobot_gym.evaluation import main
+
+    plane_policy = "agents/pretrained/best_model.zip"
+    records = main(["--policy", plane_policy, "--duration", "0.1"])
+    out, err = capsys.readouterr()
+    policy_rows = [r for r in records if r["agent"] == "ppo"]
+    assert {r["model"] for r in policy_rows} == {"plane"} and {r["model"] for r in records} == {"plane", "pivot"}
+    assert all((r["policy_file"], r["trained_on"]) == (plane_policy, "plane") for r in policy_rows)
+    assert not any("policy_file" in r for r in records if r["agent"] != "ppo")  # (gaits are no files' policies)
+    assert f"| ppo ({plane_policy}) |" in out and "| ppo |" not in out
+    assert f"--policy: {plane_policy} was trained on the plane model: not scored on pivot" in err
+    records = main(["--policy", plane_policy, "--duration", "0.1", "--cross-model"])
+    assert {r["model"] for r in records if r["agent"] == "ppo"} == {"plane", "pivot"}
+    out, err = capsys.readouterr()
+    pivot_table = out.split("### pivot")[1].split("### plane")[0]
+    assert f"| ppo ({plane_policy}, trained on plane) |" in pivot_table and "not scored" not in err
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["--policy", "agents/pretrained_pivot/best_model.zip", "--models", "plane"],
+     "--policy: agents/pretrained_pivot/best_model.zip was trained on the pivot model, which --models leaves out"),
+    (["--policy", "agents/pretrained/best_model.zip", "--pivot-policy", "agents/pretrained/best_model.zip"],
+     "--pivot-policy: agents/pretrained/best_model.zip was trained on the plane model, not the pivot: give --cross-model"),
+    (["--policy", "agents/pretrained_pivot/best_model.zip", "--pivot-policy", "agents/pretrained_pivot/best_model.zip"],
+     "was trained on the pivot model, where --pivot-policy is scored: give one of them"),
+    (["--pivot-policy", "agents/pretrained_pivot/best_model.zip", "--models", "plane", "--policy",
+      "agents/pretrained/best_model.zip"], "--pivot-policy: --models leaves out the pivot model"),
+    (["--no-policy", "--models", "plane", "--also-policy", "again=agents/pretrained_pivot/best_model.zip"],
+     "--also-policy again=agents/pretrained_pivot/best_model.zip: agents/pretrained_pivot/best_model.zip was trained "
+     "on the pivot model, which --models leaves out"),
+])
+def test_a_policy_asked_for_on_a_model_it_was_not_trained_on_is_refused_before_the_runs(argv, named, capsys):
+    from rrrobot_gym.evaluation import main
+
+    with pytest.raises(SystemExit):
+        main([*argv, "--duration", "0.5"])
+    out, err = capsys.readouterr()
+    assert named in err and "| gait1 |" not in out
 
 
 @pytest.mark.parametrize("spec, named", [

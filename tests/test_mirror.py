@@ -146,13 +146,19 @@ def test_by_default_a_goal_conditioned_policy_is_mirrored_and_a_resumed_run_as_i
     assert training.parse_args(argv).mirror is mirrored
 
 
-def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path):
+def test_a_resumed_unmirrored_run_stays_unmirrored_by_default(tmp_path, capsys):
     import shutil
 
     from rrrobot_gym import training
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
-    for name in ("best_model.zip", "vecnormalize.pkl"):  # no mirror.json
+    for name in ("best_model.zip", "vecnormalize.pkl"):  # no mirror.json, but the zip says mirrored
         shutil.copy(ROOT / "agents" / "pretrained" / name, tmp_path / name)
+    assert training.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
+    with pytest.raises(SystemExit):
+        training.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--no-mirror"])
+    assert "was trained mirrored (its run's mirror.json, or the policy class its zip names)" in capsys.readouterr().err
+    load_sb3_model(tmp_path / "best_model.zip").save(tmp_path / "best_model.zip")  # SB3's own policy class: unmirrored
     assert not training.parse_args(["--resume", str(tmp_path / "best_model.zip")]).mirror
     assert training.parse_args(["--resume", str(tmp_path / "best_model.zip"), "--mirror"]).mirror  # turned on
 
@@ -185,20 +191,25 @@ def test_a_mirrored_run_loads_mirrored_resumes_only_mirrored_and_keeps_its_worst
     assert evaluations["results"].shape == (4, 5)  # 0, 45, 90, 135, 180 deg
     from stable_baselines3 import PPO
 
+    from rrrobot_gym.agents.ppo import load_sb3_model
+
     best = int(np.argmax(evaluations["results"].min(axis=1)))
     assert best != int(np.argmax(evaluations["results"].mean(axis=1)))  # (seed 3: the two rules disagree here)
-    assert PPO.load(run_dir / "best_model.zip", device="cpu").num_timesteps == evaluations["timesteps"][best]
+    assert load_sb3_model(run_dir / "best_model.zip").num_timesteps == evaluations["timesteps"][best]
     from rrrobot_gym.agents import load_ppo_agent
 
-    assert isinstance(load_ppo_agent(run_dir / "best_model.zip"), MirroredAgent)
-    assert isinstance(load_ppo_agent(run_dir / "checkpoints" / "ppo_2048_steps.zip"), MirroredAgent)
+    for model in ("best_model.zip", "final_model.zip", "checkpoints/ppo_2048_steps.zip"):
+        assert isinstance(load_ppo_agent(run_dir / model), MirroredAgent)
+        with pytest.raises(RuntimeError, match="mirror images.*load it with rrrobot_gym.agents.load_ppo_agent"):
+            PPO.load(run_dir / model, device="cpu")  # (it would run the network unmirrored towards -Y)
     from rrrobot_gym import training
 
     with pytest.raises(SystemExit):
         training.parse_args(["--resume", str(run_dir / "best_model.zip"), "--no-mirror"])
     assert "--mirror" in capsys.readouterr().err
     assert training.parse_args(["--resume", str(run_dir / "best_model.zip")]).mirror  # by default, as the run was
-    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    evaluated = evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated
 
 
 @pytest.mark.parametrize("shipped", ["pretrained", "pretrained_pivot"])

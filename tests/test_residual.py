@@ -167,13 +167,18 @@ def test_a_residual_run_loads_as_its_policy_on_its_base_and_evaluates(tmp_path, 
 
     agent = load_ppo_agent(run_dir / "best_model.zip")
     assert isinstance(agent, ResidualAgent) and agent.scale == 0.1
+    from stable_baselines3 import PPO
+
+    with pytest.raises(RuntimeError, match="residual on a scripted base agent.*load it with rrrobot_gym.agents.load_ppo_agent"):
+        PPO.load(run_dir / "best_model.zip", device="cpu")  # (it would give the residual alone)
     assert agent.policy.model.observation_space.shape == (15 + len(FEATURES),)
     env = RRRobotVectorEnv(num_envs=len(HEADINGS), reset_noise_scale=0.0, **agent.env_kwargs)
     obs, _ = env.reset(options={"target_direction": HEADINGS})
     actions, _ = agent.predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     base_actions, _ = load_turn_then_run_agent(BASE).predict(obs, None, np.ones(len(HEADINGS), dtype=bool))
     assert 0.0 < np.abs(actions - base_actions).max() <= 0.1 + 1e-6  # the residual acts, within its scale
-    assert "| ppo |" in evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    evaluated = evaluate_here(["--policy", run_dir / "best_model.zip", "--models", "plane", "--duration", "1"], capsys)
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated
 
 
 def test_the_shipped_residual_policy_loads_from_its_directory_alone():

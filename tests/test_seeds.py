@@ -67,7 +67,7 @@ def two_seeds(tmp_path_factory):
 
 @pytest.mark.slow
 def test_each_seed_is_its_own_run_and_the_summary_holds_its_evaluations(two_seeds):
-    from stable_baselines3 import PPO
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
     folder, summary, stdout = two_seeds
     assert summary["schema"] == seeds.SCHEMA and summary["seeds"] == 2 and summary["failed_runs"] == 0
@@ -87,7 +87,7 @@ def test_each_seed_is_its_own_run_and_the_summary_holds_its_evaluations(two_seed
         assert list(data["speed_headings_deg"]) == [0, 45, 90, 135, 180, 225, 270, 315]
         assert np.all(np.diff(data["wall_time_s"]) > 0) and data["wall_time_s"][0] > 0
         best = int(np.argmax(data["results"].min(axis=1)))  # (--select-by worst)
-        assert PPO.load(run_dir / "best_model.zip", device="cpu").num_timesteps == data["timesteps"][best]
+        assert load_sb3_model(run_dir / "best_model.zip").num_timesteps == data["timesteps"][best]
         speeds = data["heading_speeds_mm_s"][best]
         assert run["best_evaluation"] == {"index": best, "timesteps": int(data["timesteps"][best]),
                                           "wall_time_s": float(data["wall_time_s"][best])}

@@ -74,12 +74,27 @@ def test_train_then_evaluate_a_tiny_run(tmp_path):
         assert (run_dir / name).is_file(), name
     assert list((run_dir / "checkpoints").glob("ppo_*_steps.zip"))
     assert list(run_dir.glob("tb_*/events.out.tfevents.*"))
+    # the log says "best" in one sense, --select-by's (the worst heading's return): once an evaluation that
+    # improved on it, SB3's "New best mean reward!" (the mean's) never; its last line restates the best model
+    evaluations = np.load(run_dir / "evaluations.npz")
+    worst_returns = evaluations["results"].min(axis=1)
+    best = int(np.argmax(worst_returns))
+    speeds = evaluations["heading_speeds_mm_s"][best]
+    lines = trained.stdout.strip().splitlines()
+    assert lines[-1] == (f"best model: heading speeds {speeds.min():.1f} mm/s worst, {speeds.mean():.1f} mean, the "
+                         f"evaluation at {evaluations['timesteps'][best]:,} steps of highest worst heading return; "
+                         f"saved as {run_dir / 'best_model.zip'} (final model: {run_dir / 'final_model.zip'})")
+    improved = sum(worst_returns[k] > worst_returns[:k].max(initial=-np.inf) for k in range(len(worst_returns)))
+    assert [line for line in lines[:-1] if "best" in line.lower()] == [
+        line for line in lines if line.startswith("evaluation at ") and line.endswith("the best yet: saved as best_model.zip")]
+    assert sum(line.startswith("evaluation at ") for line in lines) == len(worst_returns) and improved >= 1
+    assert sum("best yet" in line for line in lines) == improved
 
     out = tmp_path / "eval.json"
     evaluated = run(["evaluate.py", "--policy", str(run_dir / "best_model.zip"), "--models", "plane",
                      "--duration", "2", "--json", str(out)])
     assert evaluated.returncode == 0, evaluated.stderr
-    assert "| ppo |" in evaluated.stdout and "| gait1 |" in evaluated.stdout
+    assert f"| ppo ({run_dir / 'best_model.zip'}) |" in evaluated.stdout and "| gait1 |" in evaluated.stdout
     records = json.loads(out.read_text())["records"]
     agents = {r["agent"] for r in records}
     assert agents == {"ppo", "gait1", "gait1-swapped", "gait2", "gait2-swapped", "gait3", "gait3-swapped"}
@@ -125,22 +140,22 @@ def test_ctrl_c_saves_the_model_before_exiting(interrupted_run, capsys):
     returncode, run_dir = interrupted_run
     assert returncode == 130
     assert (run_dir / "final_model.zip").is_file()
-    from stable_baselines3 import PPO
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
     # the model saved is the one training had reached: at or past its last checkpoint
-    assert PPO.load(run_dir / "final_model.zip", device="cpu").num_timesteps >= int(checkpoint.stem.split("_")[1])
+    assert load_sb3_model(run_dir / "final_model.zip").num_timesteps >= int(checkpoint.stem.split("_")[1])
 
 
 def _resume(interrupted_run, tmp_path, *flags):
     """train.py --resume from the interrupted run's last checkpoint for 512 more steps, here:
     (the checkpoint's steps, the resumed run's final model)."""
-    from stable_baselines3 import PPO
+    from rrrobot_gym.agents.ppo import load_sb3_model
 
     *_, run_dir = interrupted_run
     checkpoint = sorted((run_dir / "checkpoints").glob("ppo_*_steps.zip"))[-1]
     resumed = train_here(["--total-timesteps", "512", "--runs-dir", tmp_path, "--resume", checkpoint, *TINY, *flags])
-    return int(checkpoint.stem.split("_")[1]), PPO.load(resumed / "final_model.zip", device="cpu")
+    return int(checkpoint.stem.split("_")[1]), load_sb3_model(resumed / "final_model.zip")
 
 
 @pytest.mark.slow
@@ -366,6 +381,7 @@ def test_a_checkpoint_loads_with_its_run_s_env_keywords(tmp_path):
     checkpoint = tmp_path / "checkpoints" / "ppo_1000_steps.zip"
     shutil.copy(shipped / "best_model.zip", checkpoint)
     shutil.copy(shipped / "vecnormalize.pkl", tmp_path / "checkpoints" / "ppo_vecnormalize_1000_steps.pkl")
+    shutil.copy(shipped / "mirror.json", tmp_path / "mirror.json")  # (the shipped run is mirrored: its zip says so)
     agent = load_ppo_agent(checkpoint)
     assert agent.env_config["model"] == "pivot"
     assert agent.env_kwargs["torque_limit"] == 0.4 and agent.env_kwargs["leg_rate_limit"] == 8.0

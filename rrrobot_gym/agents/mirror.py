@@ -6,7 +6,9 @@ with sin t < 0 a mirrored policy is shown the mirror image of the observation
 (:func:`rrrobot_gym.envs.task.mirror_observations`) and its action is mirrored back: its network
 only sees headings in [0, pi]. ``train.py --mirror`` wraps SB3's VecEnv in
 :func:`make_mirrored_vec_env` and writes ``mirror.json``, from which
-``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`MirroredAgent`.
+``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`MirroredAgent`. Its model zips name
+:class:`MirroredPolicy` as their policy class, so SB3's ``PPO.load``, which would run the network
+unmirrored, refuses them.
 """
 
 from __future__ import annotations
@@ -107,6 +109,21 @@ class MirroredAgent:
         actions, _ = self.policy.predict(to_policy_frame(obs, flip, self.config), deterministic=deterministic)
         actions = to_env_frame(actions, flip)
         return (actions[0] if single else actions), state
+
+
+class MirroredPolicy:
+    """The policy class a mirrored run's model zips name (train.py --mirror). The network was shown
+    headings in [0, pi] only, each heading towards -Y as its mirror image, so run alone it acts
+    wrongly towards -Y; SB3's ``PPO.load`` builds the class a zip names, and this one refuses, naming
+    the loader. ``rrrobot_gym.agents.load_ppo_agent`` reads the network as SB3's ``ActorCriticPolicy``
+    and mirrors those headings."""
+
+    refusal = ("this PPO model runs headings towards -Y as mirror images of +Y ones (train.py --mirror), which "
+               "PPO.load cannot do: load it with rrrobot_gym.agents.load_ppo_agent(path), which also applies its "
+               "vecnormalize.pkl")
+
+    def __init__(self, *args, **kwargs):
+        raise RuntimeError(self.refusal)
 
 
 def save_mirror(run_dir):

@@ -1,6 +1,9 @@
 """Loading a trained PPO policy, with its observation normalisation, as an agent.
 
-Loading a Stable-Baselines3 model unpickles it (``PPO.load`` and the VecNormalize
+A model whose actions need more than its network (a mirrored or a residual run) names a policy
+class in its zip that SB3's ``PPO.load`` refuses to build (:class:`~.mirror.MirroredPolicy`,
+:class:`~.residual.ResidualPolicy`); :func:`load_ppo_agent` reads it as the network it is and adds
+the rest. Loading a Stable-Baselines3 model unpickles it (``PPO.load`` and the VecNormalize
 statistics both use pickle): load only files you trust.
 """
 
@@ -12,8 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .mirror import MIRROR_FILE, MirroredAgent, is_mirrored
-from .residual import RESIDUAL_FILE, ResidualAgent, load_base, run_directory
+from .mirror import MIRROR_FILE, MirroredAgent, MirroredPolicy, is_mirrored
+from .residual import RESIDUAL_FILE, ResidualAgent, ResidualPolicy, load_base, run_directory
+
+RUN_FILE_OF = {MirroredPolicy: MIRROR_FILE, ResidualPolicy: RESIDUAL_FILE}
+"""The policy classes that refuse ``PPO.load``, and the run file whose agent each model needs."""
 
 
 SCENE_KEYWORDS = ("model", "target_direction", "reset_noise_scale", "randomize")
@@ -81,10 +87,43 @@ def normalization_path(model_path) -> Path:
     return model_path.with_name(name)
 
 
+def saved_policy_class(model_path):
+    """The policy class a model zip names, read as SB3 reads it (nothing else is loaded), or None if
+    it names none that imports; a file that is not an SB3 model zip is a ValueError naming it."""
+    import zipfile
+
+    from stable_baselines3.common.save_util import json_to_data
+
+    try:
+        with zipfile.ZipFile(model_path) as archive:
+            entry = json.loads(archive.read("data"))["policy_class"]
+    except (zipfile.BadZipFile, KeyError, ValueError):
+        raise ValueError(f"{model_path} is not a Stable-Baselines3 model zip") from None
+    return json_to_data(json.dumps({"policy_class": entry})).get("policy_class")
+
+
+def policy_class_to_save(run_dir):
+    """The policy class the models of the train.py run in ``run_dir`` name when saved: the one of
+    :data:`RUN_FILE_OF` whose file the run holds, or None (SB3's own: ``PPO.load`` runs them as trained)."""
+    return next((cls for cls, name in RUN_FILE_OF.items() if (Path(run_dir) / name).exists()), None)
+
+
+def load_sb3_model(model_path, device="cpu", **kwargs):
+    """The SB3 PPO model of ``model_path`` (``PPO.load``'s ``kwargs``): the network alone, without its
+    observation statistics, mirror or base agent. A zip naming a class of :data:`RUN_FILE_OF` loads
+    as the ``ActorCriticPolicy`` it was trained as."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    custom = {"policy_class": ActorCriticPolicy} if saved_policy_class(model_path) in RUN_FILE_OF else None
+    return PPO.load(model_path, device=device, custom_objects=custom, **kwargs)
+
+
 def check_run_files(model_path, vecnormalize_path=None) -> None:
     """Raise FileNotFoundError naming the first file ``train.py`` writes with a model that is
     missing: its observation statistics, ``env_kwargs.json``, and ``mirror.json`` or
-    ``residual.json`` if ``args.json`` names them. Without them the policy's speeds mean nothing."""
+    ``residual.json`` if ``args.json`` or the zip's policy class (:data:`RUN_FILE_OF`) names them.
+    Without them the policy's speeds mean nothing."""
     model_path = Path(model_path)
     run_dir = run_directory(model_path)
     needed = [(Path(vecnormalize_path) if vecnormalize_path is not None else normalization_path(model_path),
@@ -96,6 +135,9 @@ def check_run_files(model_path, vecnormalize_path=None) -> None:
         needed.append((run_dir / MIRROR_FILE, "its args.json says it was trained mirrored"))
     if trained.get("residual_on"):
         needed.append((run_dir / RESIDUAL_FILE, "its args.json says it was trained as a residual policy"))
+    policy_class = saved_policy_class(model_path)
+    if policy_class in RUN_FILE_OF:
+        needed.append((run_dir / RUN_FILE_OF[policy_class], f"the zip names {policy_class.__name__} as its policy"))
     for path, why in needed:
         if not path.exists():
             raise FileNotFoundError(f"{model_path}: {path} is missing ({why}; train.py writes it with the model): "
@@ -107,10 +149,9 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     :func:`normalization_path`) and its run's ``env_kwargs.json``; a run missing a file it needs
     is refused (:func:`check_run_files`). A run with ``residual.json`` gives a
     :class:`~rrrobot_gym.agents.residual.ResidualAgent`, one with ``mirror.json`` a
-    :class:`~rrrobot_gym.agents.mirror.MirroredAgent`. Unpickles the files: trusted files only.
+    :class:`~rrrobot_gym.agents.mirror.MirroredAgent`; each with ``path``, the model file (what
+    evaluate.py labels its rows with). Unpickles the files: trusted files only.
     """
-    from stable_baselines3 import PPO
-
     from ..envs.task import kwargs_from_json
 
     model_path = Path(model_path)
@@ -118,13 +159,16 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
         raise FileNotFoundError(f"no PPO model at {model_path}")
     run_dir = run_directory(model_path)  # (a checkpoint's run is one directory up)
     check_run_files(model_path, vecnormalize_path)
-    model = PPO.load(model_path, device=device)
+    model = load_sb3_model(model_path, device=device)
     vecnormalize_path = normalization_path(model_path) if vecnormalize_path is None else vecnormalize_path
     env_config = kwargs_from_json(json.loads((run_dir / "env_kwargs.json").read_text()))
     with open(vecnormalize_path, "rb") as handle:
         stats = pickle.load(handle)
     agent = PPOAgent(model, stats.obs_rms.mean, stats.obs_rms.var, stats.clip_obs, stats.epsilon, env_config)
     if is_mirrored(run_dir):  # train.py --mirror: -Y headings run as mirror images
-        return MirroredAgent(agent)
-    base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
-    return agent if base is None else ResidualAgent(agent, *base)
+        agent = MirroredAgent(agent)
+    else:
+        base = load_base(run_dir)  # a residual policy (train.py --residual-on): its base agent
+        agent = agent if base is None else ResidualAgent(agent, *base)
+    agent.path = model_path
+    return agent

@@ -10,7 +10,9 @@ so an untrained policy already runs the base agent, and training moves the legs'
 observation and the base agent's :data:`FEATURES`: its action, its gait clock (sin, cos of the
 phase) and whether it is turning or running (blending is neither). ``train.py --residual-on``
 wraps SB3's VecEnv (:func:`make_residual_vec_env`) and writes ``residual.json``, from which
-``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`ResidualAgent`.
+``rrrobot_gym.agents.load_ppo_agent`` returns a :class:`ResidualAgent`. Its model zips name
+:class:`ResidualPolicy` as their policy class, so SB3's ``PPO.load``, which would give the residual
+alone, refuses them.
 """
 
 from __future__ import annotations
@@ -119,6 +121,20 @@ class ResidualAgent:
         residual, _ = self.policy.predict(extended, deterministic=deterministic)
         actions = combine(base_actions, residual, self.scale)
         return (actions[0] if single else actions), state
+
+
+class ResidualPolicy:
+    """The policy class a residual run's model zips name (train.py --residual-on). The network gives
+    only a correction to a base agent it does not hold; SB3's ``PPO.load`` builds the class a zip
+    names, and this one refuses, naming the loader. ``rrrobot_gym.agents.load_ppo_agent`` reads the
+    network as SB3's ``ActorCriticPolicy`` and adds the base agent's action."""
+
+    refusal = ("this PPO model is a residual on a scripted base agent (train.py --residual-on), which PPO.load "
+               "cannot run: load it with rrrobot_gym.agents.load_ppo_agent(path), which adds its base agent and "
+               "applies its vecnormalize.pkl")
+
+    def __init__(self, *args, **kwargs):
+        raise RuntimeError(self.refusal)
 
 
 def save_residual(run_dir, base_path, scale):

@@ -144,8 +144,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     A full-torque swing of a 57 g tip at 0.1 m pushes the 0.52 kg shell with about 5 N, its own
     weight: without the profile, random actions (`env.action_space.sample()`) make the shell hop
     or slip within 0.15-0.25 s and nearly every episode ends outside the model. With it a random
-    policy's plane episodes last about 2 s in median (pivot: about 8 s), and still end only by
-    the physical checks below.
+    policy's plane episodes last about 2 s in median (pivot: about 20 s; seeds 0-39,
+    `tests/test_servo_profile.py`), and still end only by the physical checks below.
 
     ## Domain Randomization
     `randomize="default"` draws a new robot at every reset, from the episode's own generator
