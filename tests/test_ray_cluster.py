@@ -169,14 +169,13 @@ def test_a_token_cluster_that_refuses_the_driver_says_what_to_set_in_one_line(cl
          f"the cluster refuses this driver's token (read from RAY_AUTH_TOKEN_PATH, {wrong})"),
     ]
     for env, said in cases:
-        start = time.monotonic()
         done = _driver(["-m", "rrrobot_gym", *SEARCH, "--out", str(tmp_path / "out.json"), "--ray-address", address],
                        token, **env)  # fmt: skip
-        seconds = time.monotonic() - start
+        # one line: refused before ray.init, which would print 20 s of warnings, then a traceback
         lines = done.stderr.strip().splitlines()
         assert done.returncode == 2 and len(lines) == 1 and said in lines[0], (env, done.stderr[-3000:])
         assert "ray get-auth-token" in lines[0] or "RAY_AUTH_MODE=token" in lines[0]
-        assert seconds < 15 and not (tmp_path / "out.json").exists()  # (ray.init: 20 s of warnings, then a traceback)
+        assert not (tmp_path / "out.json").exists()
     done = _driver(["train.py", "--seeds", "2", "--bar", "1", "--ray-address", address], token)
     assert done.returncode == 2 and done.stderr.strip().splitlines()[-1].endswith(
         f"--ray-address '{address}': the cluster uses token authentication: set RAY_AUTH_MODE=token (as `ray start "
