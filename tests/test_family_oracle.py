@@ -29,6 +29,10 @@ OBLATE = (0.12, 0.12, 0.09)
 PROLATE = (0.12, 0.10, 0.15)
 MODELS = ("plane", "pivot")
 
+# One worker for all (pyproject runs pytest-xdist with --dist loadgroup): each process derives the
+# equations it uses once, seconds each, and two workers would derive the same ones twice.
+pytestmark = pytest.mark.xdist_group("family_oracle")
+
 
 def _robot(shell_axes, num_legs, damping=0.0):
     """The oracle's keywords for a default family member (the paper's masses), without ``model``."""
