@@ -1,6 +1,6 @@
 """The same robot and leg targets in rrrobot_gym and in MuJoCo, side by side in one run.
 
-    python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--closed-loop | --policy [--model MODEL]]
+    python -m benchmarks.vs_mujoco [--quick] [--json FILE] [--closed-loop | --policy [--model MODEL] | --family]
 
 Needs ``mujoco`` (the ``bench`` extra); the MuJoCo model is ``benchmarks.mujoco_peer``.
 1. Accuracy against cost, N = 1: the three Table II gaits (50 s; --quick 10 s) at several steps in
@@ -17,10 +17,17 @@ keywords) at every RK4 stage (0.5 ms; the plane on a floor of the env's friction
 speed along the heading in both, their ratio, whether either left the model (here the env's
 termination; in MuJoCo a leg tip at the floor or the tilt pi/2) and the largest distance between
 the contact paths. ``--policy``: the same, MuJoCo replaying our env's actions open loop.
+``--family`` instead checks the MuJoCo peer of the robot family (ellipsoid shells, 1-6 legs) against
+the sympy oracle ``tests/family_oracle.py`` integrated by scipy (DOP853, rtol 1e-10): members of
+the family under a PD servo on the gait phi_k = pi/2 + 0.3 sin(8 t + 2 pi k / L), 5 s (--quick:
+one member, 2 s), both models, from the paper's start and from a tilted, spinning one; the
+largest contact-point distance and attitude difference, at several MuJoCo steps (and, on the
+plane, contact time constants).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import time
 from pathlib import Path
@@ -176,6 +183,102 @@ def policy_main(args, closed_loop: bool):
                            "rows": rows, "table": text})  # fmt: skip
 
 
+FAMILY_MEMBERS = (("oblate (0.12, 0.12, 0.09), 2 legs", (0.12, 0.12, 0.09), 2),
+                  ("sphere 0.12, 4 legs", (0.12, 0.12, 0.12), 4),
+                  ("triaxial (0.13, 0.11, 0.10), 3 legs", (0.13, 0.11, 0.10), 3))  # fmt: skip
+"""(name, shell semi-axes (m), number of legs) of the family members checked; legs at the family's
+default placement (``family_oracle.default_legs``), the paper's masses. Each stands upright (a
+prolate (0.12, 0.10, 0.15) does not: it rolls over sideways, docs/notes/family_checks.md)."""
+FAMILY_MUJOCO = {"pivot": ((1e-3, 0.004), (5e-4, 0.004)),
+                 "plane": ((1e-3, 0.004), (5e-4, 0.004), (5e-4, 0.001), (2.5e-4, 5e-4))}  # fmt: skip
+"""Per model, the MuJoCo (step s, contact time constant s) swept; 0.004 s is the paper robot's contact."""
+
+
+def family_oracle():
+    """The sympy oracle of the family, ``tests/family_oracle.py`` (a test module, not the package's)."""
+    spec = importlib.util.spec_from_file_location("family_oracle", ROOT / "tests" / "family_oracle.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def family_start(num_legs: int, tilted: bool) -> np.ndarray:
+    """The paper's start (upright at rest at the origin, legs along v), or tilted 0.3 rad about a
+    skew horizontal axis and turning at (0.5, -0.8, 1.5) rad/s (body frame): the gait alone only
+    yaws the symmetric members, so the tilted start makes them rock and roll."""
+    state = np.zeros(9 + 2 * num_legs)
+    state[2] = 1.0
+    state[6 : 6 + num_legs] = math.pi / 2
+    if tilted:
+        axis = np.array([1.0, 0.5, 0.0]) / math.hypot(1.0, 0.5)
+        state[2], state[3:6] = math.cos(0.15), math.sin(0.15) * axis
+        state[6 + num_legs : 9 + num_legs] = (0.5, -0.8, 1.5)
+    return state
+
+
+def _attitude_difference(quat_a, quat_b) -> np.ndarray:
+    """rad, the angle of the rotation between two attitudes (..., 4): |R_a - R_b| (Frobenius) is
+    2 sqrt(2) sin(angle / 2), exact for small angles where the arccos of the trace is not."""
+    from .mujoco_peer import _quat_to_mat
+
+    rot_a = _quat_to_mat(quat_a / np.linalg.norm(quat_a, axis=-1, keepdims=True))
+    rot_b = _quat_to_mat(quat_b / np.linalg.norm(quat_b, axis=-1, keepdims=True))
+    chord = np.sqrt(np.sum((rot_a - rot_b) ** 2, axis=(-2, -1))) / (2.0 * math.sqrt(2.0))
+    return 2.0 * np.arcsin(np.clip(chord, 0.0, 1.0))
+
+
+def family_rows(quick: bool) -> list:
+    """The MuJoCo peer of each family member against the oracle (module docstring, ``--family``)."""
+    from .mujoco_peer import simulate_family, sinusoid_servo
+
+    oracle = family_oracle()
+    duration, sample_dt = (2.0, 0.05) if quick else (5.0, 0.05)
+    members = FAMILY_MEMBERS[:1] if quick else FAMILY_MEMBERS
+    rows = []
+    for name, axes, num_legs in members:
+        robot = dict(shell_axes=axes, legs=oracle.default_legs(num_legs, axes), mass_bottom=RobotParams().mass_bottom)
+        torque = sinusoid_servo(num_legs)
+        for model in ("plane", "pivot"):
+            for tilted in (False, True):
+                start = family_start(num_legs, tilted)
+                times = np.arange(round(duration / sample_dt) + 1) * sample_dt
+                wall = time.perf_counter()
+                _, ref = oracle.oracle_simulate(start, torque, duration, model=model, t_eval=times, rtol=1e-10,
+                                                atol=1e-10, **robot)  # fmt: skip
+                oracle_wall = time.perf_counter() - wall
+                for step, timeconst in FAMILY_MUJOCO[model][:2] if quick else FAMILY_MUJOCO[model]:
+                    wall = time.perf_counter()
+                    _, states, _, tilt = simulate_family(model, torque, duration, timestep=step, sample_dt=sample_dt,
+                                                         state=start, contact_timeconst=timeconst, **robot)  # fmt: skip
+                    row = {"member": name, "shell_axes": axes, "num_legs": num_legs, "model": model,
+                           "start": "tilted, spinning" if tilted else "paper's (at rest)", "mujoco_step_s": step,
+                           "contact_timeconst_s": timeconst if model == "plane" else None,
+                           "max_contact_distance_m": float(np.max(np.hypot(*(states[:, :2] - ref[:, :2]).T))),
+                           "max_attitude_difference_rad": float(np.max(_attitude_difference(states[:, 2:6], ref[:, 2:6]))),
+                           "max_leg_angle_difference_rad": float(np.max(np.abs(states[:, 6 : 6 + num_legs] - ref[:, 6 : 6 + num_legs]))),
+                           "travel_m": float(np.hypot(*(ref[-1, :2] - ref[0, :2]))), "largest_tilt_rad": tilt,
+                           "oracle_wall_s": oracle_wall, "mujoco_wall_s": time.perf_counter() - wall}  # fmt: skip
+                    rows.append(row)
+                    print(row, flush=True)
+    return rows
+
+
+def family_main(args):
+    rows = family_rows(args.quick)
+    duration = 2.0 if args.quick else 5.0
+    text = markdown_table(
+        ["member", "model", "start", "MuJoCo step (ms)", "contact time constant (ms)", "travel (mm)", "largest tilt (rad)",
+         f"largest contact distance, {duration:g} s (mm)", "largest attitude difference (rad)"],
+        [[r["member"], r["model"], r["start"], fmt(r["mujoco_step_s"] * 1e3),
+          "-" if r["contact_timeconst_s"] is None else fmt(r["contact_timeconst_s"] * 1e3), f"{r['travel_m'] * 1e3:.1f}",
+          f"{r['largest_tilt_rad']:.3f}", f"{r['max_contact_distance_m'] * 1e3:.2g}", f"{r['max_attitude_difference_rad']:.2g}"]
+         for r in rows],
+    )  # fmt: skip
+    print()
+    print(text)
+    write_json(args.json, {"machine": machine(), "duration_s": duration, "rows": rows, "table": text})
+
+
 def main(argv=None):
     p = parser(__doc__.splitlines()[0])
     loop = p.add_mutually_exclusive_group()
@@ -183,6 +286,8 @@ def main(argv=None):
                       help="run the shipped policies closed loop in MuJoCo instead of the gaits")  # fmt: skip
     loop.add_argument("--policy", action="store_true",
                       help="replay the shipped policies' actions from our env open loop in MuJoCo instead of the gaits")  # fmt: skip
+    loop.add_argument("--family", action="store_true",
+                      help="check the MuJoCo peer of the robot family against the sympy oracle instead")  # fmt: skip
     p.add_argument("--model", choices=tuple(POLICIES), action="append",
                    help="with --closed-loop or --policy: this model's policy only (repeatable; default both)")  # fmt: skip
     args = p.parse_args(argv)
@@ -192,6 +297,8 @@ def main(argv=None):
         raise SystemExit("benchmarks.vs_mujoco needs the optional dependency mujoco: pip install mujoco")
     if args.closed_loop or args.policy:
         return policy_main(args, args.closed_loop)
+    if args.family:
+        return family_main(args)
     duration = 10.0 if args.quick else 50.0
     gaits = (1, 2, 3)
     mj_steps = MUJOCO_STEPS[:2] if args.quick else MUJOCO_STEPS
