@@ -4,13 +4,14 @@ No second implementation of the physics: this module compiles :data:`rrrobot_gym
 and :data:`rrrobot_gym.control.KERNELS` themselves (copies of the function objects whose globals
 point at the compiled helpers).
 
-RK4 is written here for lanes (:func:`_lanes`): a block of LANES robots laid out one row per
-quantity, each derivative evaluation a loop over the block that the compiler turns into SIMD
-instructions. The arithmetic is :func:`rrrobot_gym.integrators.rk4.step`'s, operation for
-operation, so every robot's result is the numpy backend's one-robot result to the bit. A batch's
-remainder takes a padded block (at least PADDED_MIN robots) or :func:`_one_robot`, RK4 for one
-robot's (13,) row, kept for the single env's speed (docs/notes/layout.md). Robots are independent,
-so a batch may be split across threads (``workers``) without changing a bit.
+RK4 is written here for a block of robots laid out one row per quantity (:func:`_block`), each
+derivative evaluation a loop over the block that the compiler turns into SIMD instructions. It is
+compiled for blocks of LANES robots (the lanes) and of one (a single env's). The arithmetic is
+:func:`rrrobot_gym.integrators.rk4.step`'s, operation for operation, so every robot's result is the
+numpy backend's one-robot result to the bit. A batch's remainder takes a padded block (at least
+PADDED_MIN robots) or the one-robot block (docs/notes/layout.md). Robots are independent, so a
+batch may be split across threads (``workers``) without changing a bit. The legs' layout is a
+tuple whose length numba knows, so each leg count compiles a stepper of its own.
 
 Used by :func:`rrrobot_gym.simulation.advance` for the scenes of :func:`supports` and targets with
 a ``compiled_targets()`` method (:mod:`rrrobot_gym.control`'s, ``gait_search.SinusoidGait``).
@@ -31,8 +32,14 @@ import numpy as np
 
 from . import control, dynamics, numerics
 
-RECORD_ROWS = 11  # rows of a step record, both backends: torque (2), force (3), normal, tangential, clearance (2), leg rates (2)
 SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper
+
+
+def record_rows(num_legs: int) -> int:
+    """Rows of a step record of a robot of ``num_legs`` legs, both backends: the torques (L), the
+    ground's force (3), its normal and tangential parts, the tips' clearance (L), the leg rates (L)."""
+    return 3 * num_legs + 5
+
 
 _Gains = namedtuple("_Gains", "kp kd")  # what pd_torque reads of a PDGains, in a form numba takes
 
@@ -77,84 +84,117 @@ def target_arrays(targets):
     return kind, params, np.asarray(shared, dtype=float)
 
 
-def _copies(functions, wrap, namespace, suffix=""):
+def _copies(functions, wrap, namespace, suffix="", legs=None):
     """Copies of ``functions`` (sharing their code) in ``namespace``, each wrapped by ``wrap`` (numba's
     njit, or nothing) under its own name, so that each refers to the others' copies (numba resolves
     a function's globals when it compiles it). ``suffix`` is added to their qualified names, which
-    numba's disk cache keys them by: copies compiled with other globals need names of their own."""
+    numba's disk cache keys them by: copies compiled with other globals need names of their own.
+    With ``legs``, their loops over the legs are unrolled (:func:`_unrolled`)."""
     for fn in functions:
-        copy = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__, fn.__closure__)
+        if legs is None:
+            copy = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__, fn.__closure__)
+        else:
+            copy = _unrolled(fn, legs, namespace)
         copy.__qualname__ = fn.__qualname__ + suffix
         namespace[fn.__name__] = wrap(copy)
     return namespace
 
 
+LEG_LOOP_BOUNDS = ("num_legs", "legs")
+"""A loop ``for m in range(num_legs)`` (or ``legs``) runs over a robot's legs: :func:`_unrolled` unrolls it."""
+
+
+def _unrolled(fn, legs: int, namespace):
+    """A copy of ``fn`` (globals ``namespace``) with each loop over the legs (``for m in
+    range(num_legs)``, :data:`LEG_LOOP_BOUNDS`) written out ``legs`` times, ``m`` a constant in each:
+    the same operations in the same order. The compiler then sees each leg's rows of a work array
+    as constant offsets, and keeps a block's robots in SIMD lanes: it does not unroll loops this
+    long itself, and a loop inside the loop over a block's robots keeps that one scalar."""
+    import ast
+    import copy
+    import inspect
+    import textwrap
+
+    class Unroll(ast.NodeTransformer):
+        def visit_For(self, node):
+            self.generic_visit(node)
+            bound = node.iter
+            if not (isinstance(bound, ast.Call) and isinstance(bound.func, ast.Name) and bound.func.id == "range"
+                    and len(bound.args) == 1 and isinstance(bound.args[0], ast.Name)
+                    and bound.args[0].id in LEG_LOOP_BOUNDS):  # fmt: skip
+                return node
+            if node.orelse or any(isinstance(n, (ast.Break, ast.Continue)) for n in ast.walk(node)):
+                raise ValueError(f"{fn.__qualname__}: a loop over the legs with break, continue or else cannot be unrolled")
+            body = []
+            for m in range(legs):
+                body.append(ast.Assign([ast.Name(node.target.id, ast.Store())], ast.Constant(m)))
+                body.extend(copy.deepcopy(node.body))
+            return body
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    tree = ast.fix_missing_locations(Unroll().visit(tree))
+    scope = {}
+    exec(compile(tree, fn.__code__.co_filename, "exec"), namespace, scope)
+    out = scope[fn.__name__]
+    out.__defaults__ = fn.__defaults__
+    return out
+
+
 # The stepper. Plain Python here (it runs uncompiled too, slowly: ``prange`` is ``range``);
 # :func:`_stepper` compiles copies whose globals are the compiled kernels, servo and targets.
 prange = range
-derivative_kernel, contact_kernel = dynamics.derivative_kernel, dynamics.contact_kernel
-robot_derivative_kernel = dynamics.derivative_kernel  # (compiled called, not inlined: the one-robot stepper's)
-pd_torque, motor_torque = control.pd_torque, control.motor_torque
-ramp_targets, sinusoid_targets = control.ramp_targets, control.sinusoid_targets
+derivative_kernel = dynamics.derivative_kernel
+motor_torque, ramp_target, sinusoid_target = control.motor_torque, control.ramp_target, control.sinusoid_target
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
-Constants, ContactConstants = dynamics.Constants, dynamics.ContactConstants
+Constants = dynamics.Constants
+
+# A block of BLOCK robots is stepped together in a work array w that holds one row of BLOCK values per
+# quantity at fixed offsets (:func:`_rows`), so the compiler can see that the rows it writes never
+# overlap those it reads, and takes the robots in SIMD lanes. Bit-identity with the numpy stepper
+# needs the same order of operations: no fast-math, no fused multiply-adds, no libm trig. Two copies
+# are compiled: BLOCK = LANES (the lanes) and BLOCK = 1 (one robot, the single env's).
+LANES = 32
+BLOCK = LANES  # (each compiled copy's own)
 
 
-def _leg_targets(kind, p, shared, t):
+def _rows(legs):
+    """Offsets (in rows) of a block's work array for robots of ``legs`` legs: (state, stage state,
+    k1, k2, k3, the last derivative, the legs' torques, the kernel's scratch, the record (its
+    values, then the leg rates), the per-robot target parameters, each robot's own values, the
+    rows in all). Constants where ``legs`` is (a tuple's length, to the compiler)."""
+    n = 9 + 2 * legs
+    drive = 6 * n
+    scratch = drive + legs
+    record = scratch + 4 * legs
+    params = record + 3 * legs + 5
+    robot = params + 4 * legs
+    return 0, n, 2 * n, 3 * n, 4 * n, 5 * n, drive, scratch, record, params, robot, robot + ROBOT_ROWS
+
+
+ROBOT_ROWS = len(Constants._fields) + 4
+"""A robot's own values, in :func:`_robot`'s order: its Constants, kp, kd, torque limit, rate limit."""
+
+
+def _leg_target(kind, p, at, step, shared, t, m, legs):
+    """(angle, rate) of leg m's target at t, from the parameters p[at + j * step] of a target of
+    ``kind`` (control.py's compiled_targets: held angles; a ramp's starts, ends, changes, slopes;
+    a sinusoid's amplitudes, frequency, phases, offsets)."""
     if kind == _HELD:
-        return (p[0], p[1]), (0.0, 0.0), (0.0, 0.0)
+        return p[at + m * step], 0.0
     if kind == _RAMP:
-        return ramp_targets(t, shared[0], shared[1], (p[0], p[1]), (p[2], p[3]), (p[4], p[5]), (p[6], p[7]), (0.0, 0.0))
-    return sinusoid_targets(t, (p[0], p[1]), p[2], (p[3], p[4]), (p[5], p[6]))
+        return ramp_target(t, shared[0], shared[1], p[at + m * step], p[at + (legs + m) * step],
+                           p[at + (2 * legs + m) * step], p[at + (3 * legs + m) * step])  # fmt: skip
+    angle, rate, _ = sinusoid_target(t, p[at + m * step], p[at + legs * step], p[at + (legs + 1 + m) * step],
+                                     p[at + (2 * legs + 1 + m) * step])  # fmt: skip
+    return angle, rate
 
 
-def _torque(c, t, gains, torque_limit, rate_limit, kind, p, shared):
-    """The servo of simulation._stage_fns: the PD law on the targets at t, then the motor limit if any."""
-    return _servo(c, _leg_targets(kind, p, shared, t), gains, torque_limit, rate_limit)
-
-
-def _servo(c, targets, gains, torque_limit, rate_limit):
-    tau = pd_torque(gains, (c[6], c[7]), (c[11], c[12]), targets)
+def _servo(angle, rate, phi, phidot, gains, torque_limit, rate_limit):
+    """One leg's servo torque (simulation._stage_fns): the PD law, then the motor's limit if any."""
+    tau = gains.kp * (angle - phi) + gains.kd * (rate - phidot)
     if torque_limit is None:
         return tau
-    return motor_torque(tau[0], c[11], torque_limit, rate_limit), motor_torque(tau[1], c[12], torque_limit, rate_limit)
-
-
-def _one_robot(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, p, shared, rows, summary, i):
-    """RK4 on robot i's state y (13,), in place, with its record into rows[:, :, i] and its summary
-    into summary[:, i] (when rows has any): the lanes' arithmetic for one robot, kept for speed."""
-    half, sixth = 0.5 * h, h / 6.0
-    stage = np.empty(13)
-    contact = np.empty(7)
-    for step in range(n_steps):
-        tau = _torque(y, t, gains, torque_limit, rate_limit, kind, p, shared)
-        if rows.shape[0]:
-            k1 = robot_derivative_kernel(y, tau, k, None, None, contact)
-            rows[step, 0, i], rows[step, 1, i] = tau[0], tau[1]
-            for j in range(7):
-                rows[step, 2 + j, i] = contact[j]
-            rows[step, 9, i], rows[step, 10, i] = y[11], y[12]
-        else:
-            k1 = robot_derivative_kernel(y, tau, k)
-        for j in range(13):
-            stage[j] = y[j] + half * k1[j]
-        k2 = robot_derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            stage[j] = y[j] + half * k2[j]
-        k3 = robot_derivative_kernel(stage, _torque(stage, t + half, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            stage[j] = y[j] + h * k3[j]
-        k4 = robot_derivative_kernel(stage, _torque(stage, t + h, gains, torque_limit, rate_limit, kind, p, shared), k)
-        for j in range(13):
-            y[j] = y[j] + sixth * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
-        inv = 1.0 / np.sqrt(y[2] * y[2] + y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
-        y[2] *= inv
-        y[3] *= inv
-        y[4] *= inv
-        y[5] *= inv
-        t += h
-    if rows.shape[0]:
-        _summarise(rows, summary, i, 1)
+    return motor_torque(tau, phidot, torque_limit, rate_limit)
 
 
 def _lesser(a, b):
@@ -167,53 +207,47 @@ def _greater(a, b):
     return b if b > a or b != b else a
 
 
-def _summarise(rows, summary, first, count):
-    """The summary of robots first .. first + count - 1 of the record ``rows`` (S, 11, N) into
-    ``summary`` (6, N), made here while the block's record is still in cache: what
-    StepRecord.summary computes from a record's arrays, the same numbers, sample by sample in
-    the same order (simulation.SUMMARY_KEYS)."""
+def _summarise(rows, summary, first, count, legs):
+    """The summary of robots first .. first + count - 1 of the record ``rows`` (S, record_rows, N)
+    into ``summary`` (6, N), made here while the block's record is still in cache: what
+    StepRecord.summary computes from a record's arrays, the same numbers, sample by sample and leg
+    by leg in the same order (simulation.SUMMARY_KEYS)."""
     for i in range(first, first + count):
         # (each starts at its operation's identity, which the first sample replaces exactly, NaN and inf too)
         least_normal = least_clearance = np.inf
         most_ratio = peak_torque = peak_rate = -np.inf
         squares = 0.0
         for s in range(rows.shape[0]):
-            least_normal = _lesser(least_normal, rows[s, 5, i])
-            most_ratio = _greater(most_ratio, rows[s, 6, i] / rows[s, 5, i])
-            least_clearance = _lesser(least_clearance, _lesser(rows[s, 7, i], rows[s, 8, i]))
-            squares = squares + (rows[s, 0, i] * rows[s, 0, i] + rows[s, 1, i] * rows[s, 1, i])
-            peak_torque = _greater(peak_torque, _greater(abs(rows[s, 0, i]), abs(rows[s, 1, i])))
-            peak_rate = _greater(peak_rate, _greater(abs(rows[s, 9, i]), abs(rows[s, 10, i])))
+            normal = rows[s, legs + 3, i]
+            least_normal = _lesser(least_normal, normal)
+            most_ratio = _greater(most_ratio, rows[s, legs + 4, i] / normal)
+            torque = rows[s, 0, i]
+            lowest, sample_squares, largest = rows[s, legs + 5, i], torque * torque, abs(torque)
+            fastest = abs(rows[s, 2 * legs + 5, i])
+            for m in range(1, legs):
+                torque = rows[s, m, i]
+                lowest = _lesser(lowest, rows[s, legs + 5 + m, i])
+                sample_squares = sample_squares + torque * torque
+                largest = _greater(largest, abs(torque))
+                fastest = _greater(fastest, abs(rows[s, 2 * legs + 5 + m, i]))
+            least_clearance = _lesser(least_clearance, lowest)
+            squares = squares + sample_squares
+            peak_torque = _greater(peak_torque, largest)
+            peak_rate = _greater(peak_rate, fastest)
         summary[0, i], summary[1, i], summary[2, i] = least_normal, most_ratio, least_clearance
         summary[3, i], summary[4, i], summary[5, i] = squares, peak_torque, peak_rate
 
 
-# The lane stepper's work array w holds one row of LANES values per quantity at fixed offsets, so the
-# compiler can see that the rows it writes never overlap those it reads. Bit-identity with the float
-# stepper needs the same order of operations: no fast-math, no fused multiply-adds, no libm trig.
-LANES = 32
-_Y, _S, _K1, _K2, _K3, _D = 0, 13, 26, 39, 52, 65  # state, stage state, k1..k3, the last derivative
-_P = 78  # per-robot target parameters (8)
-_TAU, _C, _RATES = 86, 88, 95  # the record's rows: torques, contact values (7), leg rates
-_ROWS = 97
-_R = _ROWS  # with each robot's own values (k None): ROBOT_ROWS rows more, _robot's
-ROBOT_ROWS = len(Constants._fields) + 5
-"""A robot's own values, in :func:`_robot`'s order: its Constants, total mass, kp, kd, torque limit, rate limit."""
-
-
 def _robot(a, at, stride, torque_limit, rate_limit):
-    """(constants, contact constants, gains, torque limit, rate limit) of the robot whose ROBOT_ROWS
-    values are a[at], a[at + stride], ...; a limit None where ``torque_limit`` (``rate_limit``) is
-    None, for every robot. The contact constants shared with Constants are its values, the same
-    numbers (dynamics.constants and contact_constants take them from the same RobotParams fields)."""
+    """(constants, gains, torque limit, rate limit) of the robot whose ROBOT_ROWS values are a[at],
+    a[at + stride], ...; a limit None where ``torque_limit`` (``rate_limit``) is None, for every robot."""
     s = stride
     k = Constants(a[at], a[at + s], a[at + 2 * s], a[at + 3 * s], a[at + 4 * s], a[at + 5 * s], a[at + 6 * s],
                   a[at + 7 * s], a[at + 8 * s], a[at + 9 * s], a[at + 10 * s], a[at + 11 * s], a[at + 12 * s],
                   a[at + 13 * s], a[at + 14 * s], a[at + 15 * s], a[at + 16 * s], a[at + 17 * s], a[at + 18 * s],
                   a[at + 19 * s])  # fmt: skip
-    kc = ContactConstants(k.radius, k.leg_length, k.mass_tip, k.depth, k.gravity, a[at + 20 * s], k.mb_r)
-    gains = _Gains(a[at + 21 * s], a[at + 22 * s])
-    return k, kc, gains, _limit(torque_limit, a[at + 23 * s]), _limit(rate_limit, a[at + 24 * s])
+    gains = _Gains(a[at + 20 * s], a[at + 21 * s])
+    return k, gains, _limit(torque_limit, a[at + 22 * s]), _limit(rate_limit, a[at + 23 * s])
 
 
 def _limit(given, own):
@@ -224,176 +258,175 @@ def _limit(given, own):
     return own
 
 
-def _own(a, at, stride, k, kc, gains, torque_limit, rate_limit):
-    """(constants, contact constants, gains, torque limit, rate limit): those given, or where k is
-    None (a per-robot run) a robot's own, :func:`_robot`'s of a[at], a[at + stride], ...; the
-    limits then None (none) or any float (each robot's own)."""
+def _own(a, at, stride, k, gains, torque_limit, rate_limit):
+    """(constants, gains, torque limit, rate limit): those given, or where k is None (a per-robot
+    run) a robot's own, :func:`_robot`'s of a[at], a[at + stride], ...; the limits then None
+    (none) or any float (each robot's own)."""
     if k is None:
         return _robot(a, at, stride, torque_limit, rate_limit)
-    return k, kc, gains, torque_limit, rate_limit
+    return k, gains, torque_limit, rate_limit
 
 
-def _given(a, at, stride, k, kc, gains, torque_limit, rate_limit):
+def _given(a, at, stride, k, gains, torque_limit, rate_limit):
     """:func:`_own` of the shared stepper (k never None): the values given. numba prunes ``k is None``
     only where k is None, so with :func:`_own` the shared stepper would compile the per-robot
     branch too, dead; with this (:func:`_stepper`) its code is the lanes' without per-robot values."""
-    return k, kc, gains, torque_limit, rate_limit
+    return k, gains, torque_limit, rate_limit
 
 
-def _lane_state(w, row, i):
-    """Lane i's 13 state components, from rows row .. row + 12."""
-    L = LANES
-    return (
-        w[row * L + i], w[(row + 1) * L + i], w[(row + 2) * L + i], w[(row + 3) * L + i], w[(row + 4) * L + i],
-        w[(row + 5) * L + i], w[(row + 6) * L + i], w[(row + 7) * L + i], w[(row + 8) * L + i],
-        w[(row + 9) * L + i], w[(row + 10) * L + i], w[(row + 11) * L + i], w[(row + 12) * L + i],
-    )  # fmt: skip
-
-
-def _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared):
-    """The servo's torques on the stage state, every lane, into _TAU (inlined where ``kind`` is a
-    constant, so each kind of target has a loop of its own); k None: each lane's own gains and limits."""
-    L = LANES
+def _block_torques(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout):
+    """The servo's torques on the stage state, every robot of the block, into the torque rows
+    (inlined where ``kind`` is a constant, so each kind of target has a loop of its own); k None:
+    each robot's own gains and limits."""
+    B, legs = BLOCK, len(layout)
+    _, S, _, _, _, _, DRIVE, _, _, P, R, _ = _rows(legs)
     if params.shape[0] == 1:  # the same targets for every robot: once a stage
-        targets = _leg_targets(kind, params[0], shared, t)
-        for i in range(L):
-            _, _, g, tl, rl = _own(w, _R * L + i, L, k, kc, gains, torque_limit, rate_limit)
-            tau = _servo(_lane_state(w, _S, i), targets, g, tl, rl)
-            w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
+        for m in range(legs):
+            angle, rate = _leg_target(kind, params[0], 0, 1, shared, t, m, legs)
+            for i in range(B):
+                _, g, tl, rl = _own(w, R * B + i, B, k, gains, torque_limit, rate_limit)
+                w[(DRIVE + m) * B + i] = _servo(angle, rate, w[(S + 6 + m) * B + i], w[(S + 9 + legs + m) * B + i], g, tl, rl)
     else:
-        for i in range(L):
-            p = (w[_P * L + i], w[(_P + 1) * L + i], w[(_P + 2) * L + i], w[(_P + 3) * L + i],
-                 w[(_P + 4) * L + i], w[(_P + 5) * L + i], w[(_P + 6) * L + i], w[(_P + 7) * L + i])  # fmt: skip
-            _, _, g, tl, rl = _own(w, _R * L + i, L, k, kc, gains, torque_limit, rate_limit)
-            tau = _torque(_lane_state(w, _S, i), t, g, tl, rl, kind, p, shared)
-            w[_TAU * L + i], w[(_TAU + 1) * L + i] = tau[0], tau[1]
+        for i in range(B):
+            _, g, tl, rl = _own(w, R * B + i, B, k, gains, torque_limit, rate_limit)
+            for m in range(legs):
+                angle, rate = _leg_target(kind, w, P * B + i, B, shared, t, m, legs)
+                w[(DRIVE + m) * B + i] = _servo(angle, rate, w[(S + 6 + m) * B + i], w[(S + 9 + legs + m) * B + i], g, tl, rl)
 
 
-def _lane_derivatives(w, k, kc, gains, record):
-    """The stage state's derivative into _D, every lane, and with ``record`` its contact values
-    (contact_kernel of the state and that derivative) into _C: one loop, so the compiler shares
-    their common terms (inlined where ``record`` is a constant: a flag read inside the loop would
-    keep it scalar); k None: each lane's own constants."""
-    L = LANES
-    for i in range(L):
-        c = _lane_state(w, _S, i)
-        lk, lkc, _, _, _ = _own(w, _R * L + i, L, k, kc, gains, None, None)
-        d = derivative_kernel(c, (w[_TAU * L + i], w[(_TAU + 1) * L + i]), lk)
-        for j in range(13):
-            w[(_D + j) * L + i] = d[j]
-        if record:
-            f = contact_kernel(c, d, lkc)
-            for j in range(7):
-                w[(_C + j) * L + i] = f[j]
+def _block_derivatives(w, k, gains, layout, record):
+    """The stage state's derivative into the derivative rows, every robot of the block, and with
+    ``record`` the record's values into its rows: one loop, so the compiler takes the robots in
+    lanes (inlined where ``record`` is a constant: a flag read inside the loop would keep it
+    scalar); k None: each robot's own constants."""
+    B, legs = BLOCK, len(layout)
+    _, S, _, _, _, D, DRIVE, X, REC, _, R, _ = _rows(legs)
+    for i in range(B):
+        lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
+        derivative_kernel(w, S * B + i, D * B + i, B, lk, layout, DRIVE * B + i, X * B + i, False,
+                          REC * B + i if record else -1)  # fmt: skip
 
 
-def _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record):
-    """The stage state's servo torques and derivative (into _D), every lane; with ``record``,
-    the contact values too (into _C)."""
+def _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout, record):
+    """The stage state's servo torques and derivative, every robot of the block; with ``record``,
+    the record's values too."""
     if kind == _HELD:
-        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, _HELD, params, shared)
+        _block_torques(w, t, k, gains, torque_limit, rate_limit, _HELD, params, shared, layout)
     elif kind == _RAMP:
-        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, _RAMP, params, shared)
+        _block_torques(w, t, k, gains, torque_limit, rate_limit, _RAMP, params, shared, layout)
     else:
-        _lane_torques(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared)
+        _block_torques(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout)
     if record:
-        _lane_derivatives(w, k, kc, gains, True)
+        _block_derivatives(w, k, gains, layout, True)
     else:
-        _lane_derivatives(w, k, kc, gains, False)
+        _block_derivatives(w, k, gains, layout, False)
 
 
-def _lane_combine(w, keep, scale):
+def _block_combine(w, legs, keep, scale):
     """Copy the last derivative to rows ``keep`` and set the stage state to y + scale * it."""
-    L = LANES
-    for m in range(13 * L):  # one loop over every row's lanes: long enough to be vectorised, not unrolled
-        d = w[_D * L + m]
-        w[keep * L + m] = d
-        w[_S * L + m] = w[_Y * L + m] + scale * d
+    B = BLOCK
+    Y, S, _, _, _, D, _, _, _, _, _, _ = _rows(legs)
+    for m in range((9 + 2 * legs) * B):  # one loop over every row's lanes: long enough to be vectorised, not unrolled
+        d = w[D * B + m]
+        w[keep * B + m] = d
+        w[S * B + m] = w[Y * B + m] + scale * d
 
 
-def _lane_update(w, sixth):
+def _block_update(w, legs, sixth):
     """RK4's step from the four stages, then the quaternion back to unit length."""
-    L = LANES
-    for m in range(13 * L):
-        w[_Y * L + m] = w[_Y * L + m] + sixth * (w[_K1 * L + m] + 2.0 * (w[_K2 * L + m] + w[_K3 * L + m]) + w[_D * L + m])
-    for i in range(L):
-        qw, qx, qy, qz = w[2 * L + i], w[3 * L + i], w[4 * L + i], w[5 * L + i]
+    B = BLOCK
+    Y, S, K1, K2, K3, D, _, _, _, _, _, _ = _rows(legs)
+    for m in range((9 + 2 * legs) * B):
+        w[Y * B + m] = w[Y * B + m] + sixth * (w[K1 * B + m] + 2.0 * (w[K2 * B + m] + w[K3 * B + m]) + w[D * B + m])
+    for i in range(B):
+        qw, qx, qy, qz = w[2 * B + i], w[3 * B + i], w[4 * B + i], w[5 * B + i]
         inv = 1.0 / np.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-        w[2 * L + i], w[3 * L + i], w[4 * L + i], w[5 * L + i] = qw * inv, qx * inv, qy * inv, qz * inv
-    for m in range(13 * L):
-        w[_S * L + m] = w[_Y * L + m]
+        w[2 * B + i], w[3 * B + i], w[4 * B + i], w[5 * B + i] = qw * inv, qx * inv, qy * inv, qz * inv
+    for m in range((9 + 2 * legs) * B):
+        w[S * B + m] = w[Y * B + m]
 
 
-def _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, row):
-    """One RK4 substep of the lanes in w, recorded into rows[row] (unless rows is empty)."""
-    L = LANES
+def _block_substep(w, first, t, h, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, row):
+    """One RK4 substep of the block in w, recorded into rows[row] (unless rows is empty)."""
+    B, legs = BLOCK, len(layout)
+    _, _, K1, K2, K3, _, _, _, REC, _, _, _ = _rows(legs)
     half, sixth = 0.5 * h, h / 6.0
     record = rows.shape[0] > 0
-    _lane_stage(w, t, k, kc, gains, torque_limit, rate_limit, kind, params, shared, record)
+    _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout, record)
     if record:
+        size = rows.shape[1]
+        for m in range(legs):  # the leg rates, after the kernel's values, complete the record's rows
+            for i in range(B):
+                w[(REC + 2 * legs + 5 + m) * B + i] = w[(9 + legs + m) * B + i]
         flat = rows.reshape(-1)
-        for i in range(L):
-            w[_RATES * L + i], w[(_RATES + 1) * L + i] = w[(_Y + 11) * L + i], w[(_Y + 12) * L + i]
         n = rows.shape[2]
-        for m in range(RECORD_ROWS * L):  # rows _TAU .. _RATES + 1 are the record's, in its order
-            j = m // L
-            flat[(row * RECORD_ROWS + j) * n + first + m - j * L] = w[_TAU * L + m]
-    _lane_combine(w, _K1, half)
-    _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-    _lane_combine(w, _K2, half)
-    _lane_stage(w, t + half, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-    _lane_combine(w, _K3, h)
-    _lane_stage(w, t + h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, False)
-    _lane_update(w, sixth)
+        for m in range(size * B):  # rows REC .. REC + size - 1 are the record's, in its order
+            j = m // B
+            flat[(row * size + j) * n + first + m - j * B] = w[REC * B + m]
+    _block_combine(w, legs, K1, half)
+    _block_stage(w, t + half, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
+    _block_combine(w, legs, K2, half)
+    _block_stage(w, t + half, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
+    _block_combine(w, legs, K3, h)
+    _block_stage(w, t + h, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
+    _block_update(w, legs, sixth)
 
 
-def _lanes(y, first, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
-    """Robots first .. first + LANES - 1 of y (N, 13) together, in place, with the record and its
-    summary; k None: each with its own values from ``robot`` (_batch's) into rows _R .. of the lanes."""
-    L = LANES
-    w = np.zeros((_ROWS if k is not None else _R + ROBOT_ROWS) * L)
-    for i in range(L):
-        for j in range(13):
-            w[(_Y + j) * L + i] = y[first + i, j]
+def _block(y, first, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, summary,
+           robot):
+    """Robots first .. first + BLOCK - 1 of y (N, 9 + 2L) together, in place, with the record and its
+    summary; k None: each with its own values from ``robot`` (_batch's) into the block's rows."""
+    B, legs = BLOCK, len(layout)
+    n = 9 + 2 * legs
+    Y, S, _, _, _, _, _, _, _, P, R, TOTAL = _rows(legs)
+    w = np.zeros(TOTAL * B)
+    for i in range(B):
+        for j in range(n):
+            w[(Y + j) * B + i] = y[first + i, j]
         if params.shape[0] > 1:
             for j in range(params.shape[1]):
-                w[(_P + j) * L + i] = params[first + i, j]
+                w[(P + j) * B + i] = params[first + i, j]
         if k is None:  # (robot is empty otherwise)
             for j in range(ROBOT_ROWS):
-                w[(_R + j) * L + i] = robot[(first + i) * ROBOT_ROWS + j]
-    w[_S * L : (_S + 13) * L] = w[_Y * L : (_Y + 13) * L]
+                w[(R + j) * B + i] = robot[(first + i) * ROBOT_ROWS + j]
+    w[S * B : (S + n) * B] = w[Y * B : (Y + n) * B]
     for step in range(n_steps):
-        _lane_substep(w, first, t, h, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, step)
+        _block_substep(w, first, t, h, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, step)
         t += h
-    for i in range(L):
-        for j in range(13):
-            y[first + i, j] = w[(_Y + j) * L + i]
+    for i in range(B):
+        for j in range(n):
+            y[first + i, j] = w[(Y + j) * B + i]
     if rows.shape[0]:
-        _summarise(rows, summary, first, L)
+        _summarise(rows, summary, first, B, legs)
 
 
-def _batch(y, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary, robot):
-    """Every robot of y (N, 13) in place; params (1 or N, P): the targets' parameters, shared or per robot.
-    Every robot takes the constants k, kc, gains and the limits given (None: no limit; ``robot``
-    empty), or with k, kc and gains None its own: ``robot`` (N * ROBOT_ROWS,) holds each robot's
+def _batch(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, summary, robot):
+    """Every robot of y (N, 9 + 2L) in place; params (1 or N, P): the targets' parameters, shared or per
+    robot. Every robot takes the constants k, gains and the limits given (None: no limit; ``robot``
+    empty), or with k and gains None its own: ``robot`` (N * ROBOT_ROWS,) holds each robot's
     ROBOT_ROWS values (:func:`_robot`) in turn, and a limit is None (none) or any float (each robot's own).
-    Whole blocks of LANES robots take the lane stepper; the rest (fewer than LANES), if at least
+    Whole blocks of LANES robots take the lanes; the rest (fewer than LANES), if at least
     PADDED_MIN, a block of their own padded with copies of the last (_padded), else one by one."""
-    shared_targets = params.shape[0] == 1
     blocks, rest, padded, tasks = _partition(y.shape[0])
     for b in prange(tasks):
         if b < blocks:
-            _lanes(y, b * LANES, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, params, shared, rows, summary,
-                   robot)
+            _lanes(y, b * LANES, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows,
+                   summary, robot)  # fmt: skip
         elif padded:
             yp, pp, rp, sp, ap = _padded(y, blocks * LANES, rest, params, rows, summary, robot)
-            _lanes(yp, 0, t, h, n_steps, k, kc, gains, torque_limit, rate_limit, kind, pp, shared, rp, sp, ap)
+            _lanes(yp, 0, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, pp, shared, layout, rp, sp, ap)
             _unpadded(y, rows, summary, blocks * LANES, rest, yp, rp, sp)
         else:
             i = blocks * LANES + (b - blocks)
-            p = params[0] if shared_targets else params[i]
-            ik, _, ig, itl, irl = _own(robot, i * ROBOT_ROWS, 1, k, kc, gains, torque_limit, rate_limit)
-            _one_robot(y[i], t, h, n_steps, ik, ig, itl, irl, kind, p, shared, rows, summary, i)
+            _single(y, i, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, _robot_params(params, i), shared,
+                    layout, rows, summary, robot)  # fmt: skip
+
+
+def _robot_params(params, i):
+    """Robot i's target parameters as a (1, P) block (every robot's, where they are shared)."""
+    if params.shape[0] == 1:
+        return params
+    return params[i : i + 1]
 
 
 def _partition(n):
@@ -416,11 +449,11 @@ def _padded(y, first, count, params, rows, summary, robot):
     """(state, target parameters, record, summary, robots' own values) of one lane block
     holding robots first .. first + count - 1 of y, the rest of its LANES lanes copies of the last of them."""
     L = LANES
-    yp = np.empty((L, 13))
+    yp = np.empty((L, y.shape[1]))
     pp = np.empty((L if params.shape[0] > 1 else 1, params.shape[1]))
     for i in range(L):
         source = first + min(i, count - 1)
-        for j in range(13):
+        for j in range(y.shape[1]):
             yp[i, j] = y[source, j]
         if params.shape[0] > 1:
             for j in range(params.shape[1]):
@@ -445,7 +478,7 @@ def _padded_robot(robot, first, count):
 def _unpadded(y, rows, summary, first, count, yp, rp, sp):
     """A padded block's first ``count`` robots (state, record, summary) back into robots first .. of the batch."""
     for i in range(count):
-        for j in range(13):
+        for j in range(y.shape[1]):
             y[first + i, j] = yp[i, j]
         for s in range(rp.shape[0]):
             for j in range(rp.shape[1]):
@@ -454,29 +487,31 @@ def _unpadded(y, rows, summary, first, count, yp, rp, sp):
             summary[j, first + i] = sp[j, i]
 
 
-def _physics_shared(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot):
+def _physics_shared(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, layout, rows, summary, robot):
     """The env step's physics (rrrobot_gym.envs.task.fused_step) for robots that share the config:
     from t = 0, the targets a ramp over ``dt`` (``linear``) or held, per robot ``params``; its
-    constants, contact constants and gains from ``scene`` (one array: cheaper to pass than tuples)."""
+    constants and gains from ``scene`` (one array: cheaper to pass than tuples)."""
     k = Constants(scene[0], scene[1], scene[2], scene[3], scene[4], scene[5], scene[6], scene[7], scene[8], scene[9],
                   scene[10], scene[11], scene[12], scene[13], scene[14], scene[15], scene[16], scene[17], scene[18],
                   scene[19])  # fmt: skip
-    kc = ContactConstants(scene[20], scene[21], scene[22], scene[23], scene[24], scene[25], scene[26])
-    _batch(y, 0.0, h, n_steps, k, kc, _Gains(scene[27], scene[28]), torque_limit, rate_limit, _RAMP if linear else _HELD,
-           params, np.array([0.0, dt]), rows, summary, robot)  # fmt: skip
+    _batch(y, 0.0, h, n_steps, k, _Gains(scene[20], scene[21]), torque_limit, rate_limit, _RAMP if linear else _HELD,
+           params, np.array([0.0, dt]), layout, rows, summary, robot)  # fmt: skip
 
 
-def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot):
+def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, layout, rows, summary, robot):
     """:func:`_physics_shared` for robots of their own values (``robot``, :func:`robot_rows`)."""
-    _batch(y, 0.0, h, n_steps, None, None, None, torque_limit, rate_limit, _RAMP if linear else _HELD, params,
-           np.array([0.0, dt]), rows, summary, robot)  # fmt: skip
+    _batch(y, 0.0, h, n_steps, None, None, torque_limit, rate_limit, _RAMP if linear else _HELD, params,
+           np.array([0.0, dt]), layout, rows, summary, robot)  # fmt: skip
 
 
-_STEPPER = (_leg_targets, _servo, _torque, _lesser, _greater, _summarise, _one_robot, _partition, _padded_robot, _padded,
-            _unpadded, _lane_stage, _lane_update, _lane_substep, _lanes)  # fmt: skip
-"""This module's functions the compiled :func:`_batch` calls."""
-_LANE_INLINED = (_limit, _robot, _own, _lane_state, _lane_torques, _lane_derivatives, _lane_combine)
+_BLOCK_FUNCTIONS = (_block_combine, _block_update, _block_stage, _block_substep, _block)
+"""The functions compiled twice, for BLOCK = LANES (:func:`_lanes`) and BLOCK = 1 (:func:`_single`)."""
+_BLOCK_INLINED = (_rows, _limit, _robot, _own, _block_torques, _block_derivatives)
 """Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
+_STEPPER = (_leg_target, _servo, _lesser, _greater, _summarise, _partition, _padded_robot, _padded, _unpadded,
+            _robot_params)  # fmt: skip
+"""This module's other functions the compiled :func:`_batch` calls."""
+_lanes = _single = _block  # (plain Python: one block function; compiled, a copy for each BLOCK)
 
 
 SOURCES = (__file__, dynamics.__file__, control.__file__, numerics.__file__)
@@ -566,11 +601,11 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None):
-    """The compiled :func:`_batch` (``per_robot``: a copy for robots of their own values, cached
-    under a name of its own), threaded over robots if ``parallel``; with ``task`` = (entry, kernels),
-    the compiled ``entry`` instead (:func:`task_stepper`): loaded from the disk cache (:func:`cache_dir`)
-    or compiled, with a line on stderr, once a process."""
+def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None, legs: int = 2):
+    """The compiled :func:`_batch` for robots of ``legs`` legs (``per_robot``: a copy for robots of
+    their own values, cached under a name of its own), threaded over robots if ``parallel``; with
+    ``task`` = (entry, kernels), the compiled ``entry`` instead (:func:`task_stepper`): loaded from
+    the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
     import numba
 
     entry, task_kernels = task if task is not None else (_batch, ())
@@ -587,9 +622,9 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None)
         _content_keyed_locator()
     # numba's cache files are named by the function's qualified name and keyed by its signature,
     # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    name = entry.__name__ + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "")
+    name = entry.__name__ + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "") + f"_{legs}_legs"
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
-        print(f"rrrobot_gym: compiling the numba stepper{' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
+        print(f"rrrobot_gym: compiling the numba stepper ({legs} legs){' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
@@ -602,17 +637,20 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None)
         # numerics' functions on floats (its select and anywhere in their scalar forms), inlined
         scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
         scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
-        kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar})
-        namespace.update(derivative_kernel=kernels["derivative_kernel"], contact_kernel=kernels["contact_kernel"])
-        robot_kernels = _copies(dynamics.KERNELS, njit, {**vars(dynamics), **scalar})
-        namespace["robot_derivative_kernel"] = robot_kernels["derivative_kernel"]
+        kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar}, f"_{legs}", legs)
+        namespace["derivative_kernel"] = kernels["derivative_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
-        suffix = "_per_robot" if per_robot else ""  # (copies with other globals: names of their own in the cache)
-        _copies(_LANE_INLINED, inline, namespace, suffix)
-        if not per_robot:
-            namespace["_own"] = _copies((_given,), inline, namespace)["_given"]
+        # (copies with other globals, or unrolled for another leg count: names of their own in the cache)
+        suffix = ("_per_robot" if per_robot else "") + f"_{legs}"
         _copies(_STEPPER, njit, namespace, suffix)
+        for block, entry_name in ((LANES, "_lanes"), (1, "_single")):  # the block stepper, for each BLOCK
+            copy = dict(namespace, BLOCK=block)
+            _copies(_BLOCK_INLINED, inline, copy, f"{suffix}_{block}", legs)
+            if not per_robot:
+                copy["_own"] = _copies((_given,), inline, copy, f"_{block}")["_given"]
+            _copies(_BLOCK_FUNCTIONS, njit, copy, f"{suffix}_{block}", legs)
+            namespace[entry_name] = copy["_block"]
         if task is None:
             return njit(_named_copy(_batch, namespace, name), parallel=parallel)
         # The task's own functions, each module's with its own globals, on floats: numerics' select
@@ -621,7 +659,7 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None)
         compiled["_quaternion_rows"] = _copies((dynamics.rotation_rows,), njit, dict(vars(dynamics)))["rotation_rows"]
         for module in dict.fromkeys(fn.__module__ for fn in task_kernels):
             functions = [fn for fn in task_kernels if fn.__module__ == module]
-            compiled.update(_copies(functions, njit, {**functions[0].__globals__, **compiled}))
+            compiled.update(_copies(functions, njit, {**functions[0].__globals__, **compiled}, f"_{legs}", legs))
         physics = _physics_own if per_robot else _physics_shared
         compiled["_physics"] = _copies((_batch, physics), njit, namespace, suffix)[physics.__name__]
         return njit(_named_copy(entry, {**entry.__globals__, **compiled}, name), parallel=parallel)
@@ -636,31 +674,30 @@ def _named_copy(fn, namespace, name):
     return copy
 
 
-def task_stepper(per_robot: bool, entry, kernels: tuple):
+def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2):
     """The compiled ``entry`` (``rrrobot_gym.envs.task.fused_step``: the env's whole step), which
     calls the physics (:func:`_physics_shared`, or :func:`_physics_own` where ``per_robot``) as
     ``_physics`` and the task's ``kernels`` (functions of the modules above this one, compiled from
     their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread."""
-    return _stepper(False, per_robot, (entry, tuple(kernels)))
+    return _stepper(False, per_robot, (entry, tuple(kernels)), legs)
 
 
 @functools.lru_cache(maxsize=32)
-def _scene(robot, depth, gains):
-    """The constants of the equations of motion and of the contact force, and the servo gains,
-    as the stepper takes them."""
+def _scene(robot, model, gains):
+    """The constants of the equations of motion, the servo gains and the legs' layout, as the stepper takes them."""
     # (floats: the stepper's per-robot branch, typed though dead here, makes them of floats)
-    k, kc = dynamics.constants(robot, depth), dynamics.contact_constants(robot, depth)
-    return Constants(*map(float, k)), ContactConstants(*map(float, kc)), _Gains(float(gains.kp), float(gains.kd))
+    k = dynamics.constants(robot, model)
+    return Constants(*map(float, k)), _Gains(float(gains.kp), float(gains.kd)), dynamics.leg_layout(robot)
 
 
 def robot_rows(scene, n: int):
     """(robot, limits): the per-robot stepper's values of ``n`` robots from a per-robot ``scene``
-    (constants, contact constants, gains, torque limit, rate limit; fields (N,) arrays or floats),
-    ROBOT_ROWS a robot in :func:`_robot`'s order, and the limits it is given: None (none for any
-    robot) or NaN (each robot's own)."""
-    k, kc, gains, torque_limits, rate_limits = scene
+    (constants, gains, torque limit, rate limit; fields (N,) arrays or floats), ROBOT_ROWS a robot
+    in :func:`_robot`'s order, and the limits it is given: None (none for any robot) or NaN (each
+    robot's own)."""
+    k, gains, torque_limits, rate_limits = scene
     robot = np.zeros((n, ROBOT_ROWS))  # (a limit of None stays 0, unread)
-    for j, value in enumerate((*k, kc.total_mass, gains.kp, gains.kd, torque_limits, rate_limits)):
+    for j, value in enumerate((*k, gains.kp, gains.kd, torque_limits, rate_limits)):
         if value is not None:
             robot[:, j] = value
     return robot.reshape(-1), tuple(None if limit is None else np.nan for limit in (torque_limits, rate_limits))
@@ -668,29 +705,30 @@ def robot_rows(scene, n: int):
 
 def integrate(config, targets, state, t0: float, h: float, n_steps: int, record: bool, workers: int = 1, scene=None):
     """:func:`rrrobot_gym.simulation.advance`'s integration on the compiled stepper: ``state``
-    (13,) or (N, 13) after ``n_steps`` RK4 steps of ``h`` from ``t0``, the record's rows
-    ((S, 11) for one robot, (S, 11, N) for a batch) or None, and the record's summary ((6,) or
-    (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is what
-    :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
-    shared among that many threads. ``scene`` (constants, contact constants, gains, torque limit,
-    rate limit), fields (N,) arrays or floats, a limit None for none, gives each robot its own
-    (``simulation.advance``'s ``robots``).
+    (9 + 2L,) or (N, 9 + 2L) after ``n_steps`` RK4 steps of ``h`` from ``t0``, the record's rows
+    ((S, record_rows) for one robot, (S, record_rows, N) for a batch) or None, and the record's
+    summary ((6,) or (6, N): :data:`rrrobot_gym.simulation.SUMMARY_KEYS`) or None. ``targets`` is
+    what :func:`target_arrays` made of the leg-target source. With ``workers`` > 1 the robots are
+    shared among that many threads. ``scene`` (constants, gains, torque limit, rate limit), fields
+    (N,) arrays or floats, a limit None for none, gives each robot its own (``simulation.advance``'s
+    ``robots``).
     """
     kind, params, shared = targets
-    y = np.array(state, dtype=float, order="C").reshape(-1, dynamics.STATE_SIZE)
+    k, gains, layout = _scene(config.robot, config.model, config.gains)
+    legs = len(layout)
+    y = np.array(state, dtype=float, order="C").reshape(-1, 9 + 2 * legs)
     if params.shape[0] not in (1, y.shape[0]):
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
-    rows = np.empty((n_steps if record else 0, RECORD_ROWS, y.shape[0]))
+    rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
     parallel = workers > 1 and y.shape[0] > 1
-    step = _stepper(parallel) if scene is None else _stepper(parallel, True)  # (one lru_cache key for each stepper)
+    step = _stepper(parallel, scene is not None, None, legs)
     if scene is None:
-        k, kc, gains = _scene(config.robot, config.depth, config.gains)
-        args = (y, float(t0), float(h), int(n_steps), k, kc, gains, config.torque_limit, config.leg_rate_limit, kind,
-                params, shared, rows, summary, np.empty(0))  # fmt: skip
+        args = (y, float(t0), float(h), int(n_steps), k, gains, config.torque_limit, config.leg_rate_limit, kind,
+                params, shared, layout, rows, summary, np.empty(0))  # fmt: skip
     else:
         robot, limits = robot_rows(scene, y.shape[0])
-        args = (y, float(t0), float(h), int(n_steps), None, None, None, *limits, kind, params, shared, rows, summary,
+        args = (y, float(t0), float(h), int(n_steps), None, None, *limits, kind, params, shared, layout, rows, summary,
                 robot)  # fmt: skip
     if parallel:
         import numba

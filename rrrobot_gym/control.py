@@ -1,10 +1,10 @@
 """Leg control: the paper's PD servo and the sinusoidal gaits of Table II.
 
-A *leg-target source* is any object with a method ``leg_targets(t)`` that returns
-three pairs ``(angles, rates, accels)``: the target angle (rad), rate (rad/s) and
-acceleration (rad/s^2) of leg 1 and leg 2 at time t (s). Each item is a float (the
-same for every robot) or an array of shape (N,) (one value a robot). The servo
-uses angles and rates; the kinematic-legs mode uses all three.
+A *leg-target source* is any object with a method ``leg_targets(t)`` that returns three
+tuples ``(angles, rates, accels)``, one item a leg: the target angle (rad), rate (rad/s) and
+acceleration (rad/s^2) of each leg at time t (s). Each item is a float (the same for every
+robot) or an array of shape (N,) (one value a robot). The servo uses angles and rates; the
+kinematic-legs mode uses all three.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .params import _require_finite
+from .params import MAX_LEGS, _require_finite
 
 
 TARGETS_HELD, TARGETS_RAMP, TARGETS_SINUSOID = 0, 1, 2
@@ -24,23 +24,31 @@ TARGETS_HELD, TARGETS_RAMP, TARGETS_SINUSOID = 0, 1, 2
 
 @dataclass(frozen=True)
 class Gait:
-    """phi_k(t) = amplitude sin(frequency t + phase_k) + offset_k (paper Section III)."""
+    """phi_k(t) = amplitude sin(frequency t + phase_k) + offset_k (paper Section III), one phase
+    and offset a leg (two for the paper's robot)."""
 
     amplitude: float = 0.3  # rad
     frequency: float = 8.0  # rad/s
-    phase: tuple = (0.0, 0.5 * math.pi)  # rad, (leg 1, leg 2)
-    offset: tuple = (0.5 * math.pi, 0.5 * math.pi)  # rad, (leg 1, leg 2)
+    phase: tuple = (0.0, 0.5 * math.pi)  # rad, one a leg
+    offset: tuple = (0.5 * math.pi, 0.5 * math.pi)  # rad, one a leg
     name: str = "gait"
 
     def __post_init__(self):
         _require_finite(self, ("amplitude", "frequency"))
         for field in ("phase", "offset"):
             value = tuple(float(v) for v in np.asarray(getattr(self, field), dtype=float).ravel())
-            if len(value) != 2:
-                raise ValueError(f"Gait.{field} must have 2 entries (leg 1, leg 2), got {len(value)}")
+            if not 1 <= len(value) <= MAX_LEGS:
+                raise ValueError(f"Gait.{field} must have one entry a leg (1 to {MAX_LEGS}), got {len(value)}")
             if not all(math.isfinite(v) for v in value):
                 raise ValueError(f"Gait.{field} must be finite, got {value}")
             object.__setattr__(self, field, value)
+        if len(self.phase) != len(self.offset):
+            raise ValueError(f"Gait.phase and Gait.offset must have one entry a leg each, got {len(self.phase)} and "
+                             f"{len(self.offset)}")  # fmt: skip
+
+    @property
+    def num_legs(self) -> int:
+        return len(self.phase)
 
     @property
     def period(self) -> float:
@@ -48,42 +56,40 @@ class Gait:
         return 2.0 * math.pi / abs(self.frequency) if self.frequency else math.inf
 
     def swapped(self) -> "Gait":
-        """The same gait with the legs' phases exchanged: the paper's reversed motion."""
+        """The same gait with the legs' phases in reverse order: for two legs the paper's reversed motion."""
         name = self.name[: -len("-swapped")] if self.name.endswith("-swapped") else self.name + "-swapped"
         return Gait(self.amplitude, self.frequency, self.phase[::-1], self.offset, name)
 
     def leg_targets(self, t):
-        a = self.amplitude
-        return sinusoid_targets(t, (a, a), self.frequency, self.phase, self.offset)
+        return sinusoid_targets(t, (self.amplitude,) * self.num_legs, self.frequency, self.phase, self.offset)
 
     def compiled_targets(self):
         """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
-        a = self.amplitude
-        return TARGETS_SINUSOID, (a, a, self.frequency, *self.phase, *self.offset), ()
+        return TARGETS_SINUSOID, ((self.amplitude,) * self.num_legs + (self.frequency,) + self.phase + self.offset), ()
 
     def robot(self, i: int) -> "Gait":
         """The targets of robot ``i`` of a batch: the same gait (see :meth:`RampTargets.robot`)."""
         return self
 
     def angles(self, times):
-        """Target leg angles at an array of times, shape (T, 2), rad."""
+        """Target leg angles at an array of times, shape (T, legs), rad."""
         times = np.asarray(times, dtype=float)[..., None]
         return self.amplitude * np.sin(self.frequency * times + np.asarray(self.phase)) + np.asarray(self.offset)
 
 
-def sinusoid_targets(t, amplitude, frequency, phase, offset):
-    """Targets of phi_k(t) = a_k sin(w t + beta_k) + o_k at time t (a float): ``amplitude``,
-    ``phase`` and ``offset`` are (leg 1, leg 2) pairs, ``frequency`` w in rad/s. The one
-    sinusoid of the gaits (:class:`Gait`, ``gait_search.SinusoidGait``) and of the compiled
+def sinusoid_target(t, amplitude, frequency, phase, offset):
+    """(angle, rate, acceleration) at time t (a float) of one leg's phi(t) = a sin(w t + beta) + o:
+    the one sinusoid of the gaits (:class:`Gait`, ``gait_search.SinusoidGait``) and of the compiled
     stepper (:mod:`rrrobot_gym.compiled`)."""
-    (a1, a2), (b1, b2), (o1, o2), w = amplitude, phase, offset, frequency
-    s1, c1 = math.sin(w * t + b1), math.cos(w * t + b1)
-    s2, c2 = math.sin(w * t + b2), math.cos(w * t + b2)
-    return (
-        (a1 * s1 + o1, a2 * s2 + o2),
-        (a1 * w * c1, a2 * w * c2),
-        (-a1 * w * w * s1, -a2 * w * w * s2),
-    )
+    s, c = math.sin(frequency * t + phase), math.cos(frequency * t + phase)
+    return amplitude * s + offset, amplitude * frequency * c, -amplitude * frequency * frequency * s
+
+
+def sinusoid_targets(t, amplitude, frequency, phase, offset):
+    """:func:`sinusoid_target` of every leg: ``amplitude``, ``phase`` and ``offset`` one a leg;
+    (angles, rates, accelerations), each a tuple."""
+    legs = [sinusoid_target(t, a, frequency, b, o) for a, b, o in zip(amplitude, phase, offset)]
+    return tuple(v[0] for v in legs), tuple(v[1] for v in legs), tuple(v[2] for v in legs)
 
 
 GAIT_OFFSETS = {1: 0.5 * math.pi, 2: 0.0, 3: 0.25 * math.pi}
@@ -104,16 +110,18 @@ class HeldTargets:
 
     def __init__(self, angles):
         angles = np.asarray(angles, dtype=float)
-        if angles.shape[-1:] != (2,) or angles.ndim > 2:
-            raise ValueError(f"leg target angles must have shape (2,) or (N, 2), got {angles.shape}")
+        if angles.ndim not in (1, 2) or not 1 <= angles.shape[-1] <= MAX_LEGS:
+            raise ValueError(f"leg target angles must have shape (legs,) or (N, legs), got {angles.shape}")
         if not np.all(np.isfinite(angles)):
             raise ValueError("leg target angles contain NaN or inf")
-        # (1, 2): one robot's targets, kept as numbers like (2,): every robot of a batch takes them
+        legs = angles.shape[-1]
+        # (1, legs): one robot's targets, kept as numbers like (legs,): every robot of a batch takes them
         one = angles.ndim == 1 or angles.shape[0] == 1
-        self._angles = tuple(angles.reshape(2).tolist()) if one else (angles[:, 0].copy(), angles[:, 1].copy())
+        self._angles = tuple(angles.reshape(legs).tolist()) if one else tuple(angles[:, m].copy() for m in range(legs))
+        self._still = (0.0,) * legs
 
     def leg_targets(self, t):
-        return self._angles, (0.0, 0.0), (0.0, 0.0)
+        return self._angles, self._still, self._still
 
     def compiled_targets(self):
         """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
@@ -123,16 +131,13 @@ class HeldTargets:
         """The targets of robot ``i`` of a batch, on Python floats (see :meth:`RampTargets.robot`)."""
         if isinstance(self._angles[0], float):
             return self
-        return HeldTargets([self._angles[0][i], self._angles[1][i]])
+        return HeldTargets([a[i] for a in self._angles])
 
 
 def pd_torque(gains, leg_angles, leg_rates, targets):
-    """The paper's PD servo, tau_k = kp (phi_d - phi) + kd (phid_d - phid), per leg (N m)."""
-    (a1, a2), (r1, r2), _ = targets
-    return (
-        gains.kp * (a1 - leg_angles[0]) + gains.kd * (r1 - leg_rates[0]),
-        gains.kp * (a2 - leg_angles[1]) + gains.kd * (r2 - leg_rates[1]),
-    )
+    """The paper's PD servo, tau_k = kp (phi_d - phi) + kd (phid_d - phid), per leg (N m), a tuple."""
+    angles, rates, _ = targets
+    return tuple(gains.kp * (a - phi) + gains.kd * (r - rate) for a, r, phi, rate in zip(angles, rates, leg_angles, leg_rates))
 
 
 def limit_torque(torque, leg_rates, torque_limit, rate_limit=None):
@@ -145,10 +150,7 @@ def limit_torque(torque, leg_rates, torque_limit, rate_limit=None):
     """
     if torque_limit is None:
         return torque
-    return (
-        motor_torque(torque[0], leg_rates[0], torque_limit, rate_limit),
-        motor_torque(torque[1], leg_rates[1], torque_limit, rate_limit),
-    )
+    return tuple(motor_torque(tau, rate, torque_limit, rate_limit) for tau, rate in zip(torque, leg_rates))
 
 
 def motor_torque(tau, rate, torque_limit, rate_limit=None):
@@ -172,38 +174,39 @@ class RampTargets:
 
     A first-order hold of step-wise targets (an RL action per control step): the target angle is
     continuous, so a new action steps only the servo's rate term (by kd times the change of slope).
-    ``start``/``end`` have shape (2,) or (N, 2), rad.
+    ``start``/``end`` have shape (legs,) or (N, legs), rad.
     """
 
     def __init__(self, start, end, t0: float, duration: float):
         start = np.asarray(start, dtype=float)
         end = np.asarray(end, dtype=float)
-        if start.shape != end.shape or start.shape[-1:] != (2,) or start.ndim > 2:
-            raise ValueError(f"ramp ends must both have shape (2,) or (N, 2), got {start.shape} and {end.shape}")
+        if start.shape != end.shape or start.ndim not in (1, 2) or not 1 <= start.shape[-1] <= MAX_LEGS:
+            raise ValueError(f"ramp ends must both have shape (legs,) or (N, legs), got {start.shape} and {end.shape}")
         if not (math.isfinite(duration) and duration > 0.0):
             raise ValueError(f"ramp duration must be a positive number of seconds, got {duration}")
         self.t0, self.duration = float(t0), float(duration)
-        if start.ndim == 2 and start.shape[0] == 1:  # one robot's ramp: as (2,), every robot of a batch takes it
+        legs = start.shape[-1]
+        if start.ndim == 2 and start.shape[0] == 1:  # one robot's ramp: as (legs,), every robot of a batch takes it
             start, end = start[0], end[0]
         if start.ndim == 1:
             # One robot: Python floats throughout (the single env's every step; same arithmetic).
-            (a1, a2), (b1, b2) = start.tolist(), end.tolist()
-            if not all(math.isfinite(v) for v in (a1, a2, b1, b2)):
+            a, b = start.tolist(), end.tolist()
+            if not all(math.isfinite(v) for v in a + b):
                 raise ValueError("ramp ends contain NaN or inf")
-            self._start, self._end, self._change = (a1, a2), (b1, b2), (b1 - a1, b2 - a2)
-            self._slope = ((b1 - a1) / duration, (b2 - a2) / duration)
-            self._still = (0.0, 0.0)
+            change = [y - x for x, y in zip(a, b)]
+            self._start, self._end, self._change = tuple(a), tuple(b), tuple(change)
+            self._slope = tuple(v / duration for v in change)
+            self._still = (0.0,) * legs
             return
         if not (np.all(np.isfinite(start)) and np.all(np.isfinite(end))):
             raise ValueError("ramp ends contain NaN or inf")
         change = end - start
-        # The compiled stepper's (N, 8) parameters in one piece, the numpy steppers' pairs views of its
-        # columns. Each (N, 2) part goes in as (N, 1) complex numbers: numpy copies 2-wide rows ~2x slower.
-        parts = [np.ascontiguousarray(part).view(np.complex128) for part in (start, end, change, change / duration)]
-        self._params = np.concatenate(parts, axis=1).view(np.float64)
+        # The compiled stepper's (N, 4 legs) parameters in one piece, the numpy steppers' views of its columns.
+        self._params = np.concatenate([start, end, change, change / duration], axis=1)
         columns = tuple(self._params.T)
-        self._start, self._end, self._change, self._slope = columns[0:2], columns[2:4], columns[4:6], columns[6:8]
-        self._still = (np.zeros(len(start)), np.zeros(len(start)))
+        self._start, self._end = columns[0:legs], columns[legs:2 * legs]
+        self._change, self._slope = columns[2 * legs:3 * legs], columns[3 * legs:4 * legs]
+        self._still = (np.zeros(len(start)),) * legs
 
     def compiled_targets(self):
         """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`."""
@@ -216,27 +219,27 @@ class RampTargets:
         the simulator integrates a small batch robot by robot without indexing arrays at every stage."""
         if isinstance(self._start[0], float):
             return self
-        (a1, a2), (b1, b2) = self._start, self._end
-        return RampTargets([a1[i], a2[i]], [b1[i], b2[i]], self.t0, self.duration)
+        return RampTargets([a[i] for a in self._start], [b[i] for b in self._end], self.t0, self.duration)
 
     def leg_targets(self, t):
-        return ramp_targets(t, self.t0, self.duration, self._start, self._end, self._change, self._slope, self._still)
+        legs = [ramp_target(t, self.t0, self.duration, a, b, c, d)
+                for a, b, c, d in zip(self._start, self._end, self._change, self._slope)]  # fmt: skip
+        return tuple(v[0] for v in legs), tuple(v[1] for v in legs), self._still
 
 
-def ramp_targets(t, t0, duration, start, end, change, slope, still):
-    """The targets of :class:`RampTargets` at time t (a float); ``start``, ``end``, ``change``
-    (end - start), ``slope`` (change / duration) and ``still`` (zeros) are (leg 1, leg 2) pairs
-    of floats or (N,) arrays. Also compiled by :mod:`rrrobot_gym.compiled`."""
+def ramp_target(t, t0, duration, start, end, change, slope):
+    """(angle, rate) at time t (a float) of one leg's :class:`RampTargets`: ``start``, ``end``,
+    ``change`` (end - start) and ``slope`` (change / duration), floats or (N,) arrays. Also
+    compiled by :mod:`rrrobot_gym.compiled`."""
     s = (t - t0) / duration
     # Closed at the end: RK4's last stage falls on t0 + duration up to rounding, and the
     # rate must not depend on which side of it rounding lands.
     if s > 1.0 + 1e-9:
-        return end, still, still
+        return end, 0.0 * slope
     if s < 0.0:
         s = 0.0
-    (a1, a2), (d1, d2) = start, change
-    return (a1 + d1 * s, a2 + d2 * s), slope, still
+    return start + change * s, slope
 
 
-KERNELS = (pd_torque, motor_torque, ramp_targets, sinusoid_targets)
+KERNELS = (motor_torque, ramp_target, sinusoid_target)
 """The functions :mod:`rrrobot_gym.compiled` compiles for the servo and the leg targets."""

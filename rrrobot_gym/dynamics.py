@@ -1,54 +1,68 @@
-"""Equations of motion of the RRRobot: the one implementation in this project.
+"""Equations of motion of the legless-robot family: the one implementation in this project.
 
-Everything else (integrators, the Gymnasium environments, the benchmarks, the
-command line) calls :func:`state_derivative` or the helpers below it. This
-module imports no Gymnasium: physics is a pure function of (state, control, params).
+Everything else (integrators, the Gymnasium environments, the benchmarks, the command line)
+calls :func:`state_derivative` or the kernels below it. This module imports no Gymnasium:
+physics is a pure function of (state, control, params). The paper's RRRobot is the family's
+default member (:class:`rrrobot_gym.params.RobotParams`).
 
 Glossary
 --------
 Frames
     world: z up, the ground is the plane z = 0.
-    body: origin at the centre of the sphere, z up when the robot rests upright;
-        the legs are pinned on the rim at the two ends of the body Y axis.
+    body: origin at the shell's centre, z up when the robot rests upright.
+Shell
+    A massless half-ellipsoid, semi-axes (a, b, c) along body x, y, z, open side up;
+    A = diag(a^2, b^2, c^2). (r, r, r) is the paper's sphere.
 Masses (body-frame positions)
-    Mb  bottom of the shell, (0, 0, -r)
-    Ms  leg pins, (0, -r, 0) for leg 1 and (0, +r, 0) for leg 2
-    Ml  leg tips, p_k = (l cos phi_k, -+r, l sin phi_k)
-Coordinates (13 numbers a robot, layout in :data:`STATE_FIELDS`)
-    x, y        m    contact point on the ground (directly below the centre)
+    Mb    bottom of the shell, (0, 0, -c)
+    Ms_k  leg k's pin, at its hinge H_k
+    Ml_k  leg k's tip, p_k = H_k + r_k, r_k = l_k (cos phi_k u_k + sin phi_k v_k): the leg swings
+          in the plane of its orthonormal u_k (phi = 0) and v_k (phi = pi/2) (``params.Leg``)
+Coordinates (9 + 2L numbers a robot of L legs, layout :func:`state_fields`)
+    x, y        m    the contact point on the ground
     quat        -    unit quaternion (w, x, y, z), body to world: v_world = R(quat) v_body
-    leg_angles  rad  phi_1, phi_2: 0 is horizontal along +X, pi/2 straight up
+    leg_angles  rad  phi_1 .. phi_L
     body_rate   rad/s  Omega, the body's angular velocity in BODY coordinates
-    leg_rates   rad/s  phi_1dot, phi_2dot
+    leg_rates   rad/s  phidot_1 .. phidot_L
 Speeds
-    u = (Omega, phi_1dot, phi_2dot). The world-frame angular velocity is w = R Omega.
+    u = (Omega, phidot_1 .. phidot_L). The world-frame angular velocity is w = R Omega.
 Derived symbols
-    n    world up (0, 0, 1) in body coordinates, n = R^T z = third row of R
-    h    depth below the centre of the point the body turns about (``rotation_point_depth``):
-         h = r on a plane (rolling contact), h = 0 for the Pivoting Dynamics model
-    s_i  p_i + h n, a mass's position relative to that point
-    e_k  d p_k / d phi_k = (-l sin phi_k, 0, l cos phi_k)
-    a_k  d^2 p_k / d phi_k^2 = (-l cos phi_k, 0, -l sin phi_k)
+    n    world up in body coordinates, n = R^T z, the third row of R; ndot = n x Omega
+    s    the contact point in body coordinates: the shell's support point under the world's
+         down direction, s = -A n / sqrt(n^T A n); the centre is sqrt(n^T A n) above the ground
+    d    the point the body turns about: s on a plane (rolling contact), 0 for the Pivoting
+         Dynamics model (a spherical joint at the centre); ``rolling`` is 1 or 0
+    rho_i  p_i - d, a mass's position relative to that point
+    e_k  d p_k / d phi_k = l_k (-sin phi_k u_k + cos phi_k v_k); d e_k / d phi_k = -r_k
+    S, G   sum_i m_i p_i (the first moment about the centre), and G = S - M d
 Constraints
-    Plane: the body's material point at the contact has zero velocity, so the
-    centre moves as v_c = w x (h z). The speeds above are independent, so this
-    holds exactly by construction (no multipliers, no drift at velocity level).
-    Both models move the contact point by the paper's eq. (2)/(4):
-    xdot = r w_y, ydot = -r w_x.
+    Plane: the shell's material point at the contact has zero velocity, so the centre moves as
+    -Omega x s (body coordinates). The speeds above are independent, so this holds exactly by
+    construction (no multipliers, no drift at velocity level). Both models move the contact
+    point on the ground with the shell's rolling kinematics, xdot, ydot = the horizontal part of
+    R sdot (for a sphere the paper's eq. (2)/(4): xdot = r w_y, ydot = -r w_x).
 
 Derivation (Kane's equations with the speeds u)
-    A mass moves with (body coordinates) v_i = Omega x s_i + e_i phidot_k, so its
-    partial velocities are -[s_i]x (for Omega) and e_k (for phidot_k). The
-    acceleration with u' = 0 is b_i = Omega x (Omega x p_i) + 2 phidot Omega x e_i
-    + phidot^2 a_i; h drops out of it because z is constant in the world. Then
-        M u' = sum_i J_i^T (F_i - m_i b_i) + Q,
-    with gravity F_i = -m_i g n, the damping torque k Omega on the body and the
-    leg torques tau_k on phi_k. M's leg block is diagonal (Ml l^2), so a Schur
-    complement leaves one symmetric 3x3 solve per robot, done by cofactors.
+    A mass moves with (body coordinates) v_i = Omega x rho_i + e_k phidot_k (tips), so its
+    partial velocities are -[rho_i]x (for Omega) and e_k (for phidot_k). Its acceleration with
+    u' = 0 is b_i = Omega x (Omega x rho_i) + 2 phidot_k Omega x e_k - phidot_k^2 r_k - Omega x ddot
+    (ddot = sdot on a plane: the contact moves over an ellipsoid; on a sphere the last term
+    cancels the first's part from d). Then M u' = sum_i J_i^T (F_i - m_i b_i) + Q, with gravity
+    F_i = -m_i g n, the damping torque k Omega on the body and the leg torques tau_k on phi_k:
+        Omega rows  M_w Omega' + sum_k c_k phi_k'' = k Omega - g G x n - Omega x (M_w Omega)
+                        + G x (Omega x ddot) - sum_k m_k rho_k x (2 phidot_k Omega x e_k - phidot_k^2 r_k)
+        leg k       c_k . Omega' + D_k phi_k'' = tau_k - m_k g n . e_k
+                        - m_k ((e_k . Omega)(Omega . rho_k) - (e_k . rho_k) |Omega|^2) + m_k e_k . (Omega x ddot)
+    with M_w = sum_i m_i (|rho_i|^2 1 - rho_i rho_i^T), c_k = m_k rho_k x e_k, D_k = m_k l_k^2. The
+    leg block is diagonal, so a Schur complement leaves one symmetric 3x3 solve per robot, done
+    by cofactors.
 
-Every function here takes components: a sequence whose items are Python floats
-(one robot; fastest for a single env) or numpy arrays of shape (N,) (a batch).
-The public array helpers at the bottom take states shaped (..., 13).
+The kernels read and write one flat sequence ``w`` at offsets and a stride: state component j at
+``w[at + j * step]``. The numpy backend passes a list of Python floats (one robot) or of (N,)
+arrays (a batch) with step 1; the compiled stepper (:mod:`rrrobot_gym.compiled`) its work array
+with a block of robots side by side (step: the block's size), which lets it take the robots in
+SIMD lanes. A leg loop runs over the layout's tuple, whose length numba knows when it compiles.
+The public array helpers at the bottom take states shaped (..., 9 + 2L).
 """
 
 from __future__ import annotations
@@ -59,22 +73,34 @@ from typing import NamedTuple
 import numpy as np
 
 from .numerics import sincos
-from .params import RobotParams, rotation_point_depth
+from .params import MAX_LEGS, RobotParams, check_model
 
-STATE_FIELDS = (
-    ("x", 0, 1),
-    ("y", 1, 2),
-    ("quat", 2, 6),
-    ("leg_angles", 6, 8),
-    ("body_rate", 8, 11),
-    ("leg_rates", 11, 13),
-)
-"""(name, start, stop) of each field in a state vector."""
-STATE_SIZE = 13
-QUAT = slice(2, 6)
-LEG_ANGLES = slice(6, 8)
-BODY_RATE = slice(8, 11)
-LEG_RATES = slice(11, 13)
+
+class StateFields(NamedTuple):
+    """Where each field of a state of ``num_legs`` legs lies (slices of the last axis)."""
+
+    size: int
+    position: slice
+    quat: slice
+    leg_angles: slice
+    body_rate: slice
+    leg_rates: slice
+
+
+def state_fields(num_legs: int) -> StateFields:
+    """The state layout of a robot of ``num_legs`` legs (see the glossary)."""
+    legs = int(num_legs)
+    return StateFields(9 + 2 * legs, slice(0, 2), slice(2, 6), slice(6, 6 + legs), slice(6 + legs, 9 + legs),
+                       slice(9 + legs, 9 + 2 * legs))  # fmt: skip
+
+
+_PAPER = state_fields(2)
+STATE_SIZE, QUAT, LEG_ANGLES, BODY_RATE, LEG_RATES = _PAPER.size, _PAPER.quat, _PAPER.leg_angles, _PAPER.body_rate, _PAPER.leg_rates
+"""The default robot's layout (two legs, 13 numbers); a robot's own: ``state_fields(params.num_legs)``."""
+STATE_FIELDS = tuple((name, part.start, part.stop) for name, part in zip(
+    ("x", "quat", "leg_angles", "body_rate", "leg_rates"), (slice(0, 1), QUAT, LEG_ANGLES, BODY_RATE, LEG_RATES)))
+STATE_FIELDS = (("x", 0, 1), ("y", 1, 2)) + STATE_FIELDS[1:]
+"""(name, start, stop) of each field in the default robot's state vector."""
 
 
 def rotation_rows(qw, qx, qy, qz):
@@ -91,136 +117,68 @@ def rotation_rows(qw, qx, qy, qz):
 
 
 class Constants(NamedTuple):
-    """Numbers that depend only on (params, depth), computed once per configuration.
+    """The scalars of the equations of motion of one robot (or each robot's, as (N,) arrays), made
+    once per configuration by :func:`constants`; the legs' geometry is the layout beside it. The
+    hot functions unpack it whole (one tuple unpack is cheaper than attribute look-ups on floats)."""
 
-    Made by :func:`constants`; the integrators pass it to :func:`derivative_kernel`
-    so that a derivative evaluation does no parameter arithmetic. The hot functions
-    unpack it whole (one tuple unpack is cheaper than attribute look-ups on floats).
-    """
-
-    radius: float  # m, r
-    leg_length: float  # m, l
-    mass_tip: float  # kg, Ml
-    depth: float  # m, h
+    a2: float  # m^2, a^2
+    b2: float  # m^2, b^2
+    c2: float  # m^2, c^2
+    pole: float  # m, c: the centre's height upright (the pivot's, for its energy)
+    rolling: float  # 1 on a plane (the body turns about the contact point), 0 pivoting
     gravity: float  # m/s^2, g
     damping: float  # N m s/rad, k
-    leg_inertia: float  # kg m^2, D = Ml l^2
-    inv_leg_inertia: float  # 1/(kg m^2)
-    ixx0: float  # kg m^2, Ixx about the centre before the legs' cos^2 terms
-    iyy: float  # kg m^2
-    izz0: float  # kg m^2
-    ml_r: float  # kg m, Ml r
-    mb_r: float  # kg m, Mb r
-    total_h2: float  # kg m^2, M h^2
-    two_ml: float  # kg, 2 Ml
-    neg_ml: float  # kg, -Ml
-    neg_ml_l2: float  # kg m^2, -Ml l^2
-    ml_h: float  # kg m, Ml h
-    total_h: float  # kg m, M h
+    leg_length: float  # m, the robot's leg length (a leg's: times its layout's ratio)
+    mass_tip: float  # kg, the robot's tip mass (a leg's: times its layout's ratio)
+    total_mass: float  # kg, M
     weight: float  # N, M g
+    ixx: float  # kg m^2, the inertia about the centre of the masses fixed in the body (bottom, pins)
+    ixy: float
+    ixz: float
+    iyy: float
+    iyz: float
+    izz: float
+    sx: float  # kg m, their first moment about the centre
+    sy: float
+    sz: float
 
 
-def constants(params: RobotParams, depth: float) -> Constants:
-    """The per-configuration constants of the equations of motion (see :class:`Constants`)."""
-    r, l, ml, mb, ms = params.radius, params.leg_length, params.mass_tip, params.mass_bottom, params.mass_pin
-    h = float(depth)
-    tip_sq = l * l + r * r
+PER_ROBOT = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping")
+"""The fields of RobotParams :func:`constants` takes per robot ((N,) arrays) from ``values``."""
+
+
+def leg_layout(params: RobotParams) -> tuple:
+    """The legs' geometry as the kernels take it, one tuple a leg: (H_x, H_y, H_z, u_x, u_y, u_z, v_x,
+    v_y, v_z, length / params.leg_length, tip mass / params.mass_tip) (m, unit vectors, ratios)."""
+    lengths, masses = params.leg_lengths, params.leg_masses
+    return tuple((*leg.hinge, *leg.zero, *leg.up, length / params.leg_length, tip / params.mass_tip)
+                 for leg, length, (_, tip) in zip(params.legs, lengths, masses))  # fmt: skip
+
+
+def constants(params: RobotParams, model: str, values: dict | None = None) -> Constants:
+    """The constants of the equations of motion of ``params`` on ``model`` ("plane" or "pivot");
+    ``values`` maps names of :data:`PER_ROBOT` to (N,) arrays, each robot's own (a leg with a
+    value of its own scales it alike)."""
+    get = (lambda name: getattr(params, name)) if values is None else (lambda name: values.get(name, getattr(params, name)))
+    a, b, c = params.shell_axes
+    mass_bottom, mass_pin, mass_tip, leg_length = get("mass_bottom"), get("mass_pin"), get("mass_tip"), get("leg_length")
+    # the bottom's and the pins' inertia about the centre and first moment: fixed in the body
+    ixx = iyy = mass_bottom * (c * c)
+    izz = ixy = ixz = iyz = sx = sy = 0.0 * mass_bottom
+    sz = -mass_bottom * c
+    total = mass_bottom
+    for leg, (pin, tip) in zip(params.legs, params.leg_masses):
+        pin_mass = mass_pin * (pin / params.mass_pin) if params.mass_pin else 0.0 * mass_pin + pin
+        hx, hy, hz = leg.hinge
+        ixx, iyy, izz = ixx + pin_mass * (hy * hy + hz * hz), iyy + pin_mass * (hx * hx + hz * hz), izz + pin_mass * (hx * hx + hy * hy)
+        ixy, ixz, iyz = ixy - pin_mass * (hx * hy), ixz - pin_mass * (hx * hz), iyz - pin_mass * (hy * hz)
+        sx, sy, sz = sx + pin_mass * hx, sy + pin_mass * hy, sz + pin_mass * hz
+        total = total + pin_mass + mass_tip * (tip / params.mass_tip)
     return Constants(
-        radius=r,
-        leg_length=l,
-        mass_tip=ml,
-        depth=h,
-        gravity=params.gravity,
-        damping=params.damping,
-        leg_inertia=ml * l * l,
-        inv_leg_inertia=1.0 / (ml * l * l),
-        # Inertia about the centre: Ixx = ixx0 - Ml (l^2 cos^2 phi1 + l^2 cos^2 phi2),
-        # Izz = izz0 + the same (since sin^2 = 1 - cos^2); Iyy does not depend on the legs.
-        ixx0=(mb + 2.0 * ms) * r * r + 2.0 * ml * tip_sq,
-        iyy=mb * r * r + 2.0 * ml * l * l,
-        izz0=2.0 * ms * r * r + 2.0 * ml * r * r,
-        ml_r=ml * r,
-        mb_r=mb * r,
-        total_h2=params.total_mass * h * h,
-        two_ml=2.0 * ml,
-        neg_ml=-ml,
-        neg_ml_l2=-ml * l * l,
-        ml_h=ml * h,
-        total_h=params.total_mass * h,
-        weight=params.total_mass * params.gravity,
-    )
-
-
-def _leg_trig(phi1, phi2):
-    """cos and sin of both leg angles (times nothing): (c1, s1, c2, s2)."""
-    if isinstance(phi1, float):  # (arithmetic alone: the compiled stepper's bits, on any CPU)
-        s1, c1 = sincos(phi1)
-        s2, c2 = sincos(phi2)
-        return c1, s1, c2, s2
-    # numpy's float64 sin and cos have no SIMD kernel and cost ~15x a tan: use the
-    # half-angle tangent t, cos = 2/(1+t^2) - 1, sin = t (2/(1+t^2)) (errors ~1e-16
-    # absolute; t stays finite in float64 since phi/2 is never exactly pi/2).
-    t1 = np.tan(0.5 * phi1)
-    t2 = np.tan(0.5 * phi2)
-    w1 = 2.0 / (1.0 + t1 * t1)
-    w2 = 2.0 / (1.0 + t2 * t2)
-    return w1 - 1.0, t1 * w1, w2 - 1.0, t2 * w2
-
-
-def _up_vector(qw, qx, qy, qz):
-    """n = R^T z (world up in body coordinates), the third row of R."""
-    tqx, tqy, tqz = qx + qx, qy + qy, qz + qz
-    return qx * tqz - qw * tqy, qy * tqz + qw * tqx, 1.0 - (qx * tqx + qy * tqy)
-
-
-def _configuration(phi1, phi2, n, k):
-    """Configuration-dependent terms shared by the dynamics, the energy and the mass matrix.
-
-    Returns (legs, inertia, first_moment, m_omega, coupling), where legs holds, per leg,
-    (l cos phi, l sin phi, s_y) with s_y the y of s = p + h n, the tip relative to
-    the turning point; inertia and m_omega are upper triangles (xx, xy, xz, yy, yz, zz)
-    of I_c and of M_omega; first_moment is (S_x, S_z) (S_y cancels between the legs);
-    coupling is (c_1, c_2), c_k = Ml s_k x e_k.
-    """
-    r, l, ml, h, _, _, _, _, ixx0, iyy0, izz0, ml_r, mb_r, total_h2, _, neg_ml, neg_ml_l2, ml_h, _, _ = k
-    nx, ny, nz = n
-    cos1, sin1, cos2, sin2 = _leg_trig(phi1, phi2)
-    lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
-    m2 = ml * (lc1 * lc1 + lc2 * lc2)
-    ixx, iyy, izz = ixx0 - m2, iyy0, izz0 + m2
-    ixy = ml_r * (lc1 - lc2)
-    ixz = neg_ml * (lc1 * ls1 + lc2 * ls2)
-    iyz = ml_r * (ls1 - ls2)
-    sx = ml * (lc1 + lc2)
-    sz = ml * (ls1 + ls2) - mb_r
-    inertia = (ixx, ixy, ixz, iyy, iyz, izz)
-    if h == 0.0:
-        # Pivoting: s = p, M_omega = I_c, and c_k = Ml p_k x e_k = Ml (p_y lc, -l^2, p_y ls).
-        c_y = neg_ml_l2
-        c1 = (-ml_r * lc1, c_y, -ml_r * ls1)
-        c2 = (ml_r * lc2, c_y, ml_r * ls2)
-        return ((lc1, ls1, -r), (lc2, ls2, r)), inertia, (sx, sz), inertia, (c1, c2)
-    # M_omega = I_c + h^2 M (1 - n n^T) + h (2 (S.n) 1 - S n^T - n S^T): inertia about the turning point.
-    hsx, hsz = h * sx, h * sz
-    mt = total_h2
-    mnx, mny, mnz = mt * nx, mt * ny, mt * nz
-    diag = mt + 2.0 * (hsx * nx + hsz * nz)
-    ax, az = mnx + hsx, mnz + hsz
-    m_omega = (
-        ixx + diag - nx * (ax + hsx),
-        ixy - ny * ax,
-        ixz - nz * ax - hsz * nx,
-        iyy + diag - ny * mny,
-        iyz - ny * az,
-        izz + diag - nz * (az + hsz),
-    )
-    # c_k = Ml s_k x e_k = Ml (s_y lc, -(l^2 + h (nx lc + nz ls)), s_y ls), using p_k.e_k = 0.
-    hny = h * ny
-    sy1, sy2 = hny - r, hny + r
-    ml_sy1, ml_sy2 = ml * sy1, ml * sy2
-    c1 = (ml_sy1 * lc1, neg_ml_l2 - ml_h * (nx * lc1 + nz * ls1), ml_sy1 * ls1)
-    c2 = (ml_sy2 * lc2, neg_ml_l2 - ml_h * (nx * lc2 + nz * ls2), ml_sy2 * ls2)
-    return ((lc1, ls1, sy1), (lc2, ls2, sy2)), inertia, (sx, sz), m_omega, (c1, c2)
+        a2=a * a, b2=b * b, c2=c * c, pole=c, rolling=1.0 if check_model(model) == "plane" else 0.0,
+        gravity=params.gravity, damping=get("damping"), leg_length=leg_length, mass_tip=mass_tip, total_mass=total,
+        weight=total * params.gravity, ixx=ixx, ixy=ixy, ixz=ixz, iyy=iyy, iyz=iyz, izz=izz, sx=sx, sy=sy, sz=sz,
+    )  # fmt: skip
 
 
 def _rotation_products(qw, qx, qy, qz):
@@ -255,266 +213,293 @@ def _sym_solve(m, b0, b1, b2):
     return x0 * inv_det, x1 * inv_det, x2 * inv_det
 
 
-def derivative_kernel(c, leg_torque, k: Constants, leg_accel=None, torque_out=None, contact_out=None):
-    """:func:`state_derivative` with the constants precomputed by :func:`constants`.
+def _cross(ax, ay, az, bx, by, bz):
+    """a x b."""
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
-    This is the implementation; the integrators call it directly to skip the per-call
-    parameter arithmetic. With ``leg_accel`` (kinematic legs), a list ``torque_out`` receives
-    the two leg torques that motion takes (from the legs' rows, D phi'' + c_k . Omega' = f_leg +
-    tau). A list ``contact_out`` receives :func:`contact_kernel`'s seven values for this state
-    and the derivative returned, from the terms already computed here (the integrators' record).
-    Returns the 13 derivative components as a tuple.
-    """
-    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
-    rate1, rate2 = c[11], c[12]
-    r, _, ml, h, g, damping, inertia_leg, inv_d, _, _, _, _, _, _, two_ml, neg_ml, _, _, total_h, weight = k
 
-    # Attitude products; rows 0 and 1 of R give the world rate for the contact
-    # kinematics (eq. 2 and 4: xdot = r w_y, ydot = -r w_x), row 2 is n.
+def _sqrt(x):
+    """The square root of a float (math's: a ValueError for a negative one, as the float stepper's
+    other math) or of an array (numpy's); both correctly rounded, as numba's."""
+    return math.sqrt(x) if isinstance(x, float) else np.sqrt(x)
+
+
+def _shell(n, omega, k):
+    """(s, sdot, height): the contact point in body coordinates, its rate over the shell
+    (ndot = n x Omega), and the centre's height above the ground, sqrt(n^T A n)."""
+    nx, ny, nz = n
+    ox, oy, oz = omega
+    a2, b2, c2 = k[0], k[1], k[2]
+    anx, any_, anz = a2 * nx, b2 * ny, c2 * nz
+    q2 = nx * anx + ny * any_ + nz * anz
+    height = _sqrt(q2)
+    inv = 1.0 / height
+    ndx, ndy, ndz = _cross(nx, ny, nz, ox, oy, oz)
+    # d/dt (-A n / sqrt(n^T A n)) = (A n (A n . ndot) / (n^T A n) - A ndot) / sqrt(n^T A n)
+    t = (anx * ndx + any_ * ndy + anz * ndz) / q2
+    sdot = ((anx * t - a2 * ndx) * inv, (any_ * t - b2 * ndy) * inv, (anz * t - c2 * ndz) * inv)
+    return (-anx * inv, -any_ * inv, -anz * inv), sdot, height
+
+
+def _leg(leg, phi, k):
+    """A leg's (tip mass, D = m l^2, r (tip from pin), p (tip from centre), e = dp/dphi), body
+    coordinates, at angle ``phi``."""
+    hx, hy, hz, ux, uy, uz, vx, vy, vz, length_ratio, mass_ratio = leg
+    length, mass = k[7] * length_ratio, k[8] * mass_ratio
+    sin_phi, cos_phi = sincos(phi)
+    lc, ls = length * cos_phi, length * sin_phi
+    rx, ry, rz = lc * ux + ls * vx, lc * uy + ls * vy, lc * uz + ls * vz
+    e = (lc * vx - ls * ux, lc * vy - ls * uy, lc * vz - ls * uz)
+    return mass, mass * (length * length), (rx, ry, rz), (hx + rx, hy + ry, hz + rz), e
+
+
+def _body(k, rolling_point, legs_first_moment, legs_inertia):
+    """(M_w, G): the inertia about the point the body turns about (upper triangle) and the first
+    moment about it, from the centre's inertia and first moment of the fixed masses (k) plus the
+    tips' (``legs_inertia``, ``legs_first_moment``)."""
+    dx, dy, dz = rolling_point
+    sx, sy, sz = k[17] + legs_first_moment[0], k[18] + legs_first_moment[1], k[19] + legs_first_moment[2]
+    lxx, lxy, lxz, lyy, lyz, lzz = legs_inertia
+    total = k[9]
+    # M_w = I_O - (2 (S.d) 1 - S d^T - d S^T) + M (|d|^2 1 - d d^T), and G = S - M d
+    s_d = sx * dx + sy * dy + sz * dz
+    mdx, mdy, mdz = total * dx, total * dy, total * dz
+    diag = total * (dx * dx + dy * dy + dz * dz) - 2.0 * s_d
+    m_w = (
+        k[11] + lxx + diag + 2.0 * sx * dx - mdx * dx,
+        k[12] + lxy + sx * dy + dx * sy - mdx * dy,
+        k[13] + lxz + sx * dz + dx * sz - mdx * dz,
+        k[14] + lyy + diag + 2.0 * sy * dy - mdy * dy,
+        k[15] + lyz + sy * dz + dy * sz - mdy * dz,
+        k[16] + lzz + diag + 2.0 * sz * dz - mdz * dz,
+    )
+    return m_w, (sx - mdx, sy - mdy, sz - mdz)
+
+
+def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, kinematic: bool, record):
+    """The time derivative of the state at ``w[at + j * step]`` into ``w[out + j * step]`` (see the
+    module docstring). ``w[drive + m * step]`` is leg m's torque (N m, from the shell on the leg),
+    or with ``kinematic`` its prescribed acceleration (rad/s^2). ``w[scratch ...]`` holds 4 values a
+    leg while this runs. With ``record`` >= 0, the step record's values go to ``w[record + j * step]``:
+    each leg's torque (``kinematic``: the one its motion takes), the ground's force on the shell
+    in body coordinates (pivot: the joint's; Newton's second law for the whole robot with these
+    accelerations), its part along world up, its magnitude along the ground, and each leg tip's
+    height above the ground (2L + 5 values)."""
+    num_legs = len(layout)
+    qw, qx, qy, qz = w[at + 2 * step], w[at + 3 * step], w[at + 4 * step], w[at + 5 * step]
+    ox, oy, oz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
+    gravity, damping, rolling = k[5], k[6], k[4]
     xx, yy, zz, xy, xz, yz, wx, wy, wz = _rotation_products(qw, qx, qy, qz)
     nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
-
-    legs, inertia, (sx, sz), m_omega, (c1, c2) = _configuration(c[6], c[7], (nx, ny, nz), k)
-    ox, oy, oz = c[8], c[9], c[10]
-    w_x = (1.0 - yy - zz) * ox + (xy - wz) * oy + (xz + wy) * oz
-    w_y = (xy + wz) * ox + (1.0 - xx - zz) * oy + (yz - wx) * oz
+    (sx, sy, sz), (sdx, sdy, sdz), height = _shell((nx, ny, nz), (ox, oy, oz), k)
+    # the point the body turns about and its rate over the shell (0 for the pivot)
+    dx, dy, dz = rolling * sx, rolling * sy, rolling * sz
+    ddx, ddy, ddz = rolling * sdx, rolling * sdy, rolling * sdz
+    wdx, wdy, wdz = _cross(ox, oy, oz, ddx, ddy, ddz)  # Omega x ddot
+    o_sq = ox * ox + oy * oy + oz * oz
+    # Pass over the legs: the tips' inertia and first moment, each leg's coupling c_k and force
+    # (into the scratch rows), their Schur terms, and the tips' velocity-dependent terms.
+    lsx = lsy = lsz = lxx = lxy = lxz = lyy = lyz = lzz = 0.0
+    tx = ty = tz = bx = by = bz = 0.0  # sum m rho x b_leg, and sum m b_leg
+    rxx = rxy = rxz = ryy = ryz = rzz = fx = fy = fz = 0.0  # sum c c^T / D, and sum c f / D
+    for m in range(num_legs):
+        mass, inertia, (rx, ry, rz), (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
+        rate = w[at + (9 + num_legs + m) * step]
+        p_sq = px * px + py * py + pz * pz
+        lxx, lyy, lzz = lxx + mass * (p_sq - px * px), lyy + mass * (p_sq - py * py), lzz + mass * (p_sq - pz * pz)
+        lxy, lxz, lyz = lxy - mass * (px * py), lxz - mass * (px * pz), lyz - mass * (py * pz)
+        lsx, lsy, lsz = lsx + mass * px, lsy + mass * py, lsz + mass * pz
+        hx, hy, hz = px - dx, py - dy, pz - dz  # rho
+        c1, c2, c3 = _cross(hx, hy, hz, ex, ey, ez)
+        c1, c2, c3 = mass * c1, mass * c2, mass * c3
+        # b_leg = 2 phidot Omega x e - phidot^2 r
+        gx, gy, gz = _cross(ox, oy, oz, ex, ey, ez)
+        two_rate, rate_sq = 2.0 * rate, rate * rate
+        blx, bly, blz = two_rate * gx - rate_sq * rx, two_rate * gy - rate_sq * ry, two_rate * gz - rate_sq * rz
+        ux, uy, uz = _cross(hx, hy, hz, blx, bly, blz)
+        tx, ty, tz = tx + mass * ux, ty + mass * uy, tz + mass * uz
+        bx, by, bz = bx + mass * blx, by + mass * bly, bz + mass * blz
+        e_o = ex * ox + ey * oy + ez * oz
+        force = -mass * (gravity * (nx * ex + ny * ey + nz * ez) + e_o * (ox * hx + oy * hy + oz * hz)
+                         - (ex * hx + ey * hy + ez * hz) * o_sq - (ex * wdx + ey * wdy + ez * wdz))  # fmt: skip
+        w[scratch + 4 * m * step] = c1
+        w[scratch + (4 * m + 1) * step] = c2
+        w[scratch + (4 * m + 2) * step] = c3
+        drive_m = w[drive + m * step]
+        if kinematic:
+            w[scratch + (4 * m + 3) * step] = force
+            fx, fy, fz = fx + c1 * drive_m, fy + c2 * drive_m, fz + c3 * drive_m  # sum c phi''
+        else:
+            force = force + drive_m
+            w[scratch + (4 * m + 3) * step] = force
+            inv = 1.0 / inertia
+            h1, h2, h3 = c1 * inv, c2 * inv, c3 * inv
+            rxx, rxy, rxz = rxx + c1 * h1, rxy + c1 * h2, rxz + c1 * h3
+            ryy, ryz, rzz = ryy + c2 * h2, ryz + c2 * h3, rzz + c3 * h3
+            fx, fy, fz = fx + h1 * force, fy + h2 * force, fz + h3 * force
+    m_w, (gx, gy, gz) = _body(k, (dx, dy, dz), (lsx, lsy, lsz), (lxx, lxy, lxz, lyy, lyz, lzz))
+    # Omega rows: k Omega - g G x n - Omega x (M_w Omega) + G x (Omega x ddot) - sum m rho x b_leg
+    lx, ly, lz = _sym_apply(m_w, ox, oy, oz)
+    a1, a2, a3 = _cross(gx, gy, gz, nx, ny, nz)
+    j1, j2, j3 = _cross(ox, oy, oz, lx, ly, lz)
+    v1, v2, v3 = _cross(gx, gy, gz, wdx, wdy, wdz)
+    f0 = damping * ox - gravity * a1 - j1 + v1 - tx - fx
+    f1 = damping * oy - gravity * a2 - j2 + v2 - ty - fy
+    f2 = damping * oz - gravity * a3 - j3 + v3 - tz - fz
+    if kinematic:
+        od0, od1, od2 = _sym_solve(m_w, f0, f1, f2)
+    else:
+        m_red = (m_w[0] - rxx, m_w[1] - rxy, m_w[2] - rxz, m_w[3] - ryy, m_w[4] - ryz, m_w[5] - rzz)
+        od0, od1, od2 = _sym_solve(m_red, f0, f1, f2)
+    # the leg accelerations (kinematic: the torques their motion takes), and the rest of the derivative
+    ax = ay = az = 0.0  # sum m e phi''
+    for m in range(num_legs):
+        c1, c2, c3 = w[scratch + 4 * m * step], w[scratch + (4 * m + 1) * step], w[scratch + (4 * m + 2) * step]
+        force = w[scratch + (4 * m + 3) * step]
+        mass, inertia, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
+        c_od = c1 * od0 + c2 * od1 + c3 * od2
+        if kinematic:
+            accel = w[drive + m * step]
+            torque = inertia * accel + c_od - force
+        else:
+            accel = (force - c_od) / inertia
+            torque = w[drive + m * step]
+        w[out + (9 + num_legs + m) * step] = accel
+        w[out + (6 + m) * step] = w[at + (9 + num_legs + m) * step]
+        if record >= 0:
+            w[record + m * step] = torque
+            w[record + (5 + num_legs + m) * step] = height + (px * nx + py * ny + pz * nz)
+            ma = mass * accel
+            ax, ay, az = ax + ma * ex, ay + ma * ey, az + ma * ez
+    w[out + (6 + num_legs) * step] = od0
+    w[out + (7 + num_legs) * step] = od1
+    w[out + (8 + num_legs) * step] = od2
+    # the contact point on the ground: R sdot (rows 0 and 1 of R)
+    w[out] = (1.0 - yy - zz) * sdx + (xy - wz) * sdy + (xz + wy) * sdz
+    w[out + step] = (xy + wz) * sdx + (1.0 - xx - zz) * sdy + (yz - wx) * sdz
     # qdot = 1/2 q (x) (0, Omega) for a body-frame rate.
     hox, hoy, hoz = 0.5 * ox, 0.5 * oy, 0.5 * oz
-    dqw = -(qx * hox + qy * hoy + qz * hoz)
-    dqx = qw * hox + qy * hoz - qz * hoy
-    dqy = qw * hoy + qz * hox - qx * hoz
-    dqz = qw * hoz + qx * hoy - qy * hox
-
-    ixx, ixy, ixz, iyy, iyz, izz = inertia
-
-    # Generalised forces minus the velocity-dependent inertial terms, Omega rows:
-    # damping k Omega, gyroscopic -Omega x (I Omega), gravity -g S x n with S = (sx, 0, sz).
-    lx = ixx * ox + ixy * oy + ixz * oz
-    ly = ixy * ox + iyy * oy + iyz * oz
-    lz = ixz * ox + iyz * oy + izz * oz
-    gsx, gsz = g * sx, g * sz
-    f0 = damping * ox - (oy * lz - oz * ly) + gsz * ny
-    f1 = damping * oy - (oz * lx - ox * lz) + (gsx * nz - gsz * nx)
-    f2 = damping * oz - (ox * ly - oy * lx) - gsx * ny
-    n_omega = nx * ox + ny * oy + nz * oz
-    if h != 0.0:
-        # -h n x (Omega (Omega.S) - S |Omega|^2): the centre's acceleration about the turning point.
-        h_os = h * (ox * sx + oz * sz)
-        h_osq = h * (ox * ox + oy * oy + oz * oz)
-        vx, vy, vz = ox * h_os - sx * h_osq, oy * h_os, oz * h_os - sz * h_osq
-        f0 = f0 - (ny * vz - nz * vy)
-        f1 = f1 - (nz * vx - nx * vz)
-        f2 = f2 - (nx * vy - ny * vx)
-
-    # Each leg, with e = (-ls, 0, lc), p = (lc, p_y, ls), a = -(lc, 0, ls):
-    # Omega rows lose Ml s x b_rel, b_rel = 2 phidot Omega x e + phidot^2 a, where
-    # s x (Omega x e) = h (n.e) Omega - (s.Omega) e (as p.e = 0) and
-    # s x a = (-s_y ls, -h (n.e), s_y lc); the leg row gets
-    # e.(F - Ml b) = -Ml ((Omega.e)(Omega.p) + g n.e), since e.(Omega x (Omega x p)) = (Omega.e)(Omega.p).
-    (lc1, ls1, sy1), (lc2, ls2, sy2) = legs
-    r_oy = r * oy
-    ne1, ne2 = nz * lc1 - nx * ls1, nz * lc2 - nx * ls2
-    p_omega1, p_omega2 = lc1 * ox + ls1 * oz - r_oy, lc2 * ox + ls2 * oz + r_oy
-    f_leg1 = neg_ml * ((lc1 * oz - ls1 * ox) * p_omega1 + g * ne1)
-    f_leg2 = neg_ml * ((lc2 * oz - ls2 * ox) * p_omega2 + g * ne2)
-    a1, a2 = two_ml * rate1, two_ml * rate2
-    cc1, cc2 = ml * rate1 * rate1, ml * rate2 * rate2
-    if h != 0.0:
-        h_n_omega = h * n_omega
-        hne1, hne2 = h * ne1, h * ne2
-        a_hne = a1 * hne1 + a2 * hne2
-        d1 = a1 * (p_omega1 + h_n_omega) - cc1 * sy1
-        d2 = a2 * (p_omega2 + h_n_omega) - cc2 * sy2
-        f0 = f0 - (a_hne * ox + d1 * ls1 + d2 * ls2)
-        f1 = f1 - (a_hne * oy - (cc1 * hne1 + cc2 * hne2))
-        f2 = f2 - (a_hne * oz - (d1 * lc1 + d2 * lc2))
-    else:
-        d1 = a1 * p_omega1 - cc1 * sy1
-        d2 = a2 * p_omega2 - cc2 * sy2
-        f0 = f0 - (d1 * ls1 + d2 * ls2)
-        f2 = f2 + (d1 * lc1 + d2 * lc2)
-
-    c1x, c1y, c1z = c1
-    c2x, c2y, c2z = c2
-    if leg_accel is None:
-        # Schur complement of the diagonal leg block (Ml l^2 on each leg).
-        fl1, fl2 = f_leg1 + leg_torque[0], f_leg2 + leg_torque[1]
-        h1x, h1y, h1z = c1x * inv_d, c1y * inv_d, c1z * inv_d
-        h2x, h2y, h2z = c2x * inv_d, c2y * inv_d, c2z * inv_d
-        m_red = (
-            m_omega[0] - (c1x * h1x + c2x * h2x),
-            m_omega[1] - (c1x * h1y + c2x * h2y),
-            m_omega[2] - (c1x * h1z + c2x * h2z),
-            m_omega[3] - (c1y * h1y + c2y * h2y),
-            m_omega[4] - (c1y * h1z + c2y * h2z),
-            m_omega[5] - (c1z * h1z + c2z * h2z),
-        )
-        rhs = (f0 - (h1x * fl1 + h2x * fl2), f1 - (h1y * fl1 + h2y * fl2), f2 - (h1z * fl1 + h2z * fl2))
-        od0, od1, od2 = _sym_solve(m_red, rhs[0], rhs[1], rhs[2])
-        acc1 = fl1 * inv_d - (h1x * od0 + h1y * od1 + h1z * od2)
-        acc2 = fl2 * inv_d - (h2x * od0 + h2y * od1 + h2z * od2)
-    else:
-        acc1, acc2 = leg_accel[0], leg_accel[1]
-        od0, od1, od2 = _sym_solve(
-            m_omega, f0 - (c1x * acc1 + c2x * acc2), f1 - (c1y * acc1 + c2y * acc2), f2 - (c1z * acc1 + c2z * acc2)
-        )
-        if torque_out is not None:
-            torque_out[:] = (
-                inertia_leg * acc1 + (c1x * od0 + c1y * od1 + c1z * od2) - f_leg1,
-                inertia_leg * acc2 + (c2x * od0 + c2y * od1 + c2z * od2) - f_leg2,
-            )
-    if contact_out is not None:
-        contact_out[:] = _contact_force(
-            (nx, ny, nz), legs, (sx, sz), (ox, oy, oz), (rate1, rate2), (od0, od1, od2), (acc1, acc2),
-            r, ml, total_h, weight,
-        )  # fmt: skip
-    return (r * w_y, -r * w_x, dqw, dqx, dqy, dqz, rate1, rate2, od0, od1, od2, acc1, acc2)
-
-
-def _contact_force(n, legs, first_moment, omega, rates, omega_dot, leg_accels, r, ml, total_h, weight):
-    """Newton's second law for the whole robot: the force on the shell from the ground
-    (pivot: the joint) in body coordinates, its part along world up, and each leg tip's
-    height above the ground. See :func:`contact_kernel`; ``legs`` as :func:`_configuration`'s."""
-    nx, ny, nz = n
-    (lc1, ls1, _), (lc2, ls2, _) = legs
-    sx, sz = first_moment
-    ox, oy, oz = omega
-    dox, doy, doz = omega_dot
-    # Omega' x (m h n + S)
-    ax, ay, az = total_h * nx + sx, total_h * ny, total_h * nz + sz
-    fx = doy * az - doz * ay
-    fy = doz * ax - dox * az
-    fz = dox * ay - doy * ax
-    # Omega x (Omega x S) = Omega (Omega.S) - S |Omega|^2
-    o_s = ox * sx + oz * sz
-    o_sq = ox * ox + oy * oy + oz * oz
-    fx = fx + ox * o_s - sx * o_sq
-    fy = fy + oy * o_s
-    fz = fz + oz * o_s - sz * o_sq
-    # Each leg: Ml (e phi'' + 2 phi' Omega x e + a phi'^2), e = (-ls, 0, lc), a = -(lc, 0, ls).
-    (rate1, rate2), (acc1, acc2) = rates, leg_accels
-    two_rate1, two_rate2 = 2.0 * rate1, 2.0 * rate2
-    rate1_sq, rate2_sq = rate1 * rate1, rate2 * rate2
-    fx = fx + ml * (two_rate1 * (oy * lc1) - ls1 * acc1 - lc1 * rate1_sq)
-    fy = fy - ml * (two_rate1 * (oz * ls1 + ox * lc1))
-    fz = fz + ml * (lc1 * acc1 + two_rate1 * (oy * ls1) - ls1 * rate1_sq)
-    fx = fx + ml * (two_rate2 * (oy * lc2) - ls2 * acc2 - lc2 * rate2_sq)
-    fy = fy - ml * (two_rate2 * (oz * ls2 + ox * lc2))
-    fz = fz + ml * (lc2 * acc2 + two_rate2 * (oy * ls2) - ls2 * rate2_sq)
-    fx = fx + weight * nx
-    fy = fy + weight * ny
-    fz = fz + weight * nz
-    normal = fx * nx + fy * ny + fz * nz
-    clearance1 = r + lc1 * nx - r * ny + ls1 * nz
-    clearance2 = r + lc2 * nx + r * ny + ls2 * nz
-    return fx, fy, fz, normal, tangential_force(fx, fy, fz, normal), clearance1, clearance2
+    w[out + 2 * step] = -(qx * hox + qy * hoy + qz * hoz)
+    w[out + 3 * step] = qw * hox + qy * hoz - qz * hoy
+    w[out + 4 * step] = qw * hoy + qz * hox - qx * hoz
+    w[out + 5 * step] = qw * hoz + qx * hoy - qy * hox
+    if record >= 0:
+        # Newton: F = Omega' x G + Omega x (Omega x G) - M Omega x ddot + sum m (e phi'' + b_leg) + M g n
+        total, weight = k[9], k[10]
+        p1, p2, p3 = _cross(od0, od1, od2, gx, gy, gz)
+        q1, q2, q3 = _cross(ox, oy, oz, gx, gy, gz)
+        r1, r2, r3 = _cross(ox, oy, oz, q1, q2, q3)
+        force_x = p1 + r1 - total * wdx + ax + bx + weight * nx
+        force_y = p2 + r2 - total * wdy + ay + by + weight * ny
+        force_z = p3 + r3 - total * wdz + az + bz + weight * nz
+        normal = force_x * nx + force_y * ny + force_z * nz
+        w[record + num_legs * step] = force_x
+        w[record + (num_legs + 1) * step] = force_y
+        w[record + (num_legs + 2) * step] = force_z
+        w[record + (num_legs + 3) * step] = normal
+        w[record + (num_legs + 4) * step] = tangential_force(force_x, force_y, force_z, normal)
 
 
 def tangential_force(fx, fy, fz, normal):
     """The part of a force (fx, fy, fz) along the ground, sqrt(|F|^2 - normal^2), given its part
     ``normal`` along world up (0 where rounding makes the square negative); floats or arrays.
-    What the step record holds (:func:`contact_kernel`), and what a record made by hand is given."""
+    What the step record holds (:func:`derivative_kernel`), and what a record made by hand is given."""
     along_sq = fx * fx + fy * fy + fz * fz - normal * normal
     if isinstance(along_sq, float):
         return math.sqrt(along_sq) if not along_sq < 0.0 else 0.0
     return np.sqrt(np.maximum(along_sq, 0.0))
 
 
-class ContactConstants(NamedTuple):
-    """What :func:`contact_kernel` needs of a configuration (made by :func:`contact_constants`)."""
-
-    radius: float  # m
-    leg_length: float  # m
-    mass_tip: float  # kg
-    depth: float  # m, h
-    gravity: float  # m/s^2
-    total_mass: float  # kg
-    mb_r: float  # kg m, Mb r
-
-
-def contact_constants(params: RobotParams, depth: float) -> ContactConstants:
-    return ContactConstants(
-        params.radius, params.leg_length, params.mass_tip, float(depth), params.gravity,
-        params.total_mass, params.mass_bottom * params.radius,
-    )  # fmt: skip
-
-
-def contact_kernel(c, d, k: ContactConstants):
-    """The ground's force on the shell and the legs' clearance, from a state and its derivative.
-
-    ``c`` and ``d`` are the 13 state and derivative components (floats or (N,) arrays; ``d``
-    from :func:`derivative_kernel` with the torques that acted). Newton's second law for the
-    whole robot gives the force the ground (pivot model: the spherical joint) applies to
-    the shell, body coordinates: F = m a_com + m g n, with
-
-        m a_com = Omega' x (m h n + S) + Omega x (Omega x S)
-                  + sum_k Ml (e_k phi_k'' + 2 phi_k' Omega x e_k + a_k phi_k'^2)
-
-    (S = sum m p, the first moment about the centre; S_y = 0). Kinematics only: the
-    accelerations are the derivative's, so this is no second copy of the dynamics.
-
-    Returns (F_x, F_y, F_z, normal, tangential, clearance_1, clearance_2): body-frame force
-    (N), its component along world up (N), its magnitude along the ground (N, the grip rolling
-    needs), and each leg tip's height above the ground (m).
-    """
-    qw, qx, qy, qz = c[2], c[3], c[4], c[5]
-    l, ml = k.leg_length, k.mass_tip
-    two_over_norm = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-    tqx, tqy, tqz = qx * two_over_norm, qy * two_over_norm, qz * two_over_norm
-    # n as derivative_kernel forms it, product for product: the record it makes is this function's
-    n = (qx * tqz - qw * tqy, qy * tqz + qw * tqx, 1.0 - (qx * tqx + qy * tqy))
-    cos1, sin1, cos2, sin2 = _leg_trig(c[6], c[7])
-    lc1, ls1, lc2, ls2 = l * cos1, l * sin1, l * cos2, l * sin2
-    first_moment = (ml * (lc1 + lc2), ml * (ls1 + ls2) - k.mb_r)
-    return _contact_force(
-        n, ((lc1, ls1, None), (lc2, ls2, None)), first_moment, (c[8], c[9], c[10]), (c[11], c[12]),
-        (d[8], d[9], d[10]), (d[11], d[12]), k.radius, ml, k.total_mass * k.depth, k.total_mass * k.gravity,
-    )  # fmt: skip
-
-
-KERNELS = (_leg_trig, _rotation_products, _configuration, _sym_cofactors, _sym_apply, _sym_solve,
-           tangential_force, _contact_force, derivative_kernel, contact_kernel)
+KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, tangential_force,
+           derivative_kernel)  # fmt: skip
 """The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
 :data:`rrrobot_gym.numerics.KERNELS`)."""
 
 
-def state_derivative(c, leg_torque, params: RobotParams, depth: float, leg_accel=None):
+def kernel_work(num_legs: int):
+    """(size, at, out, drive, scratch, record) of a work list for :func:`derivative_kernel` with step 1:
+    the state, the derivative, the legs' drive, the scratch and the record, one after another."""
+    n = 9 + 2 * num_legs
+    return 2 * n + 7 * num_legs + 5, 0, n, 2 * n, 2 * n + num_legs, 2 * n + 5 * num_legs
+
+
+def state_derivative(c, leg_drive, params: RobotParams, model: str, kinematic: bool = False, record: bool = False):
     """Time derivative of a state, in components.
 
     Args:
-        c: the 13 state components (layout :data:`STATE_FIELDS`), floats or (N,) arrays.
-        leg_torque: (tau_1, tau_2), N m, joint torques from the shell on each leg.
-            Ignored when ``leg_accel`` is given.
-        params: the robot.
-        depth: h, m, from :func:`rrrobot_gym.params.rotation_point_depth`.
-        leg_accel: optional (phi_1ddot, phi_2ddot), rad/s^2: prescribe the legs'
-            motion (kinematic legs) instead of integrating their servo dynamics.
+        c: the 9 + 2L state components (layout :func:`state_fields`), floats or (N,) arrays.
+        leg_drive: L numbers or (N,) arrays: the joint torques from the shell on each leg (N m), or
+            with ``kinematic`` the legs' prescribed accelerations (rad/s^2).
+        params: the robot; model: "plane" or "pivot".
+        record: also return the step record's values (:func:`derivative_kernel`).
 
     Returns:
-        The 13 derivative components, in the same layout.
+        The derivative components, in the same layout (and the record's, if asked).
     """
-    return derivative_kernel(c, leg_torque, constants(params, depth), leg_accel)
+    size, at, out, drive, scratch, rec = kernel_work(params.num_legs)
+    w = [0.0] * size
+    w[at:out] = list(c)
+    w[drive:drive + params.num_legs] = list(leg_drive)
+    derivative_kernel(w, at, out, 1, constants(params, model), leg_layout(params), drive, scratch, kinematic,
+                      rec if record else -1)  # fmt: skip
+    derivative = w[out:drive]
+    return (derivative, w[rec:]) if record else derivative
 
 
-def energy_components(c, params: RobotParams, depth: float):
-    """Kinetic and potential energy (J), with the centre at height r in both models."""
-    k = constants(params, depth)
-    ox, oy, oz = c[8], c[9], c[10]
-    n = _up_vector(c[2], c[3], c[4], c[5])
-    _, _, (sx, sz), mo, (c1, c2) = _configuration(c[6], c[7], n, k)
+def energy_components(c, params: RobotParams, model: str):
+    """Kinetic and potential energy (J) of state components ``c``: the centre at its height over
+    the ground on a plane, at the shell's upright height c pivoting (a sphere: r in both)."""
+    k, layout = constants(params, model), leg_layout(params)
+    num_legs = len(layout)
+    mass_w, couplings, inertias, first_moment, height = _configuration(c, k, layout)
+    ox, oy, oz = c[6 + num_legs], c[7 + num_legs], c[8 + num_legs]
+    mo = mass_w
     kinetic = 0.5 * (
         mo[0] * ox * ox + mo[3] * oy * oy + mo[5] * oz * oz
         + 2.0 * (mo[1] * ox * oy + mo[2] * ox * oz + mo[4] * oy * oz)
     )  # fmt: skip
-    kinetic = kinetic + c[11] * (c1[0] * ox + c1[1] * oy + c1[2] * oz)
-    kinetic = kinetic + c[12] * (c2[0] * ox + c2[1] * oy + c2[2] * oz)
-    kinetic = kinetic + 0.5 * k.leg_inertia * (c[11] * c[11] + c[12] * c[12])
-    potential = params.gravity * (params.total_mass * params.radius + sx * n[0] + sz * n[2])
+    for m in range(num_legs):
+        rate = c[9 + num_legs + m]
+        cx, cy, cz = couplings[m]
+        kinetic = kinetic + rate * (cx * ox + cy * oy + cz * oz) + 0.5 * inertias[m] * rate * rate
+    n = _up_vector(c[2], c[3], c[4], c[5])
+    centre = height if k.rolling else k.pole
+    potential = k.gravity * (k.total_mass * centre + first_moment[0] * n[0] + first_moment[1] * n[1] + first_moment[2] * n[2])
     return kinetic, potential
 
 
+def _up_vector(qw, qx, qy, qz):
+    """n = R^T z (world up in body coordinates), the third row of R."""
+    tqx, tqy, tqz = qx + qx, qy + qy, qz + qz
+    return qx * tqz - qw * tqy, qy * tqz + qw * tqx, 1.0 - (qx * tqx + qy * tqy)
+
+
+def _configuration(c, k, layout):
+    """(M_w, each leg's c_k, each leg's D_k, S (about the centre), the centre's height) of state
+    components ``c``: the mass matrix's parts, for the energy and :func:`mass_matrix`."""
+    num_legs = len(layout)
+    n = _up_vector(c[2], c[3], c[4], c[5])
+    omega = (c[6 + num_legs], c[7 + num_legs], c[8 + num_legs])
+    s, _, height = _shell(n, omega, k)
+    d = (k.rolling * s[0], k.rolling * s[1], k.rolling * s[2])
+    first, inertia = [0.0, 0.0, 0.0], [0.0] * 6
+    couplings, inertias = [], []
+    for m in range(num_legs):
+        mass, leg_inertia, _, (px, py, pz), e = _leg(layout[m], c[6 + m], k)
+        p_sq = px * px + py * py + pz * pz
+        for i, v in enumerate((p_sq - px * px, -px * py, -px * pz, p_sq - py * py, -py * pz, p_sq - pz * pz)):
+            inertia[i] = inertia[i] + mass * v
+        first = [first[0] + mass * px, first[1] + mass * py, first[2] + mass * pz]
+        cx, cy, cz = _cross(px - d[0], py - d[1], pz - d[2], *e)
+        couplings.append((mass * cx, mass * cy, mass * cz))
+        inertias.append(leg_inertia)
+    mass_w, _ = _body(k, d, first, inertia)
+    centre_moment = (k.sx + first[0], k.sy + first[1], k.sz + first[2])
+    return mass_w, couplings, inertias, centre_moment, height
+
+
 # ---------------------------------------------------------------------------
-# Array helpers: states shaped (..., 13), leading axes are batch axes.
+# Array helpers: states shaped (..., 9 + 2L), leading axes are batch axes.
 
 
 def _shaped(values, size: int, what: str) -> np.ndarray:
@@ -551,42 +536,53 @@ def _unit_quaternions(quat, what: str) -> np.ndarray:
     return quat
 
 
-def _states(state, what: str = "state") -> np.ndarray:
-    """States (..., 13), their quaternions checked (:func:`_unit_quaternions`)."""
-    state = _shaped(state, STATE_SIZE, what)
+def legs_of(size: int) -> int:
+    """The number of legs of a state of ``size`` numbers (9 + 2L), or a ValueError."""
+    legs = (int(size) - 9) // 2
+    if 9 + 2 * legs != size or not 1 <= legs <= MAX_LEGS:
+        raise ValueError(f"a state has 9 + 2L numbers for L = 1 to {MAX_LEGS} legs, got {size}")
+    return legs
+
+
+def _states(state, what: str = "state", num_legs: int | None = None) -> np.ndarray:
+    """States (..., 9 + 2L), their quaternions checked (:func:`_unit_quaternions`): L = ``num_legs``,
+    or any the last axis gives."""
+    if num_legs is None:
+        state = np.asarray(state, dtype=float) if not isinstance(state, np.ndarray) else state
+        num_legs = legs_of(state.shape[-1]) if state.ndim else 2
+    state = _shaped(state, 9 + 2 * num_legs, what)
     _unit_quaternions(state[..., QUAT], f"{what}'s entries 2:6")
     return state
 
 
 def _components(state):
-    """View a (..., 13) state as a list of 13 component arrays."""
-    return [state[..., i] for i in range(STATE_SIZE)]
+    """View a (..., 9 + 2L) state as a list of its component arrays."""
+    return [state[..., i] for i in range(state.shape[-1])]
 
 
 def mass_matrix(state, params: RobotParams, model: str):
-    """The 5x5 generalised mass matrix for the speeds (Omega, phi_1dot, phi_2dot), shape (..., 5, 5)."""
-    state = _states(state)
-    comps = _components(state)
-    k = constants(params, rotation_point_depth(model, params))
-    n = _up_vector(comps[2], comps[3], comps[4], comps[5])
-    _, _, _, m_omega, coupling = _configuration(comps[6], comps[7], n, k)
-    out = np.zeros(state.shape[:-1] + (5, 5))
+    """The generalised mass matrix for the speeds (Omega, phidot_1 .. phidot_L), shape (..., 3 + L, 3 + L)."""
+    state = _states(state, num_legs=params.num_legs)
+    k, layout = constants(params, model), leg_layout(params)
+    mass_w, couplings, inertias, _, _ = _configuration(_components(state), k, layout)
+    size = 3 + params.num_legs
+    out = np.zeros(state.shape[:-1] + (size, size))
     idx = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-    for (i, j), v in zip(idx, m_omega):
+    for (i, j), v in zip(idx, mass_w):
         out[..., i, j] = v
         out[..., j, i] = v
-    for k_leg in range(2):
+    for m, (coupling, inertia) in enumerate(zip(couplings, inertias)):
         for i in range(3):
-            out[..., i, 3 + k_leg] = coupling[k_leg][i]
-            out[..., 3 + k_leg, i] = coupling[k_leg][i]
-        out[..., 3 + k_leg, 3 + k_leg] = k.leg_inertia
+            out[..., i, 3 + m] = coupling[i]
+            out[..., 3 + m, i] = coupling[i]
+        out[..., 3 + m, 3 + m] = inertia
     return out
 
 
 def total_energy(state, params: RobotParams, model: str):
     """Kinetic plus potential energy (J) of each robot, shape (...)."""
-    state = _states(state)
-    kin, pot = energy_components(_components(state), params, rotation_point_depth(model, params))
+    state = _states(state, num_legs=params.num_legs)
+    kin, pot = energy_components(_components(state), params, model)
     return np.asarray(kin + pot)
 
 
@@ -633,9 +629,10 @@ def quat_multiply(p, q):
 
 
 def world_body_rate(state):
-    """World-frame angular velocity w = R Omega, shape (..., 3), rad/s."""
+    """World-frame angular velocity w = R Omega, shape (..., 3), rad/s, of states (..., 9 + 2L)."""
     state = _states(state)
-    return np.einsum("...ij,...j->...i", rotation_matrix(state[..., QUAT]), state[..., BODY_RATE])
+    rate = state_fields(legs_of(state.shape[-1])).body_rate
+    return np.einsum("...ij,...j->...i", rotation_matrix(state[..., QUAT]), state[..., rate])
 
 
 def tilt(state):
@@ -650,23 +647,62 @@ TILT_LIMIT = 0.5 * math.pi
 """rad: at this tilt the hemisphere's rim touches the ground and the rolling model ends."""
 
 
-MIRROR_STATE_SIGNS = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0, 1.0, -1.0, 1.0, 1.0])
-"""Signs of the state's entries under :func:`mirror_states` (after the legs are exchanged)."""
+def mirror_legs(params: RobotParams | None = None):
+    """How the mirror image in the body's x-z plane (y -> -y) maps the robot's legs onto each other:
+    a tuple, for each leg k, of (the leg j its mirror image is, whether it is flipped), or None where
+    the robot has no such symmetry. Leg j is leg k's image if its hinge and swing plane are leg
+    k's mirrored (and its length and masses equal): ``zero`` mirrored to j's (phi_j = phi_k) or to
+    its opposite (flipped: phi_j = pi - phi_k), ``up`` mirrored to j's. The shell, the bottom mass,
+    gravity and the ground are symmetric already. The paper's robot: ((1, False), (0, False))."""
+    params = RobotParams() if params is None else params
+    mirrored = [((h[0], -h[1], h[2]), (u[0], -u[1], u[2]), (v[0], -v[1], v[2]))
+                for h, u, v in ((leg.hinge, leg.zero, leg.up) for leg in params.legs)]  # fmt: skip
+    sizes = list(zip(params.leg_lengths, params.leg_masses))
+
+    def close(a, b):
+        return all(abs(x - y) <= 1e-12 * (1.0 + abs(x)) for x, y in zip(a, b))
+
+    out = []
+    for k, (hinge, zero, up) in enumerate(mirrored):
+        for j, leg in enumerate(params.legs):
+            if sizes[j] != sizes[k] or not (close(leg.hinge, hinge) and close(leg.up, up)):
+                continue
+            if close(leg.zero, zero):
+                out.append((j, False))
+                break
+            if close(leg.zero, tuple(-x for x in zero)):
+                out.append((j, True))
+                break
+        else:
+            return None
+    return tuple(out)
 
 
-def mirror_states(states):
-    """The mirror images of states (..., 13) in the world's x-z plane (y -> -y).
+def mirror_states(states, params: RobotParams | None = None):
+    """The mirror images of states (..., 9 + 2L) in the world's x-z plane (y -> -y), for a robot with
+    that symmetry (:func:`mirror_legs`; the paper's by default).
 
-    The robot is symmetric in its own x-z plane once its legs are exchanged (leg 1's pin is
-    at y = -r, leg 2's at +r, both turning about the body y axis), and so are gravity, the
-    ground and the damping; so the mirror image of a motion is a motion, with each leg
-    driven as its twin was. The contact point's y changes sign; the attitude R becomes
-    M R M (M = diag(1, -1, 1)): the quaternion's x and z change sign; the body rate, a
-    pseudovector, becomes -M w (x and z change sign); the leg angles and rates are
-    exchanged, unchanged in value.
+    Gravity, the ground and the damping are symmetric, and so is the robot once its legs are
+    mapped onto their images; so the mirror image of a motion is a motion, with each leg driven
+    as its image was. The contact point's y changes sign; the attitude R becomes M R M
+    (M = diag(1, -1, 1)): the quaternion's x and z change sign; the body rate, a pseudovector,
+    becomes -M w (x and z change sign); each leg takes its image's angle and rate (a flipped one:
+    pi - angle, -rate).
     """
-    states = _shaped(states, STATE_SIZE, "states")
-    out = states * MIRROR_STATE_SIGNS
-    out[..., LEG_ANGLES] = states[..., LEG_ANGLES][..., ::-1]
-    out[..., LEG_RATES] = states[..., LEG_RATES][..., ::-1]
+    params = RobotParams() if params is None else params
+    legs = mirror_legs(params)
+    if legs is None:
+        raise ValueError(f"this robot has no mirror symmetry in its x-z plane (its legs are not placed in mirrored "
+                         f"pairs): {params.legs}")
+    fields = state_fields(params.num_legs)
+    states = _shaped(states, fields.size, "states")
+    out = states.copy()
+    out[..., 1] = -states[..., 1]
+    out[..., 3], out[..., 5] = -states[..., 3], -states[..., 5]
+    rate = fields.body_rate.start
+    out[..., rate], out[..., rate + 2] = -states[..., rate], -states[..., rate + 2]
+    angle, leg_rate = fields.leg_angles.start, fields.leg_rates.start
+    for k, (j, flipped) in enumerate(legs):
+        out[..., angle + j] = math.pi - states[..., angle + k] if flipped else states[..., angle + k]
+        out[..., leg_rate + j] = -states[..., leg_rate + k] if flipped else states[..., leg_rate + k]
     return out

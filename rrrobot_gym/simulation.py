@@ -9,9 +9,10 @@ Options that skip work a scene does not need (``SimConfig``): ``legs="kinematic"
 ``timestep="auto"`` (a step derived from the gains, masses and model). A step beyond
 the servo's stability limit is refused at construction.
 
-States are arrays shaped (13,) for one robot or (N, 13) for a batch (layout in
-:data:`rrrobot_gym.dynamics.STATE_FIELDS`). The numpy backend steps a list of 13 components:
-Python floats for one robot (several times faster than numpy at N = 1), (N,) arrays for a batch.
+States are arrays shaped (9 + 2L,) for one robot of L legs or (N, 9 + 2L) for a batch (layout
+:func:`rrrobot_gym.dynamics.state_fields`; 13 numbers for the paper's two legs). The numpy backend
+steps a list of components: Python floats for one robot (several times faster than numpy at N = 1),
+(N,) arrays for a batch.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 from . import compiled, dynamics
 from .control import limit_torque, pd_torque
 from .integrators import INTEGRATORS
-from .params import PDGains, RobotParams, check_model, real_number, rotation_point_depth, whole_number
+from .params import MAX_LEGS, PDGains, RobotParams, check_model, real_number, whole_number
 
 LEG_MODES = ("servo", "kinematic")
 """How the legs move (``SimConfig.legs``): "servo" integrates the PD servo with the
@@ -136,38 +137,42 @@ class SimConfig:
         return self._step
 
     @property
-    def depth(self) -> float:
-        """m, h: depth of the point the body turns about (r on a plane, 0 pivoting)."""
-        return rotation_point_depth(self.model, self.robot)
+    def fields(self) -> dynamics.StateFields:
+        """The layout of this robot's states (:func:`rrrobot_gym.dynamics.state_fields`)."""
+        return dynamics.state_fields(self.robot.num_legs)
 
 
 class NumericalFailure(RuntimeError):
     """The integration produced a non-finite state (the step was too large for the scene)."""
 
 
-def initial_state(num_robots: int | None = None, leg_angles=(0.5 * math.pi, 0.5 * math.pi)):
-    """The paper's start: at rest at the origin, upright, legs at ``leg_angles`` (vertical).
+def initial_state(num_robots: int | None = None, leg_angles=None, num_legs: int = 2):
+    """The paper's start: at rest at the origin, upright, legs at ``leg_angles`` (None: every one
+    of ``num_legs`` vertical, pi/2).
 
-    Returns shape (13,) when ``num_robots`` is None, else (num_robots, 13).
+    Returns shape (9 + 2L,) when ``num_robots`` is None, else (num_robots, 9 + 2L).
     """
+    if leg_angles is None:
+        leg_angles = (0.5 * math.pi,) * whole_number("num_legs", num_legs)
     try:
         angles = np.array(leg_angles, dtype=float)
     except (TypeError, ValueError):
-        raise TypeError(f"leg_angles must be two numbers (rad), got {leg_angles!r}") from None
-    if angles.shape != (2,):
-        raise ValueError(f"leg_angles must be two numbers (rad), got shape {angles.shape}")
+        raise TypeError(f"leg_angles must be one number a leg (rad), got {leg_angles!r}") from None
+    if angles.ndim != 1 or not 1 <= len(angles) <= MAX_LEGS:
+        raise ValueError(f"leg_angles must be one number a leg (rad), got shape {angles.shape}")
     if not np.all(np.isfinite(angles)):
         raise ValueError(f"leg_angles must be finite, got {leg_angles!r}")
-    state = np.zeros(dynamics.STATE_SIZE)
-    state[dynamics.QUAT] = (1.0, 0.0, 0.0, 0.0)
-    state[dynamics.LEG_ANGLES] = angles
+    fields = dynamics.state_fields(len(angles))
+    state = np.zeros(fields.size)
+    state[fields.quat] = (1.0, 0.0, 0.0, 0.0)
+    state[fields.leg_angles] = angles
     if num_robots is None:
         return state
     return np.tile(state, (whole_number("num_robots", num_robots), 1))
 
 
-def check_state(state):
-    """Validate a state array and return it as float64 with unit quaternions.
+def check_state(state, num_legs: int = 2):
+    """Validate a state array of a robot of ``num_legs`` legs and return it as float64 with unit quaternions.
 
     Raises ValueError naming the problem: a wrong shape, NaN/inf, or a quaternion
     that is too far from unit length to be one (a norm outside [0.5, 2]).
@@ -176,8 +181,10 @@ def check_state(state):
         arr = np.array(state, dtype=float)
     except (TypeError, ValueError):
         raise TypeError("state must be an array of numbers") from None
-    if arr.ndim not in (1, 2) or arr.shape[-1] != dynamics.STATE_SIZE:
-        raise ValueError(f"state must have shape (13,) or (N, 13), got {arr.shape}")
+    size = dynamics.state_fields(num_legs).size
+    if arr.ndim not in (1, 2) or arr.shape[-1] != size:
+        legs = f" ({num_legs} legs)" if num_legs != 2 else ""
+        raise ValueError(f"state must have shape ({size},) or (N, {size}){legs}, got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError("state contains NaN or inf")
     norm = np.linalg.norm(arr[..., dynamics.QUAT], axis=-1)
@@ -193,7 +200,7 @@ def check_state(state):
 
 
 def _regular(mass) -> np.ndarray:
-    """(K,) bool: which of the finite mass matrices (K, 5, 5) are regular, their least eigenvalue
+    """(K,) bool: which of the finite mass matrices (K, 3 + L, 3 + L) are regular, their least eigenvalue
     above 1e-9 of their largest (a singular one: some motion moves no mass)."""
     eig = np.linalg.eigvalsh(mass)
     return eig[:, 0] > 1e-9 * eig[:, -1]
@@ -208,15 +215,18 @@ def _effective_leg_inverse_inertia(model: str, robot: RobotParams) -> float:
     a quarter of it). The maximum sits on a grid of tilts (up to the limit) and leg angles.
     """
     angles = np.linspace(-math.pi, math.pi, 13)
-    tilts = np.linspace(0.0, dynamics.TILT_LIMIT, 7)
-    phi1, phi2, tilt_angle, axis_angle = np.meshgrid(angles, angles, tilts, np.linspace(0, math.pi, 5), indexing="ij")
-    states = np.zeros(phi1.shape + (dynamics.STATE_SIZE,))
-    states[..., 2] = np.cos(0.5 * tilt_angle)
-    states[..., 3] = np.sin(0.5 * tilt_angle) * np.cos(axis_angle)
-    states[..., 4] = np.sin(0.5 * tilt_angle) * np.sin(axis_angle)
-    states[..., 6], states[..., 7] = phi1, phi2
+    legs, fields = robot.num_legs, dynamics.state_fields(robot.num_legs)
+    # every combination of the grid's leg angles up to two legs; from three, 600 drawn (seeded) combinations
+    combos = np.stack(np.meshgrid(*[angles] * legs, indexing="ij"), -1).reshape(-1, legs) if legs <= 2 else (
+        np.random.default_rng(0).choice(angles, size=(600, legs)))  # fmt: skip
+    tilts, axes = np.meshgrid(np.linspace(0.0, dynamics.TILT_LIMIT, 7), np.linspace(0, math.pi, 5), indexing="ij")
+    states = np.zeros((len(combos), tilts.size, fields.size))
+    states[..., 2] = np.cos(0.5 * tilts.ravel())
+    states[..., 3] = np.sin(0.5 * tilts.ravel()) * np.cos(axes.ravel())
+    states[..., 4] = np.sin(0.5 * tilts.ravel()) * np.sin(axes.ravel())
+    states[..., fields.leg_angles] = combos[:, None, :]
     with np.errstate(over="ignore", invalid="ignore"):
-        mass = dynamics.mass_matrix(states.reshape(-1, dynamics.STATE_SIZE), robot, model)
+        mass = dynamics.mass_matrix(states.reshape(-1, fields.size), robot, model)
     if not np.all(np.isfinite(mass)):  # (eigvalsh would fail on it as "did not converge")
         raise ValueError(
             f"the generalised mass matrix of {robot} ({model} model) overflows: masses times lengths squared "
@@ -329,104 +339,90 @@ class SmoothStart:
             raise ValueError(f"blend_time must be a positive number of seconds, got {blend_time}")
         self.targets = targets
         self.t_start = float(t_start)
-        (a1, a2), (r1, r2), _ = targets.leg_targets(self.t_start)
-        self._coeffs = (
-            _blend_coefficients(leg_angles[0] - a1, leg_rates[0] - r1, blend_time),
-            _blend_coefficients(leg_angles[1] - a2, leg_rates[1] - r2, blend_time),
-        )
+        angles, rates, _ = targets.leg_targets(self.t_start)
+        self._coeffs = tuple(_blend_coefficients(phi - a, rate - r, blend_time)
+                             for phi, rate, a, r in zip(leg_angles, leg_rates, angles, rates))  # fmt: skip
 
     def leg_targets(self, t):
-        (a1, a2), (r1, r2), (c1, c2) = self.targets.leg_targets(t)
-        s = t - self.t_start
-        b1, v1, acc1 = _blend(self._coeffs[0], s)
-        b2, v2, acc2 = _blend(self._coeffs[1], s)
-        return (a1 + b1, a2 + b2), (r1 + v1, r2 + v2), (c1 + acc1, c2 + acc2)
+        blends = [_blend(coeffs, t - self.t_start) for coeffs in self._coeffs]
+        return tuple(tuple(v + b[j] for v, b in zip(values, blends)) for j, values in enumerate(self.targets.leg_targets(t)))
 
 
 # ---------------------------------------------------------------------------
 # Fixed-step integration.
 
 def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
-    """(f, first) for components c (floats or (N,) arrays): f(t, c) -> 13 derivative
-    components; first(t, c, contact_out=None) -> (the same, the two leg torques applied),
-    filling ``contact_out`` when asked (:func:`rrrobot_gym.dynamics.derivative_kernel`).
+    """(f, first) for components c (floats or (N,) arrays): f(t, c) -> the derivative's
+    components; first(t, c) -> (the same, the record's values of this state: the kernel's, then
+    the leg rates, :func:`rrrobot_gym.compiled.record_rows` in all).
 
     The steppers call ``first`` (through the recorder) at the start of every substep and ``f``
     at the other stages, so the torques the integrator applied come from the evaluation it
-    makes anyway. ``blend`` = (t0, coeffs1, coeffs2) adds a transition path to the targets
-    (kinematic legs). ``scene`` = (constants, contact constants, gains, torque limit, rate limit)
-    replaces the config's (per-robot parameters, :func:`_robot_scene`).
+    makes anyway (:func:`rrrobot_gym.dynamics.derivative_kernel`). ``blend`` = (t0, one set of
+    coefficients a leg) adds a transition path to the targets (kinematic legs). ``scene`` =
+    (constants, gains, torque limit, rate limit) replaces the config's (per-robot parameters,
+    :func:`_robot_scene`).
     """
     if scene is None:
-        k = dynamics.constants(config.robot, config.depth)
+        k = dynamics.constants(config.robot, config.model)
         gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
     else:
-        k, _, gains, torque_limit, rate_limit = scene
+        k, gains, torque_limit, rate_limit = scene
+    layout = dynamics.leg_layout(config.robot)
+    legs = len(layout)
+    size, at, out, drive, scratch, record = dynamics.kernel_work(legs)
     kernel = dynamics.derivative_kernel
     leg_targets = targets.leg_targets
-    if config.legs == "kinematic":
-        if blend is None:
+    kinematic = config.legs == "kinematic"
+    rates = slice(9 + legs, 9 + 2 * legs)
 
-            def accel(t):
-                return leg_targets(t)[2]
+    if kinematic:
 
-        else:
-            t_blend, coeffs1, coeffs2 = blend
-
-            def accel(t):
-                acc1, acc2 = leg_targets(t)[2]
-                s = t - t_blend
-                return acc1 + _blend(coeffs1, s)[2], acc2 + _blend(coeffs2, s)[2]
-
-        def f(t, c):
-            return kernel(c, None, k, accel(t))
-
-        def first(t, c, contact_out=None):
-            torque = [0.0, 0.0]
-            return kernel(c, None, k, accel(t), torque, contact_out), tuple(torque)
-
-        return f, first
-
-    if torque_limit is None:
-
-        def torque(t, c):
-            return pd_torque(gains, (c[6], c[7]), (c[11], c[12]), leg_targets(t))
+        def driving(t, c):  # the legs' prescribed accelerations
+            accels = leg_targets(t)[2]
+            if blend is None:
+                return accels
+            return [a + _blend(coeffs, t - blend[0])[2] for a, coeffs in zip(accels, blend[1])]
 
     else:
 
-        def torque(t, c):
-            rates = (c[11], c[12])
-            return limit_torque(pd_torque(gains, (c[6], c[7]), rates, leg_targets(t)), rates, torque_limit, rate_limit)
+        def driving(t, c):  # the servo's torques
+            torques = pd_torque(gains, c[6 : 6 + legs], c[rates], leg_targets(t))
+            return torques if torque_limit is None else limit_torque(torques, c[rates], torque_limit, rate_limit)
 
     def f(t, c):
-        return kernel(c, torque(t, c), k)
+        w = [*c, *([0.0] * n_rest)]
+        w[drive : drive + legs] = driving(t, c)
+        kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, -1)
+        return w[out:drive]
 
-    def first(t, c, contact_out=None):
-        applied = torque(t, c)
-        return kernel(c, applied, k, None, None, contact_out), applied
+    def first(t, c):
+        w = [*c, *([0.0] * n_rest)]
+        w[drive : drive + legs] = driving(t, c)
+        kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, record)
+        return w[out:drive], [*w[record:], *c[rates]]
 
+    n_rest = size - (9 + 2 * legs)
     return f, first
 
 
 def _derivative_fn(config: SimConfig, targets):
-    """f(t, y) for a component-first state y: shape (13,) (one robot) or (13, N), as an array."""
+    """f(t, y) for a component-first state y: shape (9 + 2L,) (one robot) or (9 + 2L, N), as an array."""
     f, _ = _stage_fns(config, targets)
 
     def g(t, y):
-        return np.array(f(t, y.tolist() if y.ndim == 1 else y))
+        return np.array(f(t, y.tolist() if y.ndim == 1 else list(y)))
 
     return g
 
 
 def _leg_path_end(targets, blend, t_end):
     """Leg angles and rates of the kinematic path at t_end: where the legs must be."""
-    (a1, a2), (r1, r2), _ = targets.leg_targets(t_end)
-    if blend is not None:
-        t_blend, coeffs1, coeffs2 = blend
-        b1, v1, _ = _blend(coeffs1, t_end - t_blend)
-        b2, v2, _ = _blend(coeffs2, t_end - t_blend)
-        a1, a2, r1, r2 = a1 + b1, a2 + b2, r1 + v1, r2 + v2
-    return a1, a2, r1, r2
+    angles, rates, _ = targets.leg_targets(t_end)
+    if blend is None:
+        return list(angles), list(rates)
+    blends = [_blend(coeffs, t_end - blend[0]) for coeffs in blend[1]]
+    return [a + b[0] for a, b in zip(angles, blends)], [r + b[1] for r, b in zip(rates, blends)]
 
 
 @dataclass(frozen=True)
@@ -435,20 +431,20 @@ class StepRecord:
 
     Made by the integrator from the first-stage derivative it evaluates anyway: the torques it
     applied (after any motor limit; kinematic legs: what the prescribed motion took) and Newton's
-    force for the motion it integrated (:func:`rrrobot_gym.dynamics.contact_kernel`).
+    force for the motion it integrated (:func:`rrrobot_gym.dynamics.derivative_kernel`).
 
-    Shapes: S samples; one robot: (S,), (S, 2), (S, 3); a batch of N: (S, N), (S, N, 2), (S, N, 3).
+    Shapes: S samples, L legs; one robot: (S,), (S, L), (S, 3); a batch of N: (S, N), (S, N, L), (S, N, 3).
     :meth:`summary` gives each robot's extremes over the samples (what the env's measures read).
     """
 
     times: np.ndarray  # (S,) s, the substep starts
     step: float  # s, the substep length: each sample stands for this much time
-    torque: np.ndarray  # (S, [N,] 2) N m, leg torques applied (shell on leg)
+    torque: np.ndarray  # (S, [N,] L) N m, leg torques applied (shell on leg)
     force: np.ndarray  # (S, [N,] 3) N, the ground's force on the shell, body frame (pivot: the joint's)
     normal: np.ndarray  # (S, [N]) N, its component along world up
-    leg_clearance: np.ndarray  # (S, [N,] 2) m, each leg tip's height above the ground
-    leg_rates: np.ndarray  # (S, [N,] 2) rad/s
-    # the integrator's own tangential values (dynamics.contact_kernel's), where it made the record
+    leg_clearance: np.ndarray  # (S, [N,] L) m, each leg tip's height above the ground
+    leg_rates: np.ndarray  # (S, [N,] L) rad/s
+    # the integrator's own tangential values (dynamics.derivative_kernel's), where it made the record
     _tangential: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
     # the summary the compiled stepper made of its record ((6, [N]), SUMMARY_KEYS), where it did
     _summary: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
@@ -475,17 +471,20 @@ class StepRecord:
             raise ValueError("a StepRecord of no samples has no summary (advance records at least one substep)")
         normal = self.normal.reshape(samples, -1)
         num_robots = normal.shape[1]
-        torque = self.torque.reshape(samples, num_robots, 2)
+        legs = self.torque.shape[-1]
+        torque = self.torque.reshape(samples, num_robots, legs)
         with np.errstate(divide="ignore", invalid="ignore"):  # (a normal force of 0: see SUMMARY_KEYS)
             ratio = self.tangential.reshape(samples, num_robots) / normal
-        squares = torque[..., 0] * torque[..., 0] + torque[..., 1] * torque[..., 1]
+        squares = torque[..., 0] * torque[..., 0]
+        for m in range(1, legs):  # (leg by leg, as the compiled stepper sums)
+            squares = squares + torque[..., m] * torque[..., m]
         values = (
             normal.min(axis=0),
             ratio.max(axis=0),
-            self.leg_clearance.reshape(samples, num_robots, 2).min(axis=(0, 2)),
+            self.leg_clearance.reshape(samples, num_robots, legs).min(axis=(0, 2)),
             np.add.accumulate(squares, axis=0)[-1],  # (sample by sample: numpy's sum may pair them)
             _largest_magnitude(torque),
-            _largest_magnitude(self.leg_rates.reshape(samples, num_robots, 2)),
+            _largest_magnitude(self.leg_rates.reshape(samples, num_robots, legs)),
         )
         shape = self.normal.shape[1:]
         return {key: value.reshape(shape) for key, value in zip(SUMMARY_KEYS, values)}
@@ -494,32 +493,28 @@ class StepRecord:
 SUMMARY_KEYS = ("least_normal", "most_ratio", "least_clearance", "torque_squares", "peak_torque", "peak_leg_rate")
 """What :meth:`StepRecord.summary` reports of each robot, over the record's samples: the least
 normal force (N); the greatest tangential / normal (the grip rolling needs, where every sample
-pushes: a sample with normal <= 0 makes it inf or NaN); the least leg clearance (m, both legs);
-the sum of both legs' squared torques (N^2 m^2); the peak |torque| (N m, both legs) and the peak
-|leg rate| (rad/s, both legs)."""
+pushes: a sample with normal <= 0 makes it inf or NaN); the least leg clearance (m, every leg);
+the sum of every leg's squared torque (N^2 m^2); the peak |torque| (N m, every leg) and the peak
+|leg rate| (rad/s, every leg)."""
 
 
 def _largest_magnitude(values):
-    """max |v| per robot over samples and legs of (S, N, 2) values (a max and a min: no array of magnitudes)."""
+    """max |v| per robot over samples and legs of (S, N, L) values (a max and a min: no array of magnitudes)."""
     return np.maximum(values.max(axis=(0, 2)), -values.min(axis=(0, 2)))
 
 
-_RECORD_ROWS = compiled.RECORD_ROWS  # one layout of the record's rows for both backends
 
 
 class _Recorder:
     """The steppers' ``first``: evaluates a substep's first stage and keeps what it applied."""
 
-    def __init__(self, first, n_steps: int, num_robots: int | None):
+    def __init__(self, first, n_steps: int, num_robots: int | None, legs: int):
         self._first = first
-        self._contact = [None] * 7
-        self._rows = [] if num_robots is None else np.empty((n_steps, _RECORD_ROWS, num_robots))
+        self._rows = [] if num_robots is None else np.empty((n_steps, compiled.record_rows(legs), num_robots))
         self._i = 0
 
     def __call__(self, t, c):
-        derivative, torque = self._first(t, c, self._contact)
-        fx, fy, fz, normal, tangential, clear1, clear2 = self._contact
-        row = (torque[0], torque[1], fx, fy, fz, normal, tangential, clear1, clear2, c[11], c[12])
+        derivative, row = self._first(t, c)
         if isinstance(self._rows, list):
             self._rows.append(row)
         else:
@@ -529,25 +524,26 @@ class _Recorder:
 
     @property
     def rows(self):
-        """What was recorded: (S, 11) floats for one robot, (S, 11, N) for a batch."""
+        """What was recorded: (S, record_rows) floats for one robot, (S, record_rows, N) for a batch."""
         return np.asarray(self._rows, dtype=float)
 
     @staticmethod
     def record_of(rows, t0: float, h: float, summary=None) -> StepRecord:
-        """The :class:`StepRecord` of recorded rows ((S, 11) or (S, 11, N)) and the compiled
-        stepper's summary of them, if it made one."""
-        if rows.ndim == 3:  # (S, 11, N) -> fields with the robot axis before the vector axis
+        """The :class:`StepRecord` of recorded rows ((S, R) or (S, R, N), R = record_rows(L)) and the
+        compiled stepper's summary of them, if it made one."""
+        if rows.ndim == 3:  # (S, R, N) -> fields with the robot axis before the vector axis
             rows = rows.transpose(0, 2, 1)
+        legs = (rows.shape[-1] - 5) // 3
         record = StepRecord(
             times=t0 + h * np.arange(len(rows)),
             step=h,
-            torque=rows[..., 0:2],
-            force=rows[..., 2:5],
-            normal=rows[..., 5],
-            leg_clearance=rows[..., 7:9],
-            leg_rates=rows[..., 9:11],
+            torque=rows[..., 0:legs],
+            force=rows[..., legs : legs + 3],
+            normal=rows[..., legs + 3],
+            leg_clearance=rows[..., legs + 5 : 2 * legs + 5],
+            leg_rates=rows[..., 2 * legs + 5 : 3 * legs + 5],
         )
-        object.__setattr__(record, "_tangential", rows[..., 6])
+        object.__setattr__(record, "_tangential", rows[..., legs + 4])
         object.__setattr__(record, "_summary", summary)
         return record
 
@@ -560,8 +556,9 @@ targets, a top-heavy robot falling over)."""
 
 
 def _rate_limited_step(state, path_rate: float) -> float:
-    body = float(np.max(np.linalg.norm(np.atleast_2d(state)[:, dynamics.BODY_RATE], axis=-1)))
-    legs = float(np.max(np.abs(state[..., dynamics.LEG_RATES])))
+    fields = dynamics.state_fields(dynamics.legs_of(state.shape[-1]))
+    body = float(np.max(np.linalg.norm(np.atleast_2d(state)[:, fields.body_rate], axis=-1)))
+    legs = float(np.max(np.abs(state[..., fields.leg_rates])))
     fastest = max(body, legs, path_rate)
     return AUTO_RATE_FACTOR / fastest if fastest > 0.0 else math.inf
 
@@ -575,9 +572,10 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
         causes.append("the start state's quaternion (entries 2:6) is no rotation (a norm far from 1): start "
                       "from a unit quaternion, or let advance check the state")
         state = state[~no_attitude]
+    fields = config.fields
     with np.errstate(all="ignore"):
-        body_rate = float(np.max(np.linalg.norm(state[:, dynamics.BODY_RATE], axis=-1), initial=0.0))
-        leg_rate = float(np.max(np.abs(state[:, dynamics.LEG_RATES]), initial=0.0))
+        body_rate = float(np.max(np.linalg.norm(state[:, fields.body_rate], axis=-1), initial=0.0))
+        leg_rate = float(np.max(np.abs(state[:, fields.leg_rates]), initial=0.0))
         tilt = float(np.max(dynamics.tilt(state), initial=0.0))
     if config.legs == "servo":
         limit = stable_step_limit(config.model, config.robot, config.gains, config.integrator)
@@ -609,15 +607,15 @@ def _diagnose(config: SimConfig, state, t0: float, duration: float, h: float) ->
 
 PER_ROBOT_FIELDS = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping", "kp", "kd", "torque_limit", "leg_rate_limit")
 """What :func:`advance`'s ``robots`` may set per robot: fields of ``RobotParams`` (kg, m, N m s/rad),
-of ``PDGains`` (N m/rad, N m s/rad) and ``SimConfig``'s motor limits (N m, rad/s). The radius (the
-plane's contact depth) and gravity do not vary."""
+of ``PDGains`` (N m/rad, N m s/rad) and ``SimConfig``'s motor limits (N m, rad/s); a leg with a
+length or mass of its own scales it alike. The shell and gravity do not vary."""
 
 _SERVO_FIELDS = ("kp", "kd", "torque_limit", "leg_rate_limit")
 
 
 def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
     """Every name of :data:`PER_ROBOT_FIELDS` to a (N,) float array (N = ``num_robots``, 1 for
-    None, one (13,) state): ``robots``' values, checked, the config's for names left out (the
+    None, one robot's state): ``robots``' values, checked, the config's for names left out (the
     limits None where the config has none). ``robots`` maps names to (N,) arrays or numbers.
 
     Raises naming the problem: an unknown name, a wrong shape, NaN/inf, a mass, leg length, kp
@@ -630,8 +628,8 @@ def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
         if name not in PER_ROBOT_FIELDS:
             close = difflib.get_close_matches(str(name), PER_ROBOT_FIELDS, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            if name in ("radius", "gravity"):
-                hint = " (the radius and gravity are the config's for every robot)"
+            if name in ("radius", "gravity", "shell_axes"):
+                hint = " (the shell and gravity are the config's for every robot)"
             raise ValueError(f"unknown per-robot parameter {name!r}{hint}: expected some of {', '.join(PER_ROBOT_FIELDS)}")
     if config.legs == "kinematic" and any(name in robots for name in _SERVO_FIELDS):
         raise ValueError(f"robots sets {', '.join(n for n in _SERVO_FIELDS if n in robots)}: servo values, and "
@@ -651,7 +649,7 @@ def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
         if value.dtype.kind not in "fiu":
             raise TypeError(f"robots[{name!r}] must be real numbers, got {value.dtype} values")
         if value.ndim > 1 or (value.ndim == 1 and len(value) != n):
-            wanted = "one robot's state (13,) takes a number or shape (1,)" if num_robots is None else f"(N,) = ({n},) for {n} robots"
+            wanted = "one robot's state takes a number or shape (1,)" if num_robots is None else f"(N,) = ({n},) for {n} robots"
             raise ValueError(f"robots[{name!r}] has shape {value.shape}: {wanted}")
         value = np.array(np.broadcast_to(value, (n,)), dtype=float)
         bad = ~np.isfinite(value)
@@ -666,32 +664,27 @@ def robot_values(config: SimConfig, robots, num_robots: int | None) -> dict:
 
 
 def _robot_scene(config: SimConfig, values: dict):
-    """(constants, contact constants, gains, torque limit, rate limit) of :func:`robot_values`' robots,
-    each field an (N,) array (the radius, depth and gravity the config's floats; a limit None where
-    the config has none)."""
-    # what dynamics.constants reads of a RobotParams, the varied fields (N,) arrays
-    robot = types.SimpleNamespace(radius=config.robot.radius, gravity=config.robot.gravity, total_mass=total_mass(values),
-                                  **{name: values[name] for name in PER_ROBOT_FIELDS[:5]})  # fmt: skip
+    """(constants, gains, torque limit, rate limit) of :func:`robot_values`' robots, each field an
+    (N,) array (the shell's and gravity the config's floats; a limit None where the config has none)."""
     gains = compiled._Gains(values["kp"], values["kd"])
-    return (dynamics.constants(robot, config.depth), dynamics.contact_constants(robot, config.depth), gains,
-            values["torque_limit"], values["leg_rate_limit"])  # fmt: skip
+    return dynamics.constants(config.robot, config.model, values), gains, values["torque_limit"], values["leg_rate_limit"]
 
 
-def total_mass(values: dict) -> np.ndarray:
-    """kg, (N,): each robot's total mass, from :func:`robot_values`' values (RobotParams.total_mass's sum, to the bit)."""
-    return values["mass_bottom"] + 2.0 * values["mass_pin"] + 2.0 * values["mass_tip"]
+def total_mass(config: SimConfig, values: dict) -> np.ndarray:
+    """kg, (N,): each robot's total mass, from :func:`robot_values`' values."""
+    return dynamics.constants(config.robot, config.model, values).total_mass
 
 
 def _scene_row(scene, i: int):
     """Robot i's part of a per-robot scene, on Python floats (None for None)."""
     if scene is None:
         return None
-    k, kc, gains, torque_limit, rate_limit = scene
+    k, gains, torque_limit, rate_limit = scene
 
     def row(fields):
         return [v if isinstance(v, float) else float(v[i]) for v in fields]
 
-    return (dynamics.Constants(*row(k)), dynamics.ContactConstants(*row(kc)), compiled._Gains(*row(gains)),
+    return (dynamics.Constants(*row(k)), compiled._Gains(*row(gains)),
             None if torque_limit is None else float(torque_limit[i]), None if rate_limit is None else float(rate_limit[i]))  # fmt: skip
 
 
@@ -717,7 +710,7 @@ def advance(
     Raises :class:`NumericalFailure` if the result is not finite.
 
     ``robots`` gives each robot parameters of its own: a dict from names of
-    :data:`PER_ROBOT_FIELDS` to (N,) arrays, one entry a robot (a (13,) state: N = 1), or numbers
+    :data:`PER_ROBOT_FIELDS` to (N,) arrays, one entry a robot (one robot's state: N = 1), or numbers
     (every robot); names left out take the config's values (always checked: :func:`robot_values`).
     Each robot then steps exactly as it would alone with a config of its own values, record
     included. The step is still the config's, checked against ``config.robot`` and
@@ -727,7 +720,7 @@ def advance(
     t0 = real_number("t0", t0)
     duration = real_number("duration", duration)
     if check:
-        state = check_state(state)
+        state = check_state(state, config.robot.num_legs)
         check_targets(targets, state, t0)
     workers = whole_number("workers", workers)
     values = None if robots is None else robot_values(config, robots, None if np.ndim(state) == 1 else len(state))
@@ -739,16 +732,17 @@ def advance(
         return np.array(state)
     blend = None
     path_rate = 0.0
+    fields = config.fields
     if config.legs == "kinematic":
-        (a1, a2), (r1, r2), _ = targets.leg_targets(t0)
-        legs = state[..., dynamics.LEG_ANGLES]
-        rates = state[..., dynamics.LEG_RATES]
-        off = (legs[..., 0] - a1, legs[..., 1] - a2, rates[..., 0] - r1, rates[..., 1] - r2)
-        if max(float(np.max(np.abs(v))) for v in off) > 1e-9:
-            blend = (t0, _blend_coefficients(off[0], off[2], duration), _blend_coefficients(off[1], off[3], duration))
+        angles, target_rates, _ = targets.leg_targets(t0)
+        legs, rates = state[..., fields.leg_angles], state[..., fields.leg_rates]
+        off_angle = [legs[..., m] - a for m, a in enumerate(angles)]
+        off_rate = [rates[..., m] - r for m, r in enumerate(target_rates)]
+        if max(float(np.max(np.abs(v))) for v in off_angle + off_rate) > 1e-9:
+            blend = (t0, tuple(_blend_coefficients(a, r, duration) for a, r in zip(off_angle, off_rate)))
             # A minimum-jerk move of b0 in T peaks at 1.875 b0 / T.
-            path_rate = float(np.max(np.abs(off[:2]))) * 1.875 / duration + float(np.max(np.abs(off[2:])))
-        path_rate += float(np.max(np.abs(np.asarray([r1, r2], dtype=float))))
+            path_rate = float(np.max(np.abs(off_angle))) * 1.875 / duration + float(np.max(np.abs(off_rate)))
+        path_rate += float(np.max(np.abs(np.asarray(target_rates, dtype=float))))
     step = config.step
     if config.timestep == "auto":
         step = min(step, _rate_limited_step(state, path_rate))
@@ -757,8 +751,9 @@ def advance(
     out, rows, summary = _advance_rows(config, state, t0, targets, blend, record, workers, n_steps, h, scene)
     if config.legs == "kinematic":
         # The legs' path is known exactly: remove the integrator's tiny drift from it.
-        a1, a2, r1, r2 = _leg_path_end(targets, blend, t0 + duration)
-        out[..., 6], out[..., 7], out[..., 11], out[..., 12] = a1, a2, r1, r2
+        angles, rates = _leg_path_end(targets, blend, t0 + duration)
+        for m, (angle, rate) in enumerate(zip(angles, rates)):
+            out[..., fields.leg_angles.start + m], out[..., fields.leg_rates.start + m] = angle, rate
     if not np.isfinite(out).all():
         raise NumericalFailure(_diagnose(config, state, t0, duration, h))
     if record:
@@ -768,20 +763,24 @@ def advance(
 
 def check_targets(targets, state, t0: float = 0.0) -> None:
     """Raise naming the problem unless ``targets`` is a leg-target source for the robots of
-    ``state`` ((13,) or (N, 13), checked): one with a ``leg_targets(t)`` method whose values at
-    ``t0`` are numbers (every robot's) or (N,) arrays (one per robot)."""
+    ``state`` ((9 + 2L,) or (N, 9 + 2L), checked): one with a ``leg_targets(t)`` method whose values
+    at ``t0`` are one a leg, each a number (every robot's) or an (N,) array (one per robot)."""
     if not callable(getattr(targets, "leg_targets", None)):
         raise TypeError(
             "targets must be a leg-target source with a leg_targets(t) method (rrrobot_gym.control's Gait, "
             f"HeldTargets or RampTargets), got {type(targets).__name__}"
         )
     robots = 1 if state.ndim == 1 else state.shape[0]
-    for value in (v for triple in targets.leg_targets(t0) for v in triple):
+    legs = dynamics.legs_of(state.shape[-1])
+    values = targets.leg_targets(t0)
+    if any(len(v) != legs for v in values):
+        raise ValueError(f"the leg targets are for {len(values[0])} legs, the robot has {legs}")
+    for value in (v for triple in values for v in triple):
         shape = np.shape(value)
         if not shape:
             continue
         if state.ndim == 1:
-            raise ValueError(f"one robot's state (13,) takes leg targets that are numbers, got arrays of shape {shape}")
+            raise ValueError(f"one robot's state takes leg targets that are numbers, got arrays of shape {shape}")
         if len(shape) > 1:
             raise ValueError(f"leg targets must be numbers or (N,) arrays, one entry a robot, got shape {shape}")
         if shape[0] != robots:
@@ -843,10 +842,11 @@ def _compiled_targets(config: SimConfig, targets):
 
 
 def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool, scene=None):
-    """Run the configured integrator on the 13 components y (Python floats, or (N,) arrays):
+    """Run the configured integrator on the state components y (Python floats, or (N,) arrays):
     (y after n_steps steps of h, the recorder or None); ``scene`` as :func:`_stage_fns` takes it."""
     f, first = _stage_fns(config, targets, blend, scene)
-    recorder = _Recorder(first, n_steps, None if isinstance(y[0], float) else len(y[0])) if record else None
+    legs = config.robot.num_legs
+    recorder = _Recorder(first, n_steps, None if isinstance(y[0], float) else len(y[0]), legs) if record else None
     return INTEGRATORS[config.integrator].step(f, recorder or f, t0, y, h, n_steps), recorder
 
 
@@ -856,8 +856,8 @@ numpy's per-call overhead costs more than the loop (docs/notes/layout.md). It de
 
 
 def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool, scene=None):
-    """:func:`_integrate` of a small batch (n, 13) robot by robot on floats: (the states (n, 13),
-    [the record's rows (S, 11, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
+    """:func:`_integrate` of a small batch (n, 9 + 2L) robot by robot on floats: (the states,
+    [the record's rows (S, record_rows, n) or None]). A robot that blows up gets NaN rows, as in a batch."""
     out = np.empty_like(state)
     rows = []
     # A source's own ``robot(i)`` gives one robot's targets on floats; any other is indexed at every evaluation.
@@ -870,21 +870,21 @@ def _integrate_rows(config: SimConfig, targets, blend, state, t0: float, h: floa
             rows.append(None if recorder is None else recorder.rows)
         except (OverflowError, ValueError, ZeroDivisionError):  # math.* on inf/NaN floats
             out[i] = np.nan
-            rows.append(np.full((n_steps, _RECORD_ROWS), np.nan) if record else None)
+            rows.append(np.full((n_steps, compiled.record_rows(config.robot.num_legs)), np.nan) if record else None)
     return out, np.stack(rows, axis=2) if record else None
 
 
 def _blend_row(blend, i):
-    """Robot i's part of a kinematic blend (t0, coeffs1, coeffs2), on floats."""
+    """Robot i's part of a kinematic blend (t0, one set of coefficients a leg), on floats."""
     if blend is None:
         return None
-    t_blend, *coeffs = blend
-    return (t_blend, *(tuple(float(_take(v, i)) for v in c) for c in coeffs))
+    t_blend, coeffs = blend
+    return t_blend, tuple(tuple(float(_take(v, i)) for v in c) for c in coeffs)
 
 
 def _integrate_batch(config: SimConfig, targets, blend, state, t0: float, h: float, n_steps: int, record: bool, scene=None):
-    """:func:`_integrate` on a batch (n, 13) as 13 (n,) arrays: (the states (n, 13), the
-    record's rows (S, 11, n) or None)."""
+    """:func:`_integrate` on a batch (n, 9 + 2L) as (n,) arrays: (the states, the record's rows
+    (S, record_rows, n) or None)."""
     with np.errstate(all="ignore"):  # a blow-up is reported by advance, by name, not as warnings
         y, recorder = _integrate(config, targets, blend, list(np.array(state.T)), t0, h, n_steps, record, scene)
     return np.stack(y, axis=1), (None if recorder is None else recorder.rows)
@@ -907,7 +907,7 @@ class _RowOf:
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Sampled states of one robot or a batch: ``times`` (T,) s, ``states`` (T, 13) or (T, N, 13)."""
+    """Sampled states of one robot or a batch: ``times`` (T,) s, ``states`` (T, 9 + 2L) or (T, N, 9 + 2L)."""
 
     times: np.ndarray
     states: np.ndarray
@@ -930,8 +930,8 @@ class Trajectory:
 
     @property
     def leg_angles(self):
-        """phi_1, phi_2, rad."""
-        return self.states[..., dynamics.LEG_ANGLES]
+        """phi_1 .. phi_L, rad."""
+        return self.states[..., self.config.fields.leg_angles]
 
     @property
     def body_rate_world(self):
@@ -951,7 +951,7 @@ class Trajectory:
 
 MAX_SAMPLES = 10**8
 """The most samples :func:`simulate` and :func:`simulate_reference` keep (``duration / sample_dt``):
-13 float64s each, 10.4 GB for one robot."""
+13 float64s each for the paper's robot, 10.4 GB for one robot."""
 
 
 def _sample_times(duration: float, sample_dt: float):
@@ -973,8 +973,9 @@ def _kinematic_path(config: SimConfig, targets, state):
     """With kinematic legs, a scripted run's legs follow the targets blended in from the start state."""
     if config.legs != "kinematic":
         return targets
-    legs, rates = state[..., dynamics.LEG_ANGLES], state[..., dynamics.LEG_RATES]
-    return SmoothStart(targets, (legs[..., 0], legs[..., 1]), (rates[..., 0], rates[..., 1]))
+    fields = config.fields
+    legs, rates = state[..., fields.leg_angles], state[..., fields.leg_rates]
+    return SmoothStart(targets, [legs[..., m] for m in range(legs.shape[-1])], [rates[..., m] for m in range(rates.shape[-1])])
 
 
 def simulate(config: SimConfig, targets, duration: float, *, state=None, sample_dt: float = 0.01):
@@ -983,7 +984,8 @@ def simulate(config: SimConfig, targets, duration: float, *, state=None, sample_
     ``state`` defaults to :func:`initial_state` (one robot). Time starts at 0. With
     kinematic legs the legs follow :class:`SmoothStart` from the start state into the targets.
     """
-    state = check_state(initial_state() if state is None else state)
+    legs = config.robot.num_legs
+    state = check_state(initial_state(num_legs=legs) if state is None else state, legs)
     check_targets(targets, state)
     targets = _kinematic_path(config, targets, state)
     times = _sample_times(duration, sample_dt)
@@ -1012,7 +1014,8 @@ def simulate_reference(
     """
     from scipy.integrate import solve_ivp
 
-    state = check_state(initial_state() if state is None else state)
+    legs = config.robot.num_legs
+    state = check_state(initial_state(num_legs=legs) if state is None else state, legs)
     check_targets(targets, state)
     rtol, atol = real_number("rtol", rtol), real_number("atol", atol)
     if rtol <= 0.0 or atol < 0.0:
@@ -1025,12 +1028,12 @@ def simulate_reference(
     else:
 
         def fun(t, flat):
-            return f(t, flat.reshape(dynamics.STATE_SIZE, -1)).ravel()
+            return f(t, flat.reshape(config.fields.size, -1)).ravel()
 
     sol = solve_ivp(fun, (0.0, times[-1]), state.T.ravel(), method=method, t_eval=times, rtol=rtol, atol=atol)
     if not sol.success:
         raise NumericalFailure(f"reference integration failed: {sol.message}")
-    out = sol.y.reshape(dynamics.STATE_SIZE, *shape[:-1], len(times))
+    out = sol.y.reshape(config.fields.size, *shape[:-1], len(times))
     out = np.moveaxis(out, 0, -1)
     out = np.moveaxis(out, -2, 0) if out.ndim == 3 else out
     out = np.ascontiguousarray(out)

@@ -5,7 +5,7 @@ by construction; so a motion can need an impossible force: a pull from the groun
 grip than a floor gives, or a leg through the floor. These functions measure that.
 
 The force is Newton's for the whole robot with the integrated accelerations
-(:func:`rrrobot_gym.dynamics.contact_kernel`), recorded by the integrator at every substep
+(:func:`rrrobot_gym.dynamics.derivative_kernel`), recorded by the integrator at every substep
 (:class:`rrrobot_gym.simulation.StepRecord`); :func:`step_measures` turns a record into the
 measures an environment checks.
 """
@@ -16,32 +16,36 @@ import numpy as np
 
 from . import dynamics, simulation
 from .numerics import anywhere, select
-from .params import RobotParams, rotation_point_depth
+from .params import RobotParams
 
 
-def _contact(states, derivatives, params: RobotParams, model: str):
+def _record(states, derivatives, params: RobotParams, model: str):
+    """The step record's values (:func:`rrrobot_gym.dynamics.derivative_kernel`) of states (N, 9 + 2L)
+    moving with ``derivatives``' leg accelerations (the body's follow from them): torques (L), force
+    (3), normal, tangential, clearances (L), each an (N,) array."""
     states = np.atleast_2d(np.asarray(states, dtype=float))
     derivatives = np.broadcast_to(np.asarray(derivatives, dtype=float), states.shape)
-    k = dynamics.contact_constants(params, rotation_point_depth(model, params))
-    return dynamics.contact_kernel(
-        [states[:, i] for i in range(dynamics.STATE_SIZE)], [derivatives[:, i] for i in range(dynamics.STATE_SIZE)], k
-    )
+    legs = dynamics.state_fields(params.num_legs)
+    _, record = dynamics.state_derivative(list(states.T), list(derivatives[:, legs.leg_rates].T), params, model,
+                                          kinematic=True, record=True)  # fmt: skip
+    return record
 
 
 def leg_clearance(states, params: RobotParams):
-    """Height of each leg tip above the ground (m), shape (N, 2); the centre is at height r."""
-    *_, low, high = _contact(states, 0.0, params, "plane")
-    return np.stack([low, high], axis=-1)
+    """Height of each leg tip above the ground (m), shape (N, L)."""
+    record = _record(states, 0.0, params, "plane")
+    return np.stack(np.broadcast_arrays(*record[params.num_legs + 5 :]), axis=-1)
 
 
 def ground_force(states, derivatives, params: RobotParams, model: str):
     """The ground's force on the shell (N), body coordinates, shape (N, 3), and its normal part (N,).
 
-    ``derivatives`` are the state derivatives (N, 13) at ``states`` (from
+    ``derivatives`` are the state derivatives (N, 9 + 2L) at ``states`` (from
     :func:`rrrobot_gym.dynamics.state_derivative` with the torques that acted). For the
     pivot model this is the force of the spherical joint instead.
     """
-    fx, fy, fz, normal, *_ = _contact(states, derivatives, params, model)
+    legs = params.num_legs
+    fx, fy, fz, normal = _record(states, derivatives, params, model)[legs : legs + 4]
     return np.stack([fx, fy, fz], axis=-1), normal
 
 
@@ -97,7 +101,7 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     num_robots = normal.shape[1]
     friction_coefficient = _friction(friction_coefficient, num_robots)
     mass = config.robot.total_mass if robots is None else simulation.total_mass(
-        simulation.robot_values(config, robots, num_robots if record.normal.ndim > 1 else None))
+        config, simulation.robot_values(config, robots, num_robots if record.normal.ndim > 1 else None))
     tangential = record.tangential.reshape(samples, num_robots)
     lost = np.zeros(num_robots) if contact_lost is None else np.array(contact_lost, dtype=float).reshape(num_robots)
     if not (lost >= 0.0).all():  # (NaN too)
@@ -105,7 +109,7 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
     summary = {key: np.reshape(value, num_robots) for key, value in record.summary().items()}
     if quadrature == "rectangle":
         values = record_measures(normal, tangential, *(summary[key] for key in SUMMARY_KEYS), lost, friction_coefficient,
-                                 mass, record.step, config.model == "plane")  # fmt: skip
+                                 mass, record.step, config.model == "plane", config.robot.num_legs)  # fmt: skip
         measures = {key: np.array(np.broadcast_to(value, (num_robots,)), dtype=float) for key, value in zip(MEASURE_KEYS, values)}
         return measures, measures.pop("contact_lost")
     # The trapezoid quadrature (numpy only): the usual case, every sample pushing, skips the sums.
@@ -114,7 +118,7 @@ def step_measures(record, config, friction_coefficient, contact_lost=None, quadr
         "normal_force": summary["least_normal"],
         "friction_ratio": summary["most_ratio"] if in_contact else friction_ratio(None, normal, tangential).max(axis=0),
         "leg_clearance": summary["least_clearance"],
-        "torque_rms": np.sqrt(summary["torque_squares"] / (2 * samples)),
+        "torque_rms": np.sqrt(summary["torque_squares"] / (config.robot.num_legs * samples)),
         "torque_peak": summary["peak_torque"],
         "leg_rate_peak": summary["peak_leg_rate"],
     }
@@ -157,7 +161,7 @@ force): so a contact that needs exactly the floor's friction does not slip by ro
 
 
 def record_measures(normal, tangential, least_normal, most_ratio, least_clearance, torque_squares, peak_torque,
-                    peak_leg_rate, carried, friction, mass, step, plane):
+                    peak_leg_rate, carried, friction, mass, step, plane, num_legs):
     """The measures of :func:`step_measures` (rectangle quadrature) and the spell without contact
     going at the end, in :data:`MEASURE_KEYS`' order: the one implementation, for numpy arrays
     (a batch) and compiled into the env's step (one robot at a time, floats).
@@ -166,7 +170,7 @@ def record_measures(normal, tangential, least_normal, most_ratio, least_clearanc
     array; the next six arguments the record's summary (:data:`SUMMARY_KEYS`); ``carried`` the
     spell without contact going at the record's start (s); ``friction`` the floor's grip (None:
     unlimited); ``mass`` (kg) the robot's; ``step`` (s) the record's; ``plane`` False for the pivot
-    model, whose joint holds any force. Each sample stands for its whole substep.
+    model, whose joint holds any force; ``num_legs`` the robot's. Each sample stands for its whole substep.
     """
     samples = len(normal)
     pulled = least_normal <= 0.0
@@ -177,7 +181,7 @@ def record_measures(normal, tangential, least_normal, most_ratio, least_clearanc
             off = normal[s] <= 0.0
             worst = np.maximum(worst, select(off, np.inf, tangential[s] / select(off, 1.0, normal[s])))
         ratio = select(pulled, worst, ratio)
-    torque_rms = np.sqrt(torque_squares / (2 * samples))
+    torque_rms = np.sqrt(torque_squares / (num_legs * samples))
     if not plane:
         return least_normal, ratio, 0.0, 0.0, 0.0, least_clearance, torque_rms, peak_torque, peak_leg_rate, 0.0
     fraction, longest, lost = 0.0, carried, 0.0  # in contact throughout: a spell carried in ended at once

@@ -23,7 +23,7 @@ _PATH = (70, 110, 200)
 _HEADING = (215, 80, 40)
 _SHELL = (225, 200, 150)
 _OUTLINE = (90, 70, 40)
-_LEGS = ((40, 90, 200), (30, 150, 70))  # leg 1 (body -Y), leg 2 (body +Y)
+_LEGS = ((40, 90, 200), (30, 150, 70), (200, 110, 30), (150, 40, 160), (20, 150, 160), (180, 40, 60))  # leg 1 (body -Y), leg 2, ...
 _TEXT = (30, 30, 30)
 
 
@@ -81,26 +81,31 @@ def _convex_hull(points):
     return lower[:-1] + upper[:-1]
 
 
-def _hemisphere_points(radius):
-    """Body-frame points on the shell (the lower half of the sphere), rim first."""
+def _shell_points(axes):
+    """Body-frame points on the shell (the lower half of the ellipsoid of semi-axes ``axes``), rim first."""
+    a, b, c = axes
     azimuth = np.linspace(0.0, 2.0 * math.pi, 48, endpoint=False)
     rings = []
     for elevation in np.linspace(0.0, 0.5 * math.pi, 7):
-        ring = radius * math.cos(elevation)
-        depth = np.full(48, -radius * math.sin(elevation))
-        rings.append(np.stack([ring * np.cos(azimuth), ring * np.sin(azimuth), depth], -1))
+        ring = math.cos(elevation)
+        depth = np.full(48, -c * math.sin(elevation))
+        rings.append(np.stack([a * ring * np.cos(azimuth), b * ring * np.sin(azimuth), depth], -1))
     return np.concatenate(rings), 48
 
 
 def _robot_geometry(state, robot):
-    """World positions: shell points (K, 3), rim count, leg pins (2, 3), leg tips (2, 3)."""
-    rot = dynamics.rotation_matrix(state[dynamics.QUAT])
-    centre = np.array([state[0], state[1], robot.radius])
-    shell, rim_count = _hemisphere_points(robot.radius)
-    r, l = robot.radius, robot.leg_length
-    phi = state[dynamics.LEG_ANGLES]
-    pins = np.array([[0.0, -r, 0.0], [0.0, r, 0.0]])
-    tips = np.array([[l * math.cos(phi[0]), -r, l * math.sin(phi[0])], [l * math.cos(phi[1]), r, l * math.sin(phi[1])]])
+    """World positions: shell points (K, 3), rim count, leg pins (L, 3), leg tips (L, 3)."""
+    fields = dynamics.state_fields(robot.num_legs)
+    rot = dynamics.rotation_matrix(state[fields.quat])
+    a, b, c = robot.shell_axes
+    up = rot[2]  # world up in the body: the centre stands sqrt(n^T A n) above the contact
+    contact = -np.array([a * a, b * b, c * c]) * up / math.sqrt(a * a * up[0] ** 2 + b * b * up[1] ** 2 + c * c * up[2] ** 2)
+    centre = np.array([state[0], state[1], 0.0]) - rot @ contact
+    shell, rim_count = _shell_points(robot.shell_axes)
+    phi = state[fields.leg_angles]
+    pins = np.array([leg.hinge for leg in robot.legs])
+    tips = np.array([np.add(leg.hinge, length * (math.cos(angle) * np.array(leg.zero) + math.sin(angle) * np.array(leg.up)))
+                     for leg, length, angle in zip(robot.legs, robot.leg_lengths, phi)])  # fmt: skip
     to_world = lambda p: centre + p @ rot.T  # noqa: E731
     return to_world(shell), rim_count, to_world(pins), to_world(tips)
 
@@ -112,10 +117,11 @@ def _draw_robot(draw, project, shell, rim_count, pins, tips, scale):
     draw.line(rim + rim[:1], fill=_OUTLINE, width=2)
     leg_width = max(2, round(0.012 * scale))
     dot = max(3, round(0.012 * scale))
-    for k in range(2):
+    for k in range(len(pins)):
         (px, py), (tx, ty) = project(pins[k : k + 1])[0], project(tips[k : k + 1])[0]
-        draw.line([(px, py), (tx, ty)], fill=_LEGS[k], width=leg_width)
-        draw.ellipse([tx - dot, ty - dot, tx + dot, ty + dot], fill=_LEGS[k])
+        colour = _LEGS[k % len(_LEGS)]
+        draw.line([(px, py), (tx, ty)], fill=colour, width=leg_width)
+        draw.ellipse([tx - dot, ty - dot, tx + dot, ty + dot], fill=colour)
 
 
 def _arrow(draw, start, end, colour, width):

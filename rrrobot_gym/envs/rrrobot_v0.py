@@ -225,7 +225,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.render_mode = render_mode
         self._frame_size = render.check_frame_size(width, height)
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
-        self.action_space = task.single_action_space()
+        self.action_space = task.single_action_space(self.config)
         self.observation_space = task.single_observation_space(self.config)
 
         self.state = None  # (13,) float64, see rrrobot_gym.dynamics.STATE_FIELDS
@@ -251,7 +251,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         return self.config.dt
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        option_state, option_target = task.parse_reset_options(options, None)
+        option_state, option_target = task.parse_reset_options(options, None, self.config.num_robot_legs)
         if option_state is not None:  # (before anything changes, the generator too: a refused reset keeps the env)
             task.check_start_states(option_state[None], self.config)
         super().reset(seed=seed)
@@ -265,7 +265,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = state
         self.episode_target_direction = heading
         self.time = 0.0
-        self.leg_targets = self.state[6:8].copy()
+        self.leg_targets = self.state[self.config.sim.fields.leg_angles].copy()
         self.leg_target_rates = np.zeros(2)
         self._last_action = task.leg_targets_to_action(self.leg_targets).clip(-1.0, 1.0)
         self.contact_lost = 0.0
@@ -279,7 +279,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     def step(self, action):
         if self.state is None:
             raise RuntimeError("RRRobotEnv.step() called before reset()")
-        action = task.check_actions(action, (2,))
+        action = task.check_actions(action, (self.config.num_robot_legs,))
         before = self.state
         applied = task.delayed_actions(action, self._last_action, self.robot_draws)
         self._last_action = action
@@ -290,7 +290,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         else:
             target = self.episode_target_direction
             if upright is None:
-                upright = task.upright_contact_points(before[None], self.config.sim.robot.radius)
+                upright = task.upright_contact_points(before[None], self.config)
             after, targets, rates, observations, values, flags, rewards, terminations, lost = self.compiled_task.step(
                 before[None], self._observation[None], self.leg_targets[None], self.leg_target_rates[None],
                 applied[None], action[None], np.array(task.heading_vectors([target])).reshape(2, 1), np.array([target]),
@@ -346,7 +346,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
 
     def _noisy(self, observation):
         """A copy of ``observation`` with this robot's observation noise, if randomized."""
-        return task.noisy(observation[None], self.robot_draws, self.np_random)[0].copy()
+        return task.noisy(observation[None], self.robot_draws, self.np_random, self.config.num_robot_legs)[0].copy()
 
     def _targets_array(self):
         return np.array([self.episode_target_direction])

@@ -6,8 +6,9 @@ itself is not here: both envs integrate through :func:`rrrobot_gym.simulation.ad
 
 Glossary
 --------
-state               (N, 13) float64, the simulator's state (:data:`rrrobot_gym.dynamics.STATE_FIELDS`)
-action              (N, 2) in [-1, 1], one number a leg; mapped affinely to a target angle
+state               (N, 9 + 2L) float64, the simulator's state of robots of L legs
+                    (:func:`rrrobot_gym.dynamics.state_fields`; 13 numbers for the paper's two)
+action              (N, L) in [-1, 1], one number a leg; mapped affinely to a target angle
 leg target          rad, the angle the leg servo holds over one control step (target rate 0)
 target direction    rad, the commanded heading of travel in the world XY plane, from +X
                     towards +Y; the unit vector d = (cos, sin, 0)
@@ -50,11 +51,17 @@ FORWARD_VELOCITY_UNIT = 100.0
 """cm per m: the forward reward counts cm/s, so a good step (about 1 cm/s) earns about 1, a scale
 that suits PPO's default hyperparameters better than the raw 0.01 m/s."""
 
-OBSERVATION_FIELDS = (
-    ("up_in_body", 0, 3), ("heading_in_body", 3, 6), ("body_rate", 6, 9), ("leg_angles", 9, 11),
-    ("leg_rates", 11, 13), ("target_direction_world", 13, 15), ("contact_xy", 15, 17),
-)  # fmt: skip
-"""(name, start, stop) of each observation entry; ``contact_xy`` only when positions are included."""
+def observation_fields(num_legs: int = 2) -> tuple:
+    """(name, start, stop) of each observation entry of a robot of ``num_legs`` legs (11 + 2L
+    entries, then ``contact_xy`` where positions are included and the clock's two where it runs)."""
+    legs = int(num_legs)
+    return (("up_in_body", 0, 3), ("heading_in_body", 3, 6), ("body_rate", 6, 9), ("leg_angles", 9, 9 + legs),
+            ("leg_rates", 9 + legs, 9 + 2 * legs), ("target_direction_world", 9 + 2 * legs, 11 + 2 * legs),
+            ("contact_xy", 11 + 2 * legs, 13 + 2 * legs))  # fmt: skip
+
+
+OBSERVATION_FIELDS = observation_fields(2)
+"""The default robot's :func:`observation_fields`."""
 
 RESET_INFO_KEYS = ("x_position", "y_position", "x_upright", "y_upright", "tilt", "target_direction")
 """Keys of the info ``reset()`` returns (and a vector env's top-level info for a sub-env it reset)."""
@@ -155,9 +162,11 @@ RANDOMIZATIONS = {
 PHYSICAL = ("mass_bottom", "mass_pin", "mass_tip", "leg_length", "damping", "kp", "kd", "torque_limit", "leg_rate_limit")
 """The randomized quantities the integrator takes per robot (``advance(robots=...)``)."""
 RANDOMIZED = PHYSICAL + ("friction_coefficient", "observation_noise", "action_delay")
-NOISY_OBSERVATIONS = slice(0, 13)
-"""The observation entries ``observation_noise`` perturbs: attitude, rates and legs (not the commanded
-heading, which the task sets, nor positions or the clock); the unit vectors' stay within [-1, 1]."""
+def noisy_observations(num_legs: int) -> slice:
+    """The observation entries ``observation_noise`` perturbs: attitude, rates and legs (not the
+    commanded heading, which the task sets, nor positions or the clock); the unit vectors' stay
+    within [-1, 1]."""
+    return slice(0, 9 + 2 * num_legs)
 
 
 def randomization_ranges(randomize, config) -> dict:
@@ -248,14 +257,14 @@ def delayed_actions(actions, previous, draws):
     return np.where(delay.reshape(np.shape(actions)[:-1] + (1,)) > 0, previous, actions)
 
 
-def noisy(observations, draws, rng):
-    """``observations`` (N, size) with Gaussian noise of each robot's ``observation_noise``
-    (standard deviation) on :data:`NOISY_OBSERVATIONS`, from ``rng``."""
+def noisy(observations, draws, rng, num_legs: int = 2):
+    """``observations`` (N, size) of robots of ``num_legs`` legs with Gaussian noise of each robot's
+    ``observation_noise`` (standard deviation) on :func:`noisy_observations`, from ``rng``."""
     sigma = draws.get("observation_noise")
     if sigma is None:
         return observations
     out = observations.copy()
-    part = out[:, NOISY_OBSERVATIONS]
+    part = out[:, noisy_observations(num_legs)]
     part += (sigma[:, None] * rng.standard_normal(part.shape)).astype(out.dtype)
     out[:, 0:6].clip(-1.0, 1.0, out=out[:, 0:6])  # (unit vectors' entries stay in the observation space)
     return out
@@ -320,6 +329,14 @@ class TaskConfig:
     robot: RobotParams | None = _keyword(
         None, "geometry, masses, gravity, damping (`rrrobot_gym.params.RobotParams`); None: the paper's robot",
         shown="`RobotParams()`",
+    )
+    num_legs: int | None = _keyword(
+        None, "legs, 1 to 6, in the family's default placement on the rim (`rrrobot_gym.params.default_legs`); "
+        "None: the robot's (2)"
+    )
+    shell_axes: tuple | None = _keyword(
+        None, "m, (a, b, c): the shell's semi-axes along body x, y, z, an ellipsoid; None: the robot's (the sphere, "
+        "r = 0.12)"
     )
     kp: float = _keyword(PDGains.kp, "N m/rad, leg servo stiffness")
     kd: float = _keyword(PDGains.kd, "N m s/rad, leg servo damping")
@@ -394,6 +411,16 @@ class TaskConfig:
         elif not isinstance(self.robot, RobotParams):
             raise TypeError(f"robot must be a rrrobot_gym.params.RobotParams, got {type(self.robot).__name__}")
         robot = self.robot
+        if self.num_legs is not None or self.shell_axes is not None:  # (a layout of their own: the family's default)
+            family = {"num_legs": robot.num_legs if self.num_legs is None else self.num_legs, "legs": None}
+            if self.shell_axes is not None:
+                family.update(shell_axes=self.shell_axes, radius=None)
+            try:
+                robot = dataclasses.replace(robot, **family)
+            except (TypeError, ValueError) as error:
+                raise type(error)(str(error).replace("RobotParams.", "")) from None
+            put("num_legs", robot.num_legs)
+            put("shell_axes", robot.shell_axes if self.shell_axes is not None else None)
         if self.damping is not None:
             put("damping", _real("damping", self.damping))
             robot = dataclasses.replace(robot, damping=self.damping)
@@ -453,8 +480,13 @@ class TaskConfig:
         return self.frame_skip * self.sim.step
 
     @property
+    def num_robot_legs(self) -> int:
+        """The robot's legs: the action's size, a state's 9 + 2 x this."""
+        return self.sim.robot.num_legs
+
+    @property
     def observation_size(self) -> int:
-        size = 15 if self.exclude_current_positions_from_observation else 17
+        size = 11 + 2 * self.num_robot_legs + (0 if self.exclude_current_positions_from_observation else 2)
         return size + (2 if self.clock_frequency is not None else 0)
 
     @property
@@ -543,15 +575,17 @@ def signature_with_keywords(function, *, before=(), after=()) -> inspect.Signatu
 # Spaces
 
 
-def single_action_space() -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+def single_action_space(config: TaskConfig) -> spaces.Box:
+    """One number a leg, in [-1, 1]."""
+    return spaces.Box(-1.0, 1.0, shape=(config.num_robot_legs,), dtype=np.float32)
 
 
 def single_observation_space(config: TaskConfig) -> spaces.Box:
     """Unit vectors and the commanded direction are bounded by 1; rates, angles and positions are not."""
     low = np.full(config.observation_size, -np.inf, dtype=np.float32)
     high = np.full(config.observation_size, np.inf, dtype=np.float32)
-    bounded = np.r_[0:6, 13:15]
+    legs = config.num_robot_legs
+    bounded = np.r_[0:6, 9 + 2 * legs : 11 + 2 * legs]
     if config.clock_frequency is not None:
         bounded = np.r_[bounded, config.observation_size - 2 : config.observation_size]
     low[bounded], high[bounded] = -1.0, 1.0
@@ -605,35 +639,38 @@ def leg_targets_to_action(leg_targets):
 
 
 def draw_start(rng: np.random.Generator, config: TaskConfig):
-    """One robot's start noise (10,) U(-s, s), s = reset_noise_scale, then its heading (rad; drawn
+    """One robot's start noise (6 + 2L,) U(-s, s), s = reset_noise_scale, then its heading (rad; drawn
     U(-pi, pi) if ``config.target_direction`` is None) from ``rng``: the single env and each
     sub-env draw alike. :func:`start_states` turns the noise into states."""
-    noise = draw_noise(rng, config.reset_noise_scale)
+    noise = draw_noise(rng, config.reset_noise_scale, config.num_robot_legs)
     target = float(rng.uniform(-math.pi, math.pi)) if config.target_direction is None else config.target_direction
     return noise, target
 
 
-def draw_noise(rng: np.random.Generator, scale: float) -> np.ndarray:
-    """One robot's start noise (10,), U(-scale, scale), for :func:`start_states`."""
-    return rng.uniform(-scale, scale, size=10)
+def draw_noise(rng: np.random.Generator, scale: float, num_legs: int = 2) -> np.ndarray:
+    """One robot's start noise (6 + 2L,), U(-scale, scale), for :func:`start_states`."""
+    return rng.uniform(-scale, scale, size=6 + 2 * num_legs)
 
 
 def start_states(noise):
-    """States (N, 13): the paper's start (at rest at the origin, upright, legs vertical) plus noise
-    (N, 10) on the paper's attitude angles (rad, 0:3), the leg angles (rad, 3:5), the body angular
-    velocity (rad/s, body frame, 5:8) and the leg rates (rad/s, 8:10)."""
+    """States (N, 9 + 2L): the paper's start (at rest at the origin, upright, legs vertical) plus
+    noise (N, 6 + 2L) on the paper's attitude angles (rad, 0:3), the leg angles (rad, 3:3 + L), the
+    body angular velocity (rad/s, body frame, 3 + L:6 + L) and the leg rates (rad/s, 6 + L:)."""
     noise = np.asarray(noise, dtype=np.float64)
-    states = np.zeros((len(noise), dynamics.STATE_SIZE))
-    states[:, dynamics.QUAT] = dynamics.quat_from_paper_angles(noise[:, 0:3])
-    states[:, dynamics.LEG_ANGLES] = 0.5 * math.pi + noise[:, 3:5]
-    states[:, dynamics.BODY_RATE] = noise[:, 5:8]
-    states[:, dynamics.LEG_RATES] = noise[:, 8:10]
+    legs = (noise.shape[1] - 6) // 2
+    fields = dynamics.state_fields(legs)
+    states = np.zeros((len(noise), fields.size))
+    states[:, fields.quat] = dynamics.quat_from_paper_angles(noise[:, 0:3])
+    states[:, fields.leg_angles] = 0.5 * math.pi + noise[:, 3 : 3 + legs]
+    states[:, fields.body_rate] = noise[:, 3 + legs : 6 + legs]
+    states[:, fields.leg_rates] = noise[:, 6 + legs :]
     return states
 
 
-def parse_reset_options(options, num_envs: int | None):
-    """Validate ``reset(options=...)``: (states or None, targets or None). ``num_envs`` None is the
-    single env ((13,) state, one heading); a vector env takes a (13,) state or one heading for all."""
+def parse_reset_options(options, num_envs: int | None, num_legs: int = 2):
+    """Validate ``reset(options=...)`` for robots of ``num_legs`` legs: (states or None, targets or
+    None). ``num_envs`` None is the single env (one state, one heading); a vector env takes one
+    state or one heading for all, or one each."""
     if options is None:
         return None, None
     if not isinstance(options, dict):
@@ -643,14 +680,18 @@ def parse_reset_options(options, num_envs: int | None):
         raise ValueError(f"unknown reset option(s) {sorted(unknown)}: expected some of {list(RESET_OPTIONS)}")
     states = targets = None
     if options.get("state") is not None:
-        states = check_state(options["state"])
+        size = dynamics.state_fields(num_legs).size
+        try:
+            states = check_state(options["state"], num_legs)
+        except ValueError as error:
+            raise ValueError(f"options['state']: {error}") from None
         if num_envs is None:
             if states.ndim != 1:
-                raise ValueError(f"options['state'] must have shape (13,), got {states.shape}")
+                raise ValueError(f"options['state'] must have shape ({size},), got {states.shape}")
         else:
-            states = np.broadcast_to(states, (num_envs, dynamics.STATE_SIZE)).copy() if states.ndim == 1 else states
-            if states.shape != (num_envs, dynamics.STATE_SIZE):
-                raise ValueError(f"options['state'] must have shape (13,) or ({num_envs}, 13), got {states.shape}")
+            states = np.broadcast_to(states, (num_envs, size)).copy() if states.ndim == 1 else states
+            if states.shape != (num_envs, size):
+                raise ValueError(f"options['state'] must have shape ({size},) or ({num_envs}, {size}), got {states.shape}")
         start_tilt = np.max(dynamics.tilt(states))
         if start_tilt >= dynamics.TILT_LIMIT:
             raise ValueError(
@@ -724,32 +765,51 @@ def observe(states, targets, config: TaskConfig, times=None, rows=None, heading=
     return obs.T.copy()
 
 
-_MIRROR_OBSERVATION_SIGNS = np.array([1, -1, 1, 1, -1, 1, -1, 1, -1, 1, 1, 1, 1, 1, -1, 1, -1], dtype=np.float32)
-"""Signs of the first 17 observation entries under :func:`mirror_observations` (legs exchanged
-after); a gait clock's two entries keep theirs."""
-
-
 def mirror_observations(observations, config: TaskConfig) -> np.ndarray:
-    """Observations (..., observation_size) of the mirror image of the scene: exactly,
-    ``observe(mirror_states(s), -t)`` == ``mirror_observations(observe(s, t))``
-    (:func:`rrrobot_gym.dynamics.mirror_states`; actions: :func:`mirror_actions`)."""
+    """Observations (..., observation_size) of the mirror image of the scene, for a robot with that
+    symmetry (:func:`rrrobot_gym.dynamics.mirror_legs`): ``observe(mirror_states(s), -t)`` ==
+    ``mirror_observations(observe(s, t))`` (exactly where no leg is flipped: a flipped leg's angle
+    becomes pi - angle in float32) (:func:`rrrobot_gym.dynamics.mirror_states`; actions:
+    :func:`mirror_actions`). Vectors' y entries and the body rate's x and z change sign, each leg
+    takes its image's angle and rate; positions' y changes sign; a gait clock keeps its entries."""
     obs = np.asarray(observations, dtype=np.float32)
     if obs.shape[-1:] != (config.observation_size,):
         raise ValueError(f"observations must end in {config.observation_size} entries, got shape {obs.shape}")
-    end = 17 if not config.exclude_current_positions_from_observation else 15
+    robot = config.sim.robot
+    legs = _mirror_legs(robot)
+    num_legs = robot.num_legs
     out = obs.copy()
-    out[..., :end] *= _MIRROR_OBSERVATION_SIGNS[:end]
-    out[..., 9:11] = obs[..., 10:8:-1]
-    out[..., 11:13] = obs[..., 12:10:-1]
+    for m in (1, 4, 6, 8, 10 + 2 * num_legs):  # up and heading in the body (y), the body rate (x, z), the heading's sin
+        out[..., m] = -obs[..., m]
+    if not config.exclude_current_positions_from_observation:
+        out[..., 12 + 2 * num_legs] = -obs[..., 12 + 2 * num_legs]
+    for k, (j, flipped) in enumerate(legs):
+        angle, rate = obs[..., 9 + k], obs[..., 9 + num_legs + k]
+        out[..., 9 + j] = np.float32(math.pi) - angle if flipped else angle
+        out[..., 9 + num_legs + j] = -rate if flipped else rate
     return out
 
 
-def mirror_actions(actions) -> np.ndarray:
-    """The mirror image of actions (..., 2): the legs' targets exchanged."""
+def mirror_actions(actions, robot: RobotParams | None = None) -> np.ndarray:
+    """The mirror image of actions (..., L): each leg takes its image's target (a flipped leg's
+    negated: its target pi - target, the actions' middle being pi/2)."""
+    robot = RobotParams() if robot is None else robot
     actions = np.asarray(actions)
-    if actions.shape[-1:] != (2,):
-        raise ValueError(f"actions must end in 2 entries (one per leg), got shape {actions.shape}")
-    return actions[..., ::-1].copy()
+    if actions.shape[-1:] != (robot.num_legs,):
+        raise ValueError(f"actions must end in {robot.num_legs} entries (one per leg), got shape {actions.shape}")
+    out = actions.copy()
+    for k, (j, flipped) in enumerate(_mirror_legs(robot)):
+        out[..., j] = -actions[..., k] if flipped else actions[..., k]
+    return out
+
+
+def _mirror_legs(robot: RobotParams):
+    """:func:`rrrobot_gym.dynamics.mirror_legs`, or a ValueError for a robot without the symmetry."""
+    legs = dynamics.mirror_legs(robot)
+    if legs is None:
+        raise ValueError("this robot has no mirror symmetry in its x-z plane (its legs are not in mirrored pairs): "
+                         "the heading mirror does not apply to it")
+    return legs
 
 
 def rotation_rows(states):
@@ -768,12 +828,12 @@ def heading_vectors(targets):
     return cos_t, sin_t
 
 
-def upright_contact_points(states, radius, rows=None):
+def upright_contact_points(states, config: TaskConfig, rows=None):
     """(N, 2) m: where the contact point would be if the shell rolled back upright without slip
     (:func:`upright_pose`). ``rows``: the states' :func:`rotation_rows`, if already computed."""
     rows = rotation_rows(states) if rows is None else rows
     points = np.empty((len(states), 2))  # (cheaper than np.stack for one robot)
-    points[:, 0], points[:, 1], _ = upright_pose(states[:, 0], states[:, 1], rows, radius)
+    points[:, 0], points[:, 1], _ = upright_pose(states[:, 0], states[:, 1], rows, config.kernel_params)
     return points
 
 
@@ -782,7 +842,7 @@ def reset_info(states, targets, config: TaskConfig, rows=None, draws=None):
     states' :func:`rotation_rows`, if already computed), and with ``draws`` (:func:`draw_robots`)
     each drawn quantity as ``"randomized_" + name``."""
     rows = rotation_rows(states) if rows is None else rows
-    x_upright, y_upright, tilt = upright_pose(states[:, 0], states[:, 1], rows, config.sim.robot.radius)
+    x_upright, y_upright, tilt = upright_pose(states[:, 0], states[:, 1], rows, config.kernel_params)
     return {
         **{"randomized_" + name: values.copy() for name, values in (draws or {}).items()},
         "x_position": states[:, 0].copy(),
@@ -806,7 +866,7 @@ def step_outcome(
     ``states_after`` and the targets' :func:`heading_vectors`, if the caller already has them.
     """
     info = reset_info(states_after, targets, config, rows_after)
-    before = upright_contact_points(states_before, config.sim.robot.radius) if upright_before is None else upright_before
+    before = upright_contact_points(states_before, config) if upright_before is None else upright_before
     cos_t, sin_t = heading_vectors(targets) if heading is None else heading
     failed = np.array(failed, dtype=bool)
     values = outcome(
@@ -917,11 +977,12 @@ FINITE_BY_DOT_MIN = 256
 
 TASK_PARAMS = ("dt", "h", "n_steps", "accel_limit", "profile_rate_limit", "linear", "plane", "max_slip_velocity",
                "max_liftoff_time", "forward_scale", "ctrl_cost_weight", "healthy_reward", "terminate_outside_model",
-               "radius", "clock_frequency", "positions", "grace", "tilt_limit")  # fmt: skip
+               "axis_a", "axis_b", "axis_c", "clock_frequency", "positions", "grace", "tilt_limit")  # fmt: skip
 """The scalars the kernels read from one array (:attr:`TaskConfig.kernel_params`), in this order: 0 or
 1 for flags; an accel limit or clock frequency of 0: none; a profile rate limit of inf: none."""
 (_DT, _H, _N_STEPS, _ACCEL_LIMIT, _PROFILE_RATE_LIMIT, _LINEAR, _PLANE, _MAX_SLIP, _MAX_LIFTOFF, _FORWARD_SCALE,
- _CTRL_COST, _HEALTHY, _TERMINATE_OUTSIDE, _RADIUS, _CLOCK, _POSITIONS, _GRACE, _TILT_LIMIT) = range(len(TASK_PARAMS))  # fmt: skip
+ _CTRL_COST, _HEALTHY, _TERMINATE_OUTSIDE, _AXIS_A, _AXIS_B, _AXIS_C, _CLOCK, _POSITIONS, _GRACE,
+ _TILT_LIMIT) = range(len(TASK_PARAMS))  # fmt: skip
 OUTCOME_KEYS = ("x_velocity", "y_velocity", "forward_velocity", "reward_forward", "reward_ctrl", "reward_survive")
 """The info entries of :func:`outcome`'s first value, in order."""
 
@@ -935,7 +996,8 @@ def _kernel_params_of(config: TaskConfig) -> np.ndarray:
         linear=config.action_hold == "linear", plane=config.sim.model == "plane", max_slip_velocity=config.max_slip_velocity,
         max_liftoff_time=config.max_liftoff_time, forward_scale=config.forward_reward_weight * FORWARD_VELOCITY_UNIT,
         ctrl_cost_weight=config.ctrl_cost_weight, healthy_reward=config.healthy_reward,
-        terminate_outside_model=config.terminate_outside_model, radius=config.sim.robot.radius,
+        terminate_outside_model=config.terminate_outside_model, axis_a=config.sim.robot.shell_axes[0],
+        axis_b=config.sim.robot.shell_axes[1], axis_c=config.sim.robot.shell_axes[2],
         clock_frequency=config.clock_frequency or 0.0, positions=not config.exclude_current_positions_from_observation,
         grace=STARTUP_GRACE - 1e-9, tilt_limit=dynamics.TILT_LIMIT,
     )  # fmt: skip
@@ -964,33 +1026,59 @@ def observe_into(o, c, rows, cos_t, sin_t, time, p):
         o[3 + m] = rows[0][m] * cos_t + rows[1][m] * sin_t
     for m in range(6):  # (in float32, where a unit vector's rounding could pass 1)
         o[m] = np.minimum(np.maximum(o[m], -1.0), 1.0)
+    legs = (len(c) - 9) // 2
     for m in range(3):
-        o[6 + m] = c[8 + m]
-    for m in range(2):
-        o[9 + m], o[11 + m] = c[6 + m], c[11 + m]
-    o[13], o[14] = cos_t, sin_t
-    end = 15
+        o[6 + m] = c[6 + legs + m]
+    for m in range(legs):
+        o[9 + m], o[9 + legs + m] = c[6 + m], c[9 + legs + m]
+    o[9 + 2 * legs], o[10 + 2 * legs] = cos_t, sin_t
+    end = 11 + 2 * legs
     if p[_POSITIONS] > 0.0:
-        o[15], o[16] = c[0], c[1]
-        end = 17
+        o[end], o[end + 1] = c[0], c[1]
+        end = end + 2
     if p[_CLOCK] > 0.0:  # a gait clock: with it a sinusoidal gait is a linear function of the observation
         o[end], o[end + 1] = sincos(p[_CLOCK] * time)
 
 
-def upright_pose(x, y, rows, radius):
+# Gauss-Legendre's 8 nodes and weights on [0, 1], for the shell's meridian arc (upright_pose)
+_ARC_NODES = (0.019855071751231856, 0.10166676129318664, 0.2372337950418355, 0.4082826787521751,
+              0.5917173212478249, 0.7627662049581645, 0.8983332387068134, 0.9801449282487681)
+_ARC_WEIGHTS = (0.05061426814518813, 0.11119051722668724, 0.15685332293894363, 0.18134189168918100,
+                0.18134189168918100, 0.15685332293894363, 0.11119051722668724, 0.05061426814518813)
+
+
+def upright_pose(x, y, rows, p):
     """(x, y) of the upright contact point (m) and the tilt (rad) of a contact point (x, y) and its
-    attitude's :func:`rotation_rows`.
+    attitude's :func:`rotation_rows`, for the shell of ``p``'s semi-axes.
 
     The upright contact point is where the contact point would be if the shell rolled back
-    upright without slip: that roll moves it by r tilt against the body axis's horizontal lean
-    b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt), so it is p - r (tilt / sin(tilt)) b_h. It stays put
-    while the shell rocks or tips over, and moves only with net travel."""
+    upright without slip along its meridian: by the meridian's arc from the contact to the bottom
+    pole, against the body axis's horizontal lean b_h = (R[0, 2], R[1, 2]), |b_h| = sin(tilt). On a
+    sphere that arc is r tilt, so the point is p - r (tilt / sin(tilt)) b_h. It stays put while the
+    shell rocks or tips over, and moves only with net travel."""
     lean_x, lean_y, cos_tilt = rows[0][2], rows[1][2], rows[2][2]
     sin_tilt = np.sqrt(lean_x * lean_x + lean_y * lean_y)
     tilt = arctan2(sin_tilt, cos_tilt)
-    # tilt / sin(tilt) -> 1 as the shell comes upright, where the lean direction is undefined.
+    # the contact in the body, s = -A n / sqrt(n^T A n), n = rows[2]; its meridian's ellipse
+    a, b, c = p[_AXIS_A], p[_AXIS_B], p[_AXIS_C]
+    nx, ny = rows[2][0], rows[2][1]
+    anx, bny = a * a * nx, b * b * ny
+    h = np.sqrt(anx * anx + bny * bny)  # the horizontal part of A n (the contact's, times sqrt(n^T A n))
+    off_pole = h > 1e-12 * c
+    safe = select(off_pole, h, 1.0)
+    ux, uy = anx / safe, bny / safe  # the contact's horizontal direction in the body
+    rho = 1.0 / np.sqrt((ux * ux) / (a * a) + (uy * uy) / (b * b))  # the equator's radius that way
+    # the contact's angle from the pole on the meridian (rho sin beta, -c cos beta): tan beta = h / (rho c n_z)
+    beta = arctan2(h, rho * c * cos_tilt)
+    arc = 0.0
+    for j in range(8):
+        t = beta * _ARC_NODES[j]
+        st, ct = sincos(t)
+        arc = arc + _ARC_WEIGHTS[j] * np.sqrt(rho * rho * (ct * ct) + c * c * (st * st))
+    arc = arc * beta
+    # arc / sin(tilt) -> the pole's radius of curvature as the shell comes upright (lean undefined)
     leaning = sin_tilt > 1e-9
-    scale = radius * select(leaning, tilt / select(leaning, sin_tilt, 1.0), 1.0)
+    scale = select(leaning, arc / select(leaning, sin_tilt, 1.0), select(off_pole, rho * rho / c, a * a / c))
     return x - scale * lean_x, y - scale * lean_y, tilt
 
 
@@ -1046,18 +1134,18 @@ INFO_ROWS = RESET_INFO_KEYS + OUTCOME_KEYS + MEASURE_KEYS + ("termination",)
 """The rows of :func:`fused_step`'s float info (its flags: numerical_failure, outside_model)."""
 _physics = None  # (the compiled step's physics, given to its compiled copy by rrrobot_gym.compiled)
 _quaternion_rows = dynamics.rotation_rows
-_RECORD_ROWS, _SUMMARY_ROWS = compiled.RECORD_ROWS, compiled.SUMMARY_ROWS
+_SUMMARY_ROWS = compiled.SUMMARY_ROWS
 
 
 def fused_step(before, last_obs, previous_targets, previous_rates, applied, actions, heading, targets, elapsed,
-               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, robot, friction, mass, y,
-               ends, rates, obs, info, flags, rewards, terminated, lost_after):
+               obs_times, contact_lost, upright_before, p, scene, torque_limit, rate_limit, robot, layout, friction, mass,
+               y, ends, rates, obs, info, flags, rewards, terminated, lost_after):
     """One control step of the robots ``before`` (N, 13) into the arrays from ``y`` on, the env's
     whole step robot by robot (:class:`CompiledTask`): the kernels above, the physics (compiled
     lanes, with the record) and :func:`rrrobot_gym.validity.record_measures`. The caller makes
     the output arrays (numba's boxing of arrays it returns costs more than the caller's np.empty);
-    ``scene``, ``torque_limit``, ``rate_limit`` and ``robot`` are the physics' (the shared scene's
-    constants and gains in one array, or each robot's own); ``friction`` (N,) the floors' grip
+    ``scene``, ``torque_limit``, ``rate_limit``, ``robot`` and ``layout`` are the physics' (the shared
+    scene's constants and gains in one array, or each robot's own; the legs'); ``friction`` (N,) the floors' grip
     (used where ``limited``), ``mass`` (N,) the robots'. Only compiled (``rrrobot_gym.compiled``)."""
     n, legs = before.shape[0], previous_targets.shape[1]
     dt, h, n_steps = p[_DT], p[_H], int(p[_N_STEPS])
@@ -1075,9 +1163,9 @@ def fused_step(before, last_obs, previous_targets, previous_rates, applied, acti
             else:
                 params[i, j] = end
     y[:] = before
-    rows = np.empty((n_steps, _RECORD_ROWS, n))
+    rows = np.empty((n_steps, 3 * legs + 5, n))
     summary = np.empty((_SUMMARY_ROWS, n))
-    _physics(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, rows, summary, robot)
+    _physics(y, h, n_steps, scene, torque_limit, rate_limit, linear, params, dt, layout, rows, summary, robot)
     size = last_obs.shape[1]
     limited = not np.isnan(friction[0]) if n else False
     out = np.empty(len(INFO_ROWS))
@@ -1102,13 +1190,13 @@ def fused_step(before, last_obs, previous_targets, previous_rates, applied, acti
             measures = (nan, nan, nan, nan, nan, nan, nan, nan, nan, contact_lost[i])
         elif limited:
             measures = record_measures(
-                rows[:, 5, i], rows[:, 6, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
-                summary[4, i], summary[5, i], contact_lost[i], friction[i], mass[i], h, p[_PLANE] > 0.0)  # fmt: skip
+                rows[:, legs + 3, i], rows[:, legs + 4, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
+                summary[4, i], summary[5, i], contact_lost[i], friction[i], mass[i], h, p[_PLANE] > 0.0, legs)  # fmt: skip
         else:
             measures = record_measures(
-                rows[:, 5, i], rows[:, 6, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
-                summary[4, i], summary[5, i], contact_lost[i], None, mass[i], h, p[_PLANE] > 0.0)  # fmt: skip
-        x_up, y_up, tilt = upright_pose(y[i, 0], y[i, 1], r, p[_RADIUS])
+                rows[:, legs + 3, i], rows[:, legs + 4, i], summary[0, i], summary[1, i], summary[2, i], summary[3, i],
+                summary[4, i], summary[5, i], contact_lost[i], None, mass[i], h, p[_PLANE] > 0.0, legs)  # fmt: skip
+        x_up, y_up, tilt = upright_pose(y[i, 0], y[i, 1], r, p)
         terms, reward, outside, done, reason = outcome(
             before[i, 0], before[i, 1], y[i, 0], y[i, 1], upright_before[i, 0], upright_before[i, 1], x_up, y_up, cos_t,
             sin_t, effort(actions[i]), failed, tilt, measures[5], measures[3], measures[4], elapsed[i], p)  # fmt: skip
@@ -1136,8 +1224,8 @@ class CompiledTask:
         self.config = config
         sim = config.sim
         self._params = config.kernel_params
-        k, kc, gains = compiled._scene(sim.robot, sim.depth, sim.gains)
-        self._shared = np.array([*k, *kc, *gains], dtype=float)
+        k, gains, self._layout = compiled._scene(sim.robot, sim.model, sim.gains)
+        self._shared = np.array([*k, *gains], dtype=float)
         self.set_robots({}, num_envs)
 
     @staticmethod
@@ -1158,8 +1246,8 @@ class CompiledTask:
             values = simulation.robot_values(sim, physics, num_envs)
             robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
             self._robot = (*limits, robot)
-            self._mass = simulation.total_mass(values)
-        self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS)
+            self._mass = simulation.total_mass(sim, values)
+        self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS, sim.robot.num_legs)
         grip = self.config.friction_coefficient if friction is None else friction
         # (NaN: unlimited grip, the same for every robot)
         self._friction = np.array(np.broadcast_to(np.nan if grip is None else grip, (num_envs,)), dtype=float)
@@ -1170,13 +1258,13 @@ class CompiledTask:
         :data:`INFO_ROWS`), flags (numerical_failure, outside_model), rewards, terminated,
         contact_lost after), each with a leading or trailing axis of N robots. A failed robot keeps
         its state, observation (``observations``, the last) and servo reference."""
-        n = len(states)
-        out = (np.empty((n, dynamics.STATE_SIZE)), np.empty((n, 2)), np.empty((n, 2)),
+        n, legs = len(states), self.config.num_robot_legs
+        out = (np.empty((n, 9 + 2 * legs)), np.empty((n, legs)), np.empty((n, legs)),
                np.empty((n, self.config.observation_size), dtype=np.float32), np.empty((len(INFO_ROWS), n)),
                np.empty((2, n), dtype=bool), np.empty(n), np.empty(n, dtype=bool), np.empty(n))  # fmt: skip
         self._step(states, observations, leg_targets, leg_target_rates, applied, actions, heading, targets, elapsed,
-                   times, contact_lost, upright, self._params, self._shared, *self._robot, self._friction, self._mass,
-                   *out)  # fmt: skip
+                   times, contact_lost, upright, self._params, self._shared, *self._robot, self._layout, self._friction,
+                   self._mass, *out)  # fmt: skip
         return out
 
 

@@ -96,7 +96,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self._frame_size = render.check_frame_size(width, height)
         self.metadata = {**type(self).metadata, "render_fps": max(1, round(1.0 / self.dt))}
 
-        self.single_action_space = task.single_action_space()
+        self.single_action_space = task.single_action_space(self.config)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.single_observation_space = task.single_observation_space(self.config)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -152,7 +152,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
     def reset(self, *, seed=None, options=None):
         seeds = self._seed_list(seed)
-        option_states, option_targets = task.parse_reset_options(options, self.num_envs)
+        option_states, option_targets = task.parse_reset_options(options, self.num_envs, self.config.num_robot_legs)
         if option_states is not None:  # (before anything changes, the generators too: a refused reset keeps the env)
             task.check_start_states(option_states, self.config)
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)  # (Gymnasium takes ints only)
@@ -164,8 +164,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         targets = targets if option_targets is None else option_targets
         observations = task.observe(states, targets, self.config, np.zeros(self.num_envs))
         self.states = states
-        self.leg_targets = self.states[:, 6:8].copy()
-        self.leg_target_rates = np.zeros((self.num_envs, 2))
+        legs = self.config.sim.fields.leg_angles
+        self.leg_targets = self.states[:, legs].copy()
+        self.leg_target_rates = np.zeros((self.num_envs, self.config.num_robot_legs))
         self._last_actions = task.leg_targets_to_action(self.leg_targets).clip(-1.0, 1.0)
         self.contact_lost = np.zeros(self.num_envs)
         self.episode_target_directions = targets
@@ -179,7 +180,8 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         info = self._reset_info(np.arange(self.num_envs))
         self._upright = _upright_points(info)
         masks = {key: np.ones(self.num_envs, dtype=bool) for key in info}
-        return task.noisy(self._observations, self.robot_draws, self.np_random).copy(), _with_masks(info, masks)
+        return (task.noisy(self._observations, self.robot_draws, self.np_random, self.config.num_robot_legs).copy(),
+                _with_masks(info, masks))
 
     def _seed_list(self, seed):
         if seed is None:
@@ -212,7 +214,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
     def step(self, actions):
         if self.states is None:
             raise RuntimeError("RRRobotVectorEnv.step() called before reset()")
-        actions = task.check_actions(actions, (self.num_envs, 2))
+        actions = task.check_actions(actions, (self.num_envs, self.config.num_robot_legs))
         before = self.states
         targets = self.episode_target_directions
         # The headings' cos and sin and the new states' rotations, computed once for both
@@ -246,7 +248,7 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
             masks = dict.fromkeys(info, self._every)
         # (the next step's upright points before: a reset sub-env's info is its new start's)
         self._upright = _upright_points(info)
-        observations = task.noisy(observations, self.robot_draws, self.np_random)
+        observations = task.noisy(observations, self.robot_draws, self.np_random, self.config.num_robot_legs)
         return observations.copy(), rewards, terminated, truncated, _with_masks(info, masks)
 
     def _task_step(self, before, targets, heading, applied, actions):
@@ -323,9 +325,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
 
         states, targets = self._draw_starts(indices)
         self.states[indices] = states
-        self.leg_targets[indices] = states[:, 6:8]
+        legs = self.config.sim.fields.leg_angles
+        self.leg_targets[indices] = states[:, legs]
         self.leg_target_rates[indices] = 0.0
-        self._last_actions[indices] = task.leg_targets_to_action(states[:, 6:8]).clip(-1.0, 1.0)
+        self._last_actions[indices] = task.leg_targets_to_action(states[:, legs]).clip(-1.0, 1.0)
         for name, values in task.draw_robots([self._generators[i] for i in indices], self.config).items():
             self.robot_draws[name][indices] = values
         if self.compiled_task is not None and self.robot_draws:
