@@ -1,4 +1,5 @@
-"""Loading a trained PPO policy, with its observation normalisation, as an agent.
+"""Loading a trained policy, with its observation normalisation, as an agent: PPO's, or any
+algorithm's ``train.py --algo`` trains (its run's ``args.json`` names it).
 
 Loading a Stable-Baselines3 model unpickles it (``PPO.load`` and the VecNormalize
 statistics both use pickle): load only files you trust.
@@ -102,23 +103,30 @@ def check_run_files(model_path, vecnormalize_path=None) -> None:
                                     "without it the policy's speeds mean nothing")
 
 
+def trained_algorithm(model_path) -> str:
+    """The algorithm of a model train.py saved (a key of :data:`rrrobot_gym.hyperparams.ALGORITHMS`):
+    its run's ``args.json``'s ``algo``; PPO for a run without one (train.py before --algo)."""
+    args_path = run_directory(model_path) / "args.json"
+    return json.loads(args_path.read_text()).get("algo", "ppo") if args_path.exists() else "ppo"
+
+
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
-    """Load ``model_path`` (an SB3 PPO zip), its VecNormalize statistics (``vecnormalize_path``, or
+    """Load ``model_path`` (an SB3 model zip: PPO, or the algorithm its run's ``args.json`` names,
+    :func:`trained_algorithm`), its VecNormalize statistics (``vecnormalize_path``, or
     :func:`normalization_path`) and its run's ``env_kwargs.json``; a run missing a file it needs
     is refused (:func:`check_run_files`). A run with ``residual.json`` gives a
     :class:`~rrrobot_gym.agents.residual.ResidualAgent`, one with ``mirror.json`` a
     :class:`~rrrobot_gym.agents.mirror.MirroredAgent`. Unpickles the files: trusted files only.
     """
-    from stable_baselines3 import PPO
-
     from ..envs.task import kwargs_from_json
+    from ..hyperparams import algorithm_class
 
     model_path = Path(model_path)
     if not model_path.exists():
         raise FileNotFoundError(f"no PPO model at {model_path}")
     run_dir = run_directory(model_path)  # (a checkpoint's run is one directory up)
     check_run_files(model_path, vecnormalize_path)
-    model = PPO.load(model_path, device=device)
+    model = algorithm_class(trained_algorithm(model_path)).load(model_path, device=device)
     vecnormalize_path = normalization_path(model_path) if vecnormalize_path is None else vecnormalize_path
     env_config = kwargs_from_json(json.loads((run_dir / "env_kwargs.json").read_text()))
     with open(vecnormalize_path, "rb") as handle:
