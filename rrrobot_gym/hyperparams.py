@@ -99,8 +99,9 @@ GRADIENT_STEPS = 1
 """gradient steps an update (-1: one a transition collected)."""
 TAU = 0.005
 """the target networks' soft-update rate."""
-ACTION_NOISE = 0.1
-"""TD3: the standard deviation of its Gaussian exploration noise, in action units."""
+ACTION_NOISE = 0.2
+"""TD3: the standard deviation of its Gaussian exploration noise, in action units (0.1, the usual
+choice, left its worst heading at 0 mm/s for five minutes; 0.2 reached 35 mm/s: docs/notes/algorithms.md)."""
 USE_SDE = False
 """SAC, TQC: explore with generalized state-dependent noise (gSDE; then --log-std-init sets its scale)."""
 
@@ -115,21 +116,24 @@ SETTINGS = {
 """The settings (``train.py`` options, :func:`algorithm_kwargs`'s keywords) each algorithm takes;
 every algorithm also takes ``num_envs`` and ``total_timesteps``."""
 
-_OFF_POLICY = {"num_envs": 16, "total_timesteps": 5_000_000, "batch_size": 256, "learning_rate": 3e-4,
-               "learning_rate_final": None, "net_arch": "256,256", "eval_freq": 50_000, "checkpoint_freq": 250_000,
-               "torch_threads": 1}
+_OFF_POLICY = {"num_envs": 64, "total_timesteps": 5_000_000, "batch_size": 256, "learning_rate": 3e-4,
+               "learning_rate_final": None, "net_arch": "128,128", "gradient_steps": 4, "eval_freq": 50_000,
+               "checkpoint_freq": 500_000, "torch_threads": 1}
 ALGO_DEFAULTS = {
     "ppo": {},
-    "sac": {**_OFF_POLICY, "ent_coef": "auto"},
+    "sac": {**_OFF_POLICY, "ent_coef": "auto_0.05"},
     "td3": {**_OFF_POLICY},
-    "tqc": {**_OFF_POLICY, "ent_coef": "auto"},
+    "tqc": {**_OFF_POLICY, "ent_coef": "auto_0.05"},
 }
 """``train.py``'s defaults where an algorithm's differ from the constants above (PPO's, which also
-has :data:`MODEL_DEFAULTS`), in its options' terms: SB3's usual off-policy settings (256 x 256
-networks, minibatches of 256, a constant learning rate of 3e-4) on fewer robots at once, so the
-updates keep up with the env (docs/notes/algorithms.md), evaluations every 50,000 steps, and
-one torch thread: their minibatches of 256 gain nothing from a second, and on a busy machine two
-made SAC's updates ten times slower. The off-policy settings were tried on the plane model only."""
+has :data:`MODEL_DEFAULTS`), in its options' terms. The off-policy three: SB3's usual minibatches
+of 256 and constant learning rate of 3e-4, PPO's 128 x 128 networks, 64 robots at once with four
+gradient steps each batched step (one per 16 transitions: on this CPU a gradient step costs
+7-26 ms, so updates, not the env, bound their wall time), evaluations every 50,000 steps and
+one torch thread (their minibatches gain nothing from a second, and on a busy machine two made
+SAC's updates ten times slower). SAC and TQC learn their entropy coefficient from 0.05, not
+SB3's 1: from 1 the policy stood still for the first minutes. The pilots behind these are in
+docs/notes/algorithms.md; they were run on the plane model only."""
 
 
 class LinearRate:

@@ -149,7 +149,7 @@ class Args:
         "worst", "which evaluation picks best_model.zip: mean (the headings' mean return) or worst (the worst "
         "heading's return)")
     torch_threads: int = _option(
-        2, "torch CPU threads for PPO's updates; the model's construction, the rollouts and the evaluations run on one "
+        2, "torch CPU threads for the updates; the model's construction, the rollouts and the evaluations run on one "
         "(the env steps between updates, so its core is free then)")
     seeds: int | None = _option(
         None, "run this many runs (seeds --seed, --seed + 1, ...; every other option as given) into one folder and "

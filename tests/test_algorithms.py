@@ -44,7 +44,7 @@ def test_each_algorithm_writes_a_model_that_evaluate_py_scores(algo, tmp_path, c
     from rrrobot_gym.agents import load_ppo_agent
     from rrrobot_gym.agents.mirror import MirroredAgent
 
-    run_dir = train_here(["--algo", algo, "--runs-dir", tmp_path, *TINY, *OFF_POLICY_TINY])
+    run_dir = train_here(["--algo", algo, "--runs-dir", tmp_path, *TINY, *OFF_POLICY_TINY, "--checkpoint-freq", "512"])
     assert run_dir.name.startswith(f"RRRobot-v0__{algo}__1__")
     assert json.loads((run_dir / "args.json").read_text())["algo"] == algo
     assert list((run_dir / "checkpoints").glob(f"{algo}_*_steps.zip"))
@@ -61,8 +61,12 @@ def test_each_algorithm_writes_a_model_that_evaluate_py_scores(algo, tmp_path, c
     evaluation.main(["--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "2",
                      "--json", str(out)])
     assert "| ppo |" in capsys.readouterr().out  # (evaluate.py's learned-policy row, whatever its algorithm)
-    records = [r for r in json.loads(out.read_text())["records"] if r["agent"] == "ppo"]
+    records = [r for r in json.loads(out.read_text())["records"] if r["agent"] == "ppo" and r["compass"]]
     assert len(records) == 8 and all(math.isfinite(r["speed_mps"]) for r in records)
+    from rrrobot_gym.export import export_onnx
+
+    with pytest.raises(ValueError, match=f"is a {algo} model .*: export-onnx writes PPO policies"):
+        export_onnx(run_dir / "best_model.zip", tmp_path / "policy.onnx")
 
 
 def test_each_algorithm_takes_its_own_defaults_and_a_given_option_wins():
@@ -77,7 +81,7 @@ def test_each_algorithm_takes_its_own_defaults_and_a_given_option_wins():
     assert (given.num_envs, given.ent_coef, given.use_sde, given.log_std_init) == (8, 0.05, True, -3.0)
     # the pivot's PPO defaults are PPO's: another algorithm on the pivot keeps its own
     pivot_sac = training.parse_args(["--algo", "sac", "--model", "pivot"])
-    assert (pivot_sac.ent_coef, pivot_sac.total_timesteps) == ("auto", hp.ALGO_DEFAULTS["sac"]["total_timesteps"])
+    assert (pivot_sac.ent_coef, pivot_sac.total_timesteps) == tuple(hp.ALGO_DEFAULTS["sac"][k] for k in ("ent_coef", "total_timesteps"))
 
 
 @pytest.mark.parametrize("algo", list(hp.ALGORITHMS))
