@@ -7,6 +7,7 @@
     rrrobot turn-then-run-search --model plane --run-gaits GAITS.json --budget 900 --out AGENT.json
     rrrobot turn-then-run-steer --agent AGENT.json --gain 0.5 1 --limit 0.05 0.1 --out AGENT.json
     rrrobot export-onnx agents/pretrained/best_model.zip --out policy.onnx
+    rrrobot video --policy agents/pretrained/best_model.zip --heading 90 --out robot.gif
 
 (also ``python -m rrrobot_gym ...``). This module only parses arguments, calls
 :mod:`rrrobot_gym.simulation`, :mod:`rrrobot_gym.analysis` and
@@ -172,6 +173,28 @@ def _positive_int(text: str, minimum: int = 1) -> int:
 
 def _count(text: str) -> int:
     return _positive_int(text, 0)
+
+
+def _positive_number(text: str) -> float:
+    value = _number(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def _heading_deg(text: str) -> float:
+    """A heading in degrees, in [-360, 360]."""
+    value = _number(text)
+    if not -360.0 <= value <= 360.0:
+        raise argparse.ArgumentTypeError(f"must be a heading in degrees, in [-360, 360], got {text!r}")
+    return value
+
+
+def _palette_size(text: str) -> int:
+    value = _positive_int(text)
+    if not 2 <= value <= 256:
+        raise argparse.ArgumentTypeError(f"must be 2 to 256 colours (a GIF's palette), got {text!r}")
+    return value
 
 
 # ---------------------------------------------------------------- the parser
@@ -343,6 +366,35 @@ def _add_turn_then_run_parsers(sub):
     export.add_argument("model", type=Path, metavar="MODEL.zip", help="the SB3 PPO model (e.g. a run's best_model.zip)")
     export.add_argument("--out", type=Path, required=True, metavar="FILE.onnx", help="where to write the network")
     export.set_defaults(run=run_export_onnx)
+
+    video = sub.add_parser(
+        "video",
+        help="write an animation (GIF or MP4) of a trained policy or a Table II gait (needs rrrobot_gym[video])",
+        description="Run one episode of a trained policy (any train.py run's model, with the files beside it) "
+        "or a Table II gait from the paper's start on the nominal robot, and write the env's rgb_array frames "
+        "(a top view with the path and the heading, a side view along the heading) as a GIF or an MP4. A "
+        "policy runs under the env keywords it was trained with. Loading a policy unpickles it: trusted "
+        "files only.",
+    )
+    source = video.add_mutually_exclusive_group(required=True)
+    source.add_argument("--policy", type=Path, metavar="MODEL.zip", help="a train.py model, e.g. a run's best_model.zip")
+    source.add_argument("--gait", type=int, choices=sorted(GAIT_OFFSETS), help="a Table II gait (open loop)")
+    video.add_argument("--heading", type=_heading_deg, default=90.0, metavar="DEG",
+                       help="commanded heading, deg from +X towards +Y; a gait ignores it, but the side view "
+                            "looks along it (default: %(default)g)")
+    video.add_argument("--model", choices=MODELS,
+                       help="the gait's model (default: plane); a policy runs on the model it was trained on")
+    video.add_argument("--seconds", type=_positive_seconds, default=10.0, help="s of the episode (default: %(default)g)")
+    video.add_argument("--every", type=_positive_int, default=1,
+                       help="a frame every this many control steps of 0.05 s (default: %(default)s)")
+    video.add_argument("--speed", type=_positive_number, default=1.0,
+                       help="playback speed, times real time (default: %(default)g)")
+    video.add_argument("--width", type=_positive_int, default=480, help="frame width, pixels (default: %(default)s)")
+    video.add_argument("--height", type=_positive_int, default=240, help="frame height, pixels (default: %(default)s)")
+    video.add_argument("--colors", type=_palette_size, default=32,
+                       help="a GIF's palette, 2-256 colours shared by all frames (default: %(default)s)")
+    video.add_argument("--out", type=Path, required=True, metavar="FILE", help="the animation: FILE.gif or FILE.mp4")
+    video.set_defaults(run=run_video)
 
 
 def _steer_limit(text: str):
@@ -793,6 +845,63 @@ def run_export_onnx(args) -> None:
     except (FileNotFoundError, ValueError) as exc:
         raise UsageError(str(exc)) from None
     print(f"wrote {args.out}")
+
+
+# ---------------------------------------------------------------- video
+
+
+def run_video(args) -> None:
+    from .envs.render import check_frame_size
+    from .video import FORMATS, record, write_animation
+
+    suffix = args.out.suffix.lower()
+    if suffix not in FORMATS:
+        raise UsageError(f"--out must name a {' or '.join(FORMATS)} file, got {str(args.out)!r}")
+    check_output_path("--out", args.out)
+    try:
+        check_frame_size(args.width, args.height)
+    except ValueError as exc:
+        raise UsageError(f"--{exc}") from None
+    if suffix == ".mp4" and (args.width % 2 or args.height % 2):
+        raise UsageError(f"an MP4 needs an even --width and --height (H.264's colour planes), got {args.width} x "
+                         f"{args.height}")
+    for module in ("PIL", "imageio") + (("imageio_ffmpeg",) if suffix == ".mp4" else ()):
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"video needs {module}: pip install 'rrrobot_gym[video]'") from None
+    if args.policy is not None:
+        agent, model, env_kwargs = _video_policy(args)
+    else:
+        from .agents.gaits import gait_agent
+
+        agent, model, env_kwargs = gait_agent(f"gait{args.gait}"), args.model or "plane", {}
+    frames, frame_dt, ended_at = record(agent, args.heading, args.seconds, every=args.every, width=args.width,
+                                        height=args.height, model=model, **env_kwargs)
+    fps = args.speed / frame_dt
+    _write(args.out, lambda path: write_animation(path, frames, fps, args.colors))
+    if ended_at is not None:
+        print(f"{PROG}: warning: the episode left the model at t = {ended_at:.2f} s: the animation ends there",
+              file=sys.stderr)
+    print(f"wrote {args.out}: {len(frames)} frames at {fps:.3g} frames/s, {args.out.stat().st_size / 1024:.0f} KB")
+
+
+def _video_policy(args):
+    """(agent, model, env keywords) of ``--policy``; its problems as usage errors."""
+    if not args.policy.is_file():
+        raise UsageError(f"--policy: no model file at {args.policy}")
+    try:
+        from .agents import load_ppo_agent
+
+        agent = load_ppo_agent(args.policy)
+    except ImportError as exc:
+        raise UsageError(f"--policy needs Stable-Baselines3 ({exc}): pip install 'rrrobot_gym[train]'") from None
+    except (FileNotFoundError, ValueError, KeyError) as exc:
+        raise UsageError(f"--policy: {exc}") from None
+    model = agent.env_config.get("model", "plane")
+    if args.model is not None and args.model != model:
+        raise UsageError(f"--model {args.model}: {args.policy} was trained on the {model} model")
+    return agent, model, agent.env_kwargs
 
 
 # ---------------------------------------------------------------- entry point

@@ -82,7 +82,7 @@ def export_onnx(model_path, out_path) -> Path:
     file; ValueError refuses a residual policy."""
     import torch
 
-    from .agents.ppo import load_ppo_agent
+    from .agents.ppo import load_ppo_agent, trained_algorithm
 
     model_path = Path(model_path)
     if not model_path.exists():
@@ -90,6 +90,9 @@ def export_onnx(model_path, out_path) -> Path:
     if (run_directory(model_path) / RESIDUAL_FILE).exists():
         raise ValueError(f"{model_path} is a residual policy (its run has {RESIDUAL_FILE}): its action adds a "
                          "scripted agent's, so it is not one network and cannot be exported as ONNX")
+    algo = trained_algorithm(model_path)
+    if algo != "ppo":
+        raise ValueError(f"{model_path} is a {algo} model (its run's args.json): export-onnx writes PPO policies")
     agent = load_ppo_agent(model_path)
     module = policy_module(agent)
     size = agent.model.observation_space.shape[-1]

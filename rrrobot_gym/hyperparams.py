@@ -17,6 +17,11 @@ docs/training/sweep):
 Save the VecNormalize statistics beside the model and evaluate with
 ``training=False, norm_reward=False``. ``train.py`` also runs a goal-conditioned policy mirrored
 (:mod:`rrrobot_gym.agents.mirror`) and keeps the evaluation with the best worst heading.
+
+The other algorithms of ``train.py --algo`` (:data:`ALGORITHMS`: SAC, TD3, TQC) take the same
+constants where they share a setting and :data:`ALGO_DEFAULTS` where theirs differ;
+:func:`algorithm_kwargs` gives any algorithm's keywords, and :mod:`rrrobot_gym.zoo` rl-zoo3's
+hyperparameters, both from these numbers.
 """
 
 from __future__ import annotations
@@ -75,6 +80,63 @@ randomized episodes ended; with these, 91.1-93.9 mm/s and 2.7-3.1 % (best and fi
 docs/notes/randomized_robustness.md)."""
 
 
+ALGORITHMS = {
+    "ppo": ("stable_baselines3", "PPO"),
+    "sac": ("stable_baselines3", "SAC"),
+    "td3": ("stable_baselines3", "TD3"),
+    "tqc": ("sb3_contrib", "TQC"),
+}
+"""``train.py --algo``'s choices, {name: (module, class)}: SB3's PPO (the default), SAC and TD3, and
+sb3-contrib's TQC (SAC with truncated quantile critics, the `train` extra's sb3-contrib)."""
+
+# The off-policy algorithms' own settings (SAC, TD3, TQC; PPO has none of them):
+BUFFER_SIZE = 1_000_000
+"""transitions the replay buffer holds."""
+LEARNING_STARTS = 10_000
+"""env steps of uniformly random actions before the first update."""
+TRAIN_FREQ = 1
+"""batched env steps (each num_envs transitions) between updates."""
+GRADIENT_STEPS = 1
+"""gradient steps an update (-1: one a transition collected)."""
+TAU = 0.005
+"""the target networks' soft-update rate."""
+ACTION_NOISE = 0.2
+"""TD3: the standard deviation of its Gaussian exploration noise, in action units (0.1, the usual
+choice, left its worst heading at 0 mm/s for five minutes; 0.2 reached 35 mm/s: docs/notes/algorithms.md)."""
+USE_SDE = False
+"""SAC, TQC: explore with generalized state-dependent noise (gSDE; then --log-std-init sets its scale)."""
+
+COMMON_SETTINGS = ("learning_rate", "learning_rate_final", "gamma", "batch_size", "net_arch", "activation")
+OFF_POLICY_SETTINGS = (*COMMON_SETTINGS, "buffer_size", "learning_starts", "train_freq", "gradient_steps", "tau")
+SETTINGS = {
+    "ppo": (*COMMON_SETTINGS, "n_steps", "n_epochs", "gae_lambda", "clip_range", "ent_coef", "log_std_init"),
+    "sac": (*OFF_POLICY_SETTINGS, "ent_coef", "use_sde", "log_std_init"),
+    "td3": (*OFF_POLICY_SETTINGS, "action_noise"),
+    "tqc": (*OFF_POLICY_SETTINGS, "ent_coef", "use_sde", "log_std_init"),
+}
+"""The settings (``train.py`` options, :func:`algorithm_kwargs`'s keywords) each algorithm takes;
+every algorithm also takes ``num_envs`` and ``total_timesteps``."""
+
+_OFF_POLICY = {"num_envs": 64, "total_timesteps": 5_000_000, "batch_size": 256, "learning_rate": 3e-4,
+               "learning_rate_final": None, "net_arch": "128,128", "gradient_steps": 4, "eval_freq": 50_000,
+               "checkpoint_freq": 500_000, "torch_threads": 1}
+ALGO_DEFAULTS = {
+    "ppo": {},
+    "sac": {**_OFF_POLICY, "ent_coef": "auto_0.05"},
+    "td3": {**_OFF_POLICY},
+    "tqc": {**_OFF_POLICY, "ent_coef": "auto_0.05"},
+}
+"""``train.py``'s defaults where an algorithm's differ from the constants above (PPO's, which also
+has :data:`MODEL_DEFAULTS`), in its options' terms. The off-policy three: SB3's usual minibatches
+of 256 and constant learning rate of 3e-4, PPO's 128 x 128 networks, 64 robots at once with four
+gradient steps each batched step (one per 16 transitions: on this CPU a gradient step costs
+7-26 ms, so updates, not the env, bound their wall time), evaluations every 50,000 steps and
+one torch thread (their minibatches gain nothing from a second, and on a busy machine two made
+SAC's updates ten times slower). SAC and TQC learn their entropy coefficient from 0.05, not
+SB3's 1: from 1 the policy stood still for the first minutes. The pilots behind these are in
+docs/notes/algorithms.md; they were run on the plane model only."""
+
+
 class LinearRate:
     """A learning rate falling linearly from ``start`` to ``final`` over a run: SB3 calls it with
     the fraction of the run still to go (1 at the start, 0 at the end)."""
@@ -129,6 +191,85 @@ def ppo_hyperparams(num_envs: int = NUM_ENVS, *, learning_rate: float = LEARNING
                           "activation_fn": getattr(torch.nn, ACTIVATIONS[activation]), "log_std_init": log_std_init},
         "device": "cpu",
     }
+
+
+def check_algorithm(algo: str) -> None:
+    """ValueError unless ``algo`` is a key of :data:`ALGORITHMS`."""
+    if algo not in ALGORITHMS:
+        raise ValueError(f"algo must be one of {', '.join(ALGORITHMS)}, got {algo!r}")
+
+
+def algorithm_class(algo: str):
+    """The class of ``algo`` (:data:`ALGORITHMS`), imported; ImportError saying what to install."""
+    import importlib
+
+    check_algorithm(algo)
+    module, name = ALGORITHMS[algo]
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError:
+        raise ImportError(f"--algo {algo} needs {module}: pip install 'rrrobot_gym[train]'") from None
+
+
+def defaults(algo: str) -> dict:
+    """``train.py``'s default of each setting of ``algo`` (:data:`SETTINGS`), ``num_envs`` and
+    ``total_timesteps``: the constants above, with :data:`ALGO_DEFAULTS` where the algorithm's differ."""
+    check_algorithm(algo)
+    base = {"num_envs": NUM_ENVS, "total_timesteps": TOTAL_TIMESTEPS, "learning_rate": LEARNING_RATE,
+            "learning_rate_final": LEARNING_RATE_FINAL, "gamma": GAMMA, "batch_size": MAX_BATCH_SIZE,
+            "net_arch": ",".join(map(str, NET_ARCH)), "activation": ACTIVATION, "n_steps": N_STEPS,
+            "n_epochs": N_EPOCHS, "gae_lambda": GAE_LAMBDA, "clip_range": CLIP_RANGE, "ent_coef": ENT_COEF,
+            "log_std_init": LOG_STD_INIT, "buffer_size": BUFFER_SIZE, "learning_starts": LEARNING_STARTS,
+            "train_freq": TRAIN_FREQ, "gradient_steps": GRADIENT_STEPS, "tau": TAU, "action_noise": ACTION_NOISE,
+            "use_sde": USE_SDE}
+    values = {**base, **ALGO_DEFAULTS[algo]}
+    return {name: values[name] for name in ("num_envs", "total_timesteps", *SETTINGS[algo])}
+
+
+def algorithm_kwargs(algo: str, num_envs: int | None = None, **settings) -> dict:
+    """Keyword arguments for ``algorithm_class(algo)("MlpPolicy", venv, **...)`` on ``num_envs``
+    robots (None: the algorithm's default), on the CPU: :func:`defaults`, each overridden by its
+    keyword (a setting of ``SETTINGS[algo]``; ``net_arch`` as "256,256" or a sequence). PPO's are
+    :func:`ppo_hyperparams`'s. TypeError names a setting the algorithm does not take."""
+    values = defaults(algo)
+    unknown = sorted(set(settings) - set(SETTINGS[algo]))
+    if unknown:
+        raise TypeError(f"{algo} does not take {', '.join(unknown)} (it takes {', '.join(SETTINGS[algo])})")
+    values.update(settings)
+    num_envs = whole_number("num_envs", values["num_envs"] if num_envs is None else num_envs)
+    net_arch = values["net_arch"]
+    values["net_arch"] = [int(n) for n in (net_arch.split(",") if isinstance(net_arch, str) else net_arch)]
+    values.pop("num_envs"), values.pop("total_timesteps")
+    if algo == "ppo":
+        if "batch_size" not in settings:  # (ppo_hyperparams: one minibatch a rollout, at most MAX_BATCH_SIZE)
+            values.pop("batch_size")
+        return ppo_hyperparams(num_envs, **values)
+    return _off_policy_kwargs(algo, **values)
+
+
+def _off_policy_kwargs(algo, *, learning_rate, learning_rate_final, gamma, batch_size, net_arch, activation,
+                       buffer_size, learning_starts, train_freq, gradient_steps, tau, ent_coef=None, use_sde=False,
+                       log_std_init=None, action_noise=None) -> dict:
+    """SAC's, TD3's or TQC's keywords (:func:`algorithm_kwargs`)."""
+    import numpy as np
+    import torch
+
+    check_activation(activation)
+    policy_kwargs = {"net_arch": list(net_arch), "activation_fn": getattr(torch.nn, ACTIVATIONS[activation])}
+    kwargs = {"learning_rate": learning_rate_schedule(learning_rate, learning_rate_final), "buffer_size": buffer_size,
+              "learning_starts": learning_starts, "batch_size": batch_size, "tau": tau, "gamma": gamma,
+              "train_freq": train_freq, "gradient_steps": gradient_steps, "policy_kwargs": policy_kwargs,
+              "device": "cpu"}
+    if algo == "td3":
+        from stable_baselines3.common.noise import NormalActionNoise
+
+        if action_noise:  # (the env's two actions)
+            kwargs["action_noise"] = NormalActionNoise(np.zeros(2), np.full(2, float(action_noise)))
+    else:
+        kwargs.update(ent_coef=ent_coef, use_sde=use_sde, use_sde_at_warmup=use_sde)
+        if use_sde:
+            policy_kwargs["log_std_init"] = log_std_init
+    return kwargs
 
 
 def vecnormalize_kwargs(gamma: float = GAMMA) -> dict:

@@ -208,3 +208,33 @@ def plot_gait_panels(path, runs, dpi: int = 100):
         _save(fig, path, dpi)
     finally:
         plt.close(fig)
+
+
+def plot_learning_curves(path, curves, bar=None, title: str = "", dpi: int = 110):
+    """Write learning curves against wall time to ``path``: above, the worst compass heading's speed
+    at each evaluation (mm/s); below, the mean length of the training episodes that ended before it
+    (s). ``curves`` maps a label (one colour a label: an algorithm) to a list of runs (one line a
+    run: a seed), each a dict with ``wall_time_s``, ``worst_heading_mm_s`` and ``train_episode_s``
+    (lists, one entry an evaluation); ``bar``, mm/s, is drawn dashed."""
+    if not curves:
+        raise ValueError("no learning curves to plot")
+    plt = _pyplot()
+    fig, (speed, episodes) = plt.subplots(2, 1, figsize=(7.0, 6.0), sharex=True, height_ratios=(2, 1),
+                                          layout="constrained")
+    try:
+        for index, (label, runs) in enumerate(curves.items()):
+            for k, run in enumerate(runs):
+                minutes = np.asarray(run["wall_time_s"], dtype=float) / 60.0
+                kwargs = dict(color=f"C{index}", lw=1.0, marker=".", ms=3, label=label if k == 0 else None)
+                speed.plot(minutes, np.asarray(run["worst_heading_mm_s"], dtype=float), **kwargs)
+                episodes.plot(minutes, np.asarray(run["train_episode_s"], dtype=float), **{**kwargs, "label": None})
+        if bar is not None:
+            speed.axhline(bar, color="k", ls="--", lw=1, label=f"bar {bar:g} mm/s")
+        speed.set(ylabel="worst heading speed (mm/s)", title=title)
+        episodes.set(xlabel="wall time (min)", ylabel="training episode (s)", ylim=(0, None))
+        for ax in (speed, episodes):
+            ax.grid(alpha=0.3)
+        speed.legend(fontsize=8)
+        _save(fig, path, dpi)
+    finally:
+        plt.close(fig)

@@ -15,8 +15,10 @@ answer or wants a token) that runs train.py in a temporary folder of its node an
 folder's files, written here. Files the runs read (``--resume``, ``--residual-on``) are given to
 them by absolute path: on a cluster they must be there on every node.
 
-The summary (``summary.json``, schema ``rrrobot_gym.seeds/1``; ``summary.md`` as tables):
+The summary (``summary.json``, schema ``rrrobot_gym.seeds/1``; ``summary.md`` as tables; both
+also in ``--summary-dir`` if given):
 
+- ``algo``: the runs' ``--algo``;
 - ``bar_mm_s`` and ``bar_source``: the worst heading's speed a run must reach (``--bar``, or
   ``--bar-from``: the best speed along its own direction from the paper's start among a gait
   search's re-scored gaits, ``robustness.paper_start_speed_mps``, which must have been searched
@@ -127,10 +129,24 @@ def run_one(seed: int, argv: list, runs_dir, log: str | None = None) -> dict:
     return {"seed": seed, "returncode": returncode, "run_seconds": round(time.monotonic() - start, 3), "log": log}
 
 
-def _reported(result: dict) -> dict:
+def _reported(result: dict, label: str = "") -> dict:
     ended = "done" if result["returncode"] == 0 else f"failed (exit {result['returncode']})"
-    print(f"seed {result['seed']}: {ended} after {result['run_seconds']:.0f} s", flush=True)
+    print(f"{label}seed {result['seed']}: {ended} after {result['run_seconds']:.0f} s", flush=True)
     return result
+
+
+def run_rows(args, rows, folder: Path, labels=None) -> list:
+    """:func:`run_one` of each row ((seed, argv) or (seed, argv, log)) into ``folder``: here, as many
+    at once as the cores hold for the rows' largest ``--torch-threads`` (:func:`runs_at_once`),
+    in the rows' order; or each a Ray task with ``args.ray_address``. Reports each as it ends
+    (``labels``: a text before each row's line). The results, in the rows' order."""
+    labels = labels or [""] * len(rows)
+    if args.ray_address is None:
+        threads = max(torch_threads(row[1]) for row in rows)
+        with ThreadPoolExecutor(max_workers=runs_at_once(threads, len(rows))) as pool:
+            return list(pool.map(lambda row, label: _reported(run_one(row[0], row[1], folder, *row[2:]), label),
+                                 rows, labels))
+    return [_reported(result, label) for result, label in zip(run_remote(rows, args.ray_address, folder), labels)]
 
 
 def _run_remote(rows, settings) -> list:
@@ -190,17 +206,21 @@ def run_seeds(args, rows, prefix: str, trained: dict) -> Path:
     folder = Path(args.runs_dir) / f"{prefix}seeds{first}-{last}__{int(time.time())}"
     folder.mkdir(parents=True, exist_ok=False)
     print(f"seeds {first} ... {last} into {folder}", flush=True)
-    if args.ray_address is None:
-        with ThreadPoolExecutor(max_workers=runs_at_once(torch_threads(rows[0][1]), len(rows))) as pool:
-            results = list(pool.map(lambda row: _reported(run_one(row[0], row[1], folder)), rows))
-    else:
-        results = list(map(_reported, run_remote(rows, args.ray_address, folder)))
+    results = run_rows(args, rows, folder)
     summary = summarize(folder, results, bar, source, args, prefix, round(time.monotonic() - start, 3))
     summary["command"] = " ".join([sys.executable, *sys.argv])
-    (folder / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
-    (folder / "summary.md").write_text(markdown(summary))
+    write_summary(summary, markdown(summary), [folder, args.summary_dir])
     print(markdown(summary), flush=True)
     return folder
+
+
+def write_summary(summary: dict, table: str, folders) -> None:
+    """``summary`` as summary.json and ``table`` as summary.md in each of ``folders`` (None: left
+    out), made if missing."""
+    for out in filter(None, folders):
+        Path(out).mkdir(parents=True, exist_ok=True)
+        (Path(out) / "summary.json").write_text(json.dumps(summary, indent=1, allow_nan=False) + "\n")
+        (Path(out) / "summary.md").write_text(table)
 
 
 def selection_score(returns, select_by: str) -> float:
@@ -260,8 +280,8 @@ def summarize(folder: Path, results, bar: float, source: str, args, prefix: str,
     runs = [seed_record(folder, result, bar, args.select_by, prefix) for result in sorted(results, key=lambda r: r["seed"])]
     worst = [run["worst_heading_mm_s"] for run in runs if run["status"] == "ok"]
     return {
-        "schema": SCHEMA, "seeds": len(runs), "first_seed": args.seed, "bar_mm_s": bar, "bar_source": source,
-        "select_by": args.select_by, "runs": runs,
+        "schema": SCHEMA, "algo": args.algo, "seeds": len(runs), "first_seed": args.seed, "bar_mm_s": bar,
+        "bar_source": source, "select_by": args.select_by, "runs": runs,
         "worst_heading_iqm": iqm_interval(worst, args.bootstrap_reps) if worst else None,
         "reached_bar": sum(run.get("time_to_bar_s") is not None for run in runs),
         "failed_runs": sum(run["status"] == "failed" for run in runs), "wall_time_s": seconds,

@@ -1,9 +1,10 @@
-"""Train a PPO policy for directional locomotion on RRRobot-v0 (Stable-Baselines3, CPU).
+"""Train a policy for directional locomotion on RRRobot-v0 (Stable-Baselines3, CPU): PPO by default.
 
 Reads top to bottom: arguments, environments, model, callbacks, learn, save.
 
     python train.py                       # goal-conditioned: any commanded heading
     python train.py --direction-deg 45    # a specialist for one heading (degrees from +X towards +Y)
+    python train.py --algo sac            # SAC (or td3, tqc), with its defaults from rrrobot_gym.hyperparams
     python train.py --resume runs/RUN/checkpoints/ppo_500000_steps.zip
 
 Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard logs,
@@ -12,19 +13,27 @@ Runs go to ``runs/RRRobot-v0__<exp_name>__<seed>__<unix time>/``: TensorBoard lo
 checkpoints, ``final_model.zip`` (also on Ctrl-C), each model's VecNormalize statistics beside
 it, ``env_kwargs.json`` (every env keyword, from which ``rrrobot_gym.agents.load_ppo_agent``
 rebuilds the env), ``args.json`` and ``command.txt``. The models of a mirrored (the default) or
-residual run name a policy class SB3's ``PPO.load`` refuses, naming ``load_ppo_agent``, the loader
+residual run name a policy class SB3's ``load`` refuses, naming ``load_ppo_agent``, the loader
 that runs them right (:mod:`rrrobot_gym.agents.ppo`). ``--total-timesteps`` is rounded up to
-whole rollouts of ``num_envs x n_steps``. Loading a model unpickles it: trusted files only.
+whole rollouts of ``num_envs x n_steps`` (off-policy: ``num_envs x train_freq``). Loading a model
+unpickles it: trusted files only.
 
 ``evaluations.npz`` holds SB3's ``timesteps``, ``results`` (each evaluation's returns) and
 ``ep_lengths``, plus ``wall_time_s`` (s from ``main()``'s start to each evaluation's end) and
 ``heading_speeds_mm_s`` (evaluations x headings: speed along each heading in
 ``speed_headings_deg``, scored by :func:`rrrobot_gym.evaluation.score`: the nominal robot from the
 paper's start, over ``--episode-steps``; a mirrored policy's headings towards -Y are its +Y
-headings' mirror images, the same episodes).
+headings' mirror images, the same episodes) and ``train_episode_steps`` (the mean length, in
+control steps, of the last 100 training episodes that ended before each evaluation; NaN if none).
 
 ``--seeds K`` runs K such runs instead (seeds ``--seed`` ... ``--seed`` + K - 1) into one folder
-and summarises them (:mod:`rrrobot_gym.seeds`).
+and summarises them (:mod:`rrrobot_gym.seeds`); with several algorithms, ``--algo ppo,sac,td3,tqc``,
+K runs of each, side by side (:mod:`rrrobot_gym.algorithms`).
+
+Every algorithm runs the same env, evaluations and selection: the training robots with the slip
+margin, the mirror for a goal-conditioned policy, the evaluations on the nominal robot and
+best_model.zip by the worst heading. Each takes the settings ``rrrobot_gym.hyperparams.SETTINGS``
+gives it (another algorithm's setting is refused), with its defaults from that module.
 """
 
 from __future__ import annotations
@@ -61,7 +70,10 @@ def _option(default, help_text):
 
 @dataclass
 class Args:
-    exp_name: str = _option("ppo", "name of this experiment (part of the run name)")
+    exp_name: str | None = _option(None, "name of this experiment (part of the run name); default: the --algo")
+    algo: str = _option(
+        "ppo", f"the learning algorithm: {', '.join(hp.ALGORITHMS)} (rrrobot_gym.hyperparams.ALGORITHMS); with --seeds, "
+        "several joined by commas run side by side (rrrobot_gym/algorithms.py)")
     seed: int = _option(1, "seed of every RNG: python, numpy, torch, the envs")
     total_timesteps: int = _option(
         hp.TOTAL_TIMESTEPS, "env steps (control steps) to train for, rounded up to whole rollouts of num_envs x n_steps")
@@ -70,7 +82,7 @@ class Args:
         None, "commanded heading in degrees (from +X towards +Y) for a specialist; default: any heading")
     num_envs: int = _option(hp.NUM_ENVS, "robots simulated together in the batched env")
     n_steps: int = _option(hp.N_STEPS, "PPO rollout length per env")
-    batch_size: int = _option(hp.MAX_BATCH_SIZE, "PPO minibatch size")
+    batch_size: int = _option(hp.MAX_BATCH_SIZE, "minibatch size")
     n_epochs: int = _option(hp.N_EPOCHS, "PPO epochs per rollout")
     learning_rate: float = _option(hp.LEARNING_RATE, "Adam learning rate (at the start, with --learning-rate-final)")
     learning_rate_final: float | None = _option(
@@ -79,8 +91,20 @@ class Args:
     gamma: float = _option(hp.GAMMA, "discount factor (per 0.05 s control step)")
     gae_lambda: float = _option(hp.GAE_LAMBDA, "GAE lambda")
     clip_range: float = _option(hp.CLIP_RANGE, "PPO clip range")
-    ent_coef: float = _option(hp.ENT_COEF, "entropy bonus coefficient")
-    log_std_init: float = _option(hp.LOG_STD_INIT, "initial log std of the Gaussian policy")
+    ent_coef: float | str = _option(
+        hp.ENT_COEF, "entropy bonus coefficient; SAC and TQC: also auto (learned) or auto_X (learned from X)")
+    log_std_init: float = _option(
+        hp.LOG_STD_INIT, "initial log std of the Gaussian policy (SAC, TQC: of gSDE's noise, with --use-sde)")
+    buffer_size: int = _option(hp.BUFFER_SIZE, "off-policy (SAC, TD3, TQC): transitions the replay buffer holds")
+    learning_starts: int = _option(
+        hp.LEARNING_STARTS, "off-policy: env steps of uniformly random actions (gSDE's with --use-sde) before the first "
+        "update")
+    train_freq: int = _option(hp.TRAIN_FREQ, "off-policy: batched env steps (each --num-envs transitions) between updates")
+    gradient_steps: int = _option(hp.GRADIENT_STEPS, "off-policy: gradient steps an update (-1: one a transition)")
+    tau: float = _option(hp.TAU, "off-policy: soft-update rate of the target networks")
+    action_noise: float | None = _option(
+        hp.ACTION_NOISE, "TD3: std of its Gaussian exploration noise (action units); none: no noise")
+    use_sde: bool = _option(hp.USE_SDE, "SAC, TQC: explore with gSDE, state-dependent noise of scale --log-std-init")
     net_arch: str = _option(",".join(map(str, hp.NET_ARCH)), "hidden layer sizes of policy and value nets")
     activation: str = _option(hp.ACTIVATION, f"their activation: {', '.join(hp.ACTIVATIONS)}")
     healthy_reward: float = _option(1.0, "env reward per step that stays inside the model (survival first, then speed)")
@@ -127,7 +151,7 @@ class Args:
         "worst", "which evaluation picks best_model.zip: mean (the headings' mean return) or worst (the worst "
         "heading's return)")
     torch_threads: int = _option(
-        2, "torch CPU threads for PPO's updates; the model's construction, the rollouts and the evaluations run on one "
+        2, "torch CPU threads for the updates; the model's construction, the rollouts and the evaluations run on one "
         "(the env steps between updates, so its core is free then)")
     seeds: int | None = _option(
         None, "run this many runs (seeds --seed, --seed + 1, ...; every other option as given) into one folder and "
@@ -140,12 +164,15 @@ class Args:
     ray_address: str | None = _option(
         None, "with --seeds: run each run as a Ray task on this cluster (host:port, or local), its files gathered here")
     bootstrap_reps: int = _option(50_000, "with --seeds: bootstrap replications of the IQM's confidence interval")
+    summary_dir: str | None = _option(
+        None, "with --seeds: also write the summary (summary.json, summary.md; with several --algo the learning curves, "
+        "learning_curves.png) into this folder, e.g. docs/training/algorithms")
     sweep: int | None = _option(
         None, "run this many trials of an optuna sweep of the PPO settings for the wall time to --bar (or --bar-from), "
         "each ending there or after --max-minutes (rrrobot_gym/sweep.py); summary.json and summary.md in its folder")
 
 
-SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps")
+SEEDS_OPTIONS = ("seeds", "bar", "bar_from", "ray_address", "bootstrap_reps", "summary_dir")
 """The options of ``--seeds`` (:mod:`rrrobot_gym.seeds`), which its runs are not given."""
 
 RESUME_SETTINGS = ("learning_rate", "learning_rate_final", "n_steps", "batch_size", "n_epochs", "gae_lambda", "clip_range", "ent_coef")
@@ -163,14 +190,16 @@ def _parser(given_only=False):
         flag = "--" + f.name.replace("_", "-")
         per_model = "".join(f"; --model {model}: {values[f.name]}" for model, values in hp.MODEL_DEFAULTS.items()
                             if f.name in values)
-        help_text = f"{f.metadata['help']} (default: {f.default}{per_model})"
+        per_algo = "".join(f"; --algo {algo}: {values[f.name]}" for algo, values in hp.ALGO_DEFAULTS.items()
+                           if f.name in values)
+        help_text = f"{f.metadata['help']} (default: {f.default}{per_model}{per_algo})"
         default = {} if given_only else {"default": f.default}
         if f.type in ("bool", "bool | None"):
             parser.add_argument(flag, action=argparse.BooleanOptionalAction, help=help_text, **default)
         elif f.type == "list[str] | None":  # repeatable
             parser.add_argument(flag, action="append", metavar="KEY=VALUE", help=help_text, **default)
         else:  # "float", "float | None", ...: the field's annotation names the type
-            kind = {"int": int, "float": float, "str": str}[f.type.removesuffix(" | None")]
+            kind = {"int": int, "float": float, "str": str, "float | str": _number_or_word}[f.type.removesuffix(" | None")]
             if f.type.endswith(" | None"):
                 kind = _or_none(kind)
             parser.add_argument(flag, type=kind, help=help_text, **default)
@@ -185,6 +214,14 @@ def _or_none(kind):
 
     parse.__name__ = kind.__name__  # (argparse names the type in its error messages)
     return parse
+
+
+def _number_or_word(text):
+    """An argparse type: a number as a float, else the text (``--ent-coef auto``; checked later)."""
+    try:
+        return float(text)
+    except ValueError:
+        return text.strip()
 
 
 def given_flags(argv=None) -> set:
@@ -208,15 +245,30 @@ def learning_rate(args: Args):
     return hp.learning_rate_schedule(args.learning_rate, args.learning_rate_final)
 
 
+ALGORITHM_SETTINGS = tuple(dict.fromkeys(name for names in hp.SETTINGS.values() for name in names))
+"""The options that are some algorithm's settings (rrrobot_gym.hyperparams.SETTINGS)."""
+
+
 def parse_args(argv=None) -> Args:
     parser = _parser()
     args = Args(**vars(parser.parse_args(argv)))
     if args.model not in hp.MODEL_DEFAULTS:
         parser.error(f"--model must be one of {', '.join(hp.MODEL_DEFAULTS)}, got {args.model!r}")
     given = given_flags(argv)
-    for name, value in hp.MODEL_DEFAULTS[args.model].items():  # (the model's own defaults, where not given)
+    algos = args.algo.split(",")
+    for algo in algos:
+        if algo not in hp.ALGORITHMS:
+            parser.error(f"--algo must be one of {', '.join(hp.ALGORITHMS)} (or several joined by commas, with "
+                         f"--seeds), got {algo!r}")
+    if len(algos) > 1:
+        return _side_by_side_args(parser, args, algos, argv)
+    if args.exp_name is None:
+        args.exp_name = args.algo
+    defaults = {**hp.ALGO_DEFAULTS[args.algo], **(hp.MODEL_DEFAULTS[args.model] if args.algo == "ppo" else {})}
+    for name, value in defaults.items():  # (the algorithm's and the model's own defaults, where not given)
         if name not in given:
             setattr(args, name, value)
+    _check_algorithm_settings(parser, args, given)
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
     resumed_mirrored = args.resume is not None and resumes_mirrored(args.resume)
@@ -317,6 +369,67 @@ def resumes_mirrored(model_path) -> bool:
         return False
 
 
+def _side_by_side_args(parser, args: Args, algos: list, argv) -> Args:
+    """``--algo A,B,...`` (rrrobot_gym/algorithms.py): needs --seeds, and each algorithm's run's
+    command line is checked as that run will check it, before any run starts."""
+    if len(set(algos)) < len(algos):
+        parser.error(f"--algo names an algorithm twice: {args.algo}")
+    if args.seeds is None:
+        parser.error(f"--algo {args.algo}: several algorithms run side by side with --seeds (K runs of each)")
+    if args.max_minutes is None:
+        parser.error(f"--algo {args.algo} needs --max-minutes: the wall-clock budget the algorithms share")
+    for option in ("resume", "sweep"):
+        if getattr(args, option) is not None:
+            parser.error(f"--{option} takes one --algo, not {args.algo}")
+    if args.exp_name is None:
+        args.exp_name = "-".join(algos)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    for algo in algos:
+        parse_args(seed_argv(argv, args.seed, {"algo": algo}))
+    from .seeds import check_seeds_args
+
+    try:
+        check_seeds_args(args, env_config(args))
+    except ValueError as exc:
+        parser.error(str(exc))
+    return args
+
+
+def _is_auto(text: str) -> bool:
+    """SAC's learned entropy coefficient: "auto", or "auto_X", learned from X > 0."""
+    try:
+        return text == "auto" or (text.startswith("auto_") and float(text.removeprefix("auto_")) > 0)
+    except ValueError:
+        return False
+
+
+def _check_algorithm_settings(parser, args: Args, given: set) -> None:
+    """The settings of --algo only, and the off-policy ones in range."""
+    others = [name for name in ALGORITHM_SETTINGS if name in given and name not in hp.SETTINGS[args.algo]]
+    if others:
+        parser.error(f"--{others[0].replace('_', '-')} is not a setting of --algo {args.algo} (its settings: "
+                     f"{', '.join('--' + n.replace('_', '-') for n in hp.SETTINGS[args.algo])})")
+    learned = args.algo in ("sac", "tqc")  # (their entropy coefficient may be learned)
+    if isinstance(args.ent_coef, str) and not (learned and _is_auto(args.ent_coef)):
+        parser.error(f"--ent-coef must be a number >= 0{' or auto (auto_X: learned from X > 0)' if learned else ''}, "
+                     f"got {args.ent_coef!r}")
+    for name, low in (("buffer_size", 1), ("learning_starts", 0), ("train_freq", 1)):
+        if getattr(args, name) < low:
+            parser.error(f"--{name.replace('_', '-')} must be an integer >= {low}, got {getattr(args, name)}")
+    if args.gradient_steps < 1 and args.gradient_steps != -1:
+        parser.error(f"--gradient-steps must be a positive integer or -1 (one a transition), got {args.gradient_steps}")
+    if not (math.isfinite(args.tau) and 0 < args.tau <= 1):
+        parser.error(f"--tau must be in (0, 1], got {args.tau}")
+    if args.action_noise is not None and not (math.isfinite(args.action_noise) and args.action_noise >= 0):
+        parser.error(f"--action-noise must be a number >= 0 (action units) or none, got {args.action_noise}")
+    if args.algo in ("sac", "tqc") and "log_std_init" in given and not args.use_sde:
+        parser.error(f"--log-std-init is the scale of gSDE's noise for --algo {args.algo}: give --use-sde too")
+    if args.algo != "ppo" and args.resume is not None:
+        parser.error(f"--resume continues PPO runs only: an --algo {args.algo} run does not save its replay buffer")
+    if args.algo != "ppo" and args.sweep is not None:
+        parser.error(f"--sweep tunes PPO's settings: it takes --algo ppo, not {args.algo}")
+
+
 LOG_STD_INIT_RANGE = (-20.0, 5.0)
 """--log-std-init's range: e^-20 is no noise, e^5 = 148 action units spans [-1, 1] many times."""
 
@@ -329,7 +442,7 @@ def _check_ppo_settings(parser, args):
             parser.error(f"--{name.replace('_', '-')} must be in [0, 1], got {value}")
     if not (math.isfinite(args.clip_range) and args.clip_range > 0):
         parser.error(f"--clip-range must be a positive number, got {args.clip_range}")
-    if not (math.isfinite(args.ent_coef) and args.ent_coef >= 0):
+    if not isinstance(args.ent_coef, str) and not (math.isfinite(args.ent_coef) and args.ent_coef >= 0):
         parser.error(f"--ent-coef must be a number >= 0, got {args.ent_coef}")
     low, high = LOG_STD_INIT_RANGE
     if not low <= args.log_std_init <= high:
@@ -438,16 +551,25 @@ def env_config(args: Args) -> dict:
     return config_to_json(make_task_config(**env_kwargs(args)))
 
 
-def ppo_kwargs(args: Args) -> dict:
-    """PPO's keywords for a new model: :func:`rrrobot_gym.hyperparams.ppo_hyperparams` with this run's."""
-    settings = RESUME_SETTINGS + ("gamma", "activation", "log_std_init")
-    return hp.ppo_hyperparams(args.num_envs, net_arch=[int(n) for n in args.net_arch.split(",")],
-                              **{name: getattr(args, name) for name in settings})
+def algorithm_default(algo: str, name: str):
+    """train.py's default of option ``name`` for ``algo``: its ALGO_DEFAULTS entry, else the Args field's."""
+    return hp.ALGO_DEFAULTS[algo].get(name, next(f.default for f in dataclasses.fields(Args) if f.name == name))
+
+
+def algorithm_kwargs(args: Args) -> dict:
+    """The --algo's keywords for a new model: :func:`rrrobot_gym.hyperparams.algorithm_kwargs` with
+    this run's settings."""
+    return hp.algorithm_kwargs(args.algo, args.num_envs, **{name: getattr(args, name) for name in hp.SETTINGS[args.algo]})
+
+
+def rollout_steps(args: Args) -> int:
+    """Env steps between updates: PPO's rollout, num_envs x n_steps; off-policy, num_envs x train_freq."""
+    return args.num_envs * (args.n_steps if args.algo == "ppo" else args.train_freq)
 
 
 def rounded_timesteps(args: Args) -> int:
-    """--total-timesteps rounded up to whole rollouts of num_envs x n_steps: what PPO will run."""
-    rollout = args.num_envs * args.n_steps
+    """--total-timesteps rounded up to whole rollouts (:func:`rollout_steps`): what the algorithm will run."""
+    rollout = rollout_steps(args)
     return -(-args.total_timesteps // rollout) * rollout
 
 
@@ -624,8 +746,8 @@ def stop_on_ctrl_c():
 
 
 def threads_for_updates(threads: int):
-    """An SB3 callback that runs torch on ``threads`` CPU threads while PPO updates (the env's core
-    is idle then; docs/benchmarks.md) and on one while it collects a rollout (64-row forward
+    """An SB3 callback that runs torch on ``threads`` CPU threads while the model updates (the env's
+    core is idle then; docs/benchmarks.md) and on one while it collects a rollout (64-row forward
     passes, which a second thread only slows). The model is built on one thread too: its initial
     weights' bits depend on the thread count."""
     import torch
@@ -687,13 +809,20 @@ def main(argv=None) -> Path:
 
         return run_sweep(args, sys.argv[1:] if argv is None else list(argv), seed_argv, ENV_ID, env_config(args))
     if args.seeds is not None:
+        argv = sys.argv[1:] if argv is None else list(argv)
+        if "," in args.algo:
+            from .algorithms import run_algorithms
+
+            given = given_flags(argv)
+            rows = [(algo, seed, seed_argv(argv, seed, {"algo": algo, "exp_name": algo, **(
+                        {} if "torch_threads" in given else {"torch_threads": algorithm_default(algo, "torch_threads")})}))
+                    for seed in range(args.seed, args.seed + args.seeds) for algo in args.algo.split(",")]
+            return run_algorithms(args, rows, ENV_ID, env_config(args))
         from .seeds import run_seeds
 
-        argv = sys.argv[1:] if argv is None else list(argv)
         rows = [(seed, seed_argv(argv, seed)) for seed in range(args.seed, args.seed + args.seeds)]
         return run_seeds(args, rows, f"{ENV_ID}__{args.exp_name}__", env_config(args))
     import torch
-    from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecNormalize
@@ -715,6 +844,7 @@ def main(argv=None) -> Path:
     if args.mirror:
         save_mirror(run_dir)
 
+    algorithm = hp.algorithm_class(args.algo)
     train_env = make_env(args, args.num_envs, args.seed)
     eval_env = make_eval_env(args, args.seed + 10_000)
     if args.resume:
@@ -726,20 +856,22 @@ def main(argv=None) -> Path:
             print("resumed with " + ", ".join(f"{name} {value}" for name, value in overrides.items()), flush=True)
     else:
         train_env = VecNormalize(train_env, **hp.vecnormalize_kwargs(gamma=args.gamma))
-        model = PPO("MlpPolicy", train_env, **ppo_kwargs(args), tensorboard_log=str(run_dir), seed=args.seed, verbose=0)
+        model = algorithm("MlpPolicy", train_env, **algorithm_kwargs(args), tensorboard_log=str(run_dir), seed=args.seed,
+                          verbose=0)
     saved_class = policy_class_to_save(run_dir)
     if saved_class is not None:  # (SB3 builds its policy once, above: this is only what every save names)
-        model.policy_class = saved_class  # a mirrored or residual model that PPO.load refuses, naming load_ppo_agent
+        model.policy_class = saved_class  # a mirrored or residual model that load refuses, naming load_ppo_agent
     eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=args.gamma)
 
     class SaveBest(EvalCallback):
         """Saves best_model.zip and its statistics at the best evaluation by --select-by, adds each
-        evaluation's wall time and heading speeds to evaluations.npz, and prints one line an
-        evaluation (SB3's own lines are off: its "best" is the mean return's, not --select-by's)."""
+        evaluation's wall time, heading speeds and the training episodes' mean length to
+        evaluations.npz, and prints one line an evaluation (SB3's own lines are off: its "best" is
+        the mean return's, not --select-by's)."""
 
         best_score = -math.inf
         best = None  # (steps, heading speeds) of the evaluation saved as best_model.zip
-        wall_times, speeds = [], []
+        wall_times, speeds, episode_steps = [], [], []
 
         def _on_step(self) -> bool:
             done = len(self.evaluations_results)
@@ -748,9 +880,11 @@ def main(argv=None) -> Path:
                 self.wall_times.append(time.monotonic() - started)
                 degrees, speeds = heading_speeds(args, self.eval_env.unwrapped.run())
                 self.speeds.append(speeds)
+                ended = [episode["l"] for episode in self.model.ep_info_buffer]  # (the last 100 training episodes)
+                self.episode_steps.append(np.mean(ended) if ended else np.nan)
                 with np.load(self.log_path + ".npz") as saved:  # (SB3's keys, as it just wrote them)
                     np.savez(self.log_path, **saved, wall_time_s=self.wall_times, heading_speeds_mm_s=self.speeds,
-                             speed_headings_deg=degrees)
+                             speed_headings_deg=degrees, train_episode_steps=self.episode_steps)
                 score = selection_score(self.evaluations_results[-1], args.select_by)  # (as the seeds' summary)
                 saved = score > self.best_score
                 if saved:
@@ -769,19 +903,21 @@ def main(argv=None) -> Path:
     evaluation = SaveBest(eval_env, n_eval_episodes=len(eval_headings(args)), deterministic=True,
                           eval_freq=max(1, args.eval_freq // args.num_envs), log_path=str(run_dir), verbose=0)
     checkpoints = CheckpointCallback(save_freq=max(1, args.checkpoint_freq // args.num_envs),
-                                     save_path=str(run_dir / "checkpoints"), name_prefix="ppo", save_vecnormalize=True)
+                                     save_path=str(run_dir / "checkpoints"), name_prefix=args.algo, save_vecnormalize=True)
     print(f"run: {run_dir}", flush=True)
     total_timesteps = rounded_timesteps(args)
     if total_timesteps != args.total_timesteps:
         print(f"training for {total_timesteps:,} env steps: --total-timesteps {args.total_timesteps:,} rounded up to "
-              f"whole rollouts of --num-envs x --n-steps = {args.num_envs * args.n_steps:,}", flush=True)
+              f"whole rollouts of --num-envs x {'--n-steps' if args.algo == 'ppo' else '--train-freq'} = "
+              f"{rollout_steps(args):,}", flush=True)
     stop = stop_on_ctrl_c()
     deadline = None if args.max_minutes is None else started + 60 * args.max_minutes
     try:
         with stop.handling_ctrl_c():
             model.learn(total_timesteps=total_timesteps, progress_bar=args.progress_bar, tb_log_name="tb",
                         callback=CallbackList([stop, stop_after(deadline), evaluation, checkpoints,
-                                               threads_for_updates(args.torch_threads), first_update_notice(started)]),
+                                               threads_for_updates(args.torch_threads),
+                                               *([first_update_notice(started)] if args.algo == "ppo" else [])]),
                         reset_num_timesteps=args.resume is None)
     except KeyboardInterrupt:  # a second Ctrl-C: stop at once
         stop.requested = True

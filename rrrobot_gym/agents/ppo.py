@@ -1,4 +1,5 @@
-"""Loading a trained PPO policy, with its observation normalisation, as an agent.
+"""Loading a trained policy, with its observation normalisation, as an agent: PPO's, or any
+algorithm's ``train.py --algo`` trains (its run's ``args.json`` names it).
 
 A model whose actions need more than its network (a mirrored or a residual run) names a policy
 class in its zip that SB3's ``PPO.load`` refuses to build (:class:`~.mirror.MirroredPolicy`,
@@ -109,14 +110,15 @@ def policy_class_to_save(run_dir):
 
 
 def load_sb3_model(model_path, device="cpu", **kwargs):
-    """The SB3 PPO model of ``model_path`` (``PPO.load``'s ``kwargs``): the network alone, without its
-    observation statistics, mirror or base agent. A zip naming a class of :data:`RUN_FILE_OF` loads
-    as the ``ActorCriticPolicy`` it was trained as."""
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.policies import ActorCriticPolicy
+    """The SB3 model of ``model_path`` (its algorithm's ``load``, with ``kwargs``; the algorithm its
+    run names, :func:`trained_algorithm`): the network alone, without its observation statistics,
+    mirror or base agent. A zip naming a class of :data:`RUN_FILE_OF` loads as the algorithm's
+    ``MlpPolicy`` it was trained as."""
+    from ..hyperparams import algorithm_class
 
-    custom = {"policy_class": ActorCriticPolicy} if saved_policy_class(model_path) in RUN_FILE_OF else None
-    return PPO.load(model_path, device=device, custom_objects=custom, **kwargs)
+    algorithm = algorithm_class(trained_algorithm(model_path))
+    custom = {"policy_class": algorithm.policy_aliases["MlpPolicy"]} if saved_policy_class(model_path) in RUN_FILE_OF else None
+    return algorithm.load(model_path, device=device, custom_objects=custom, **kwargs)
 
 
 def check_run_files(model_path, vecnormalize_path=None) -> None:
@@ -144,8 +146,16 @@ def check_run_files(model_path, vecnormalize_path=None) -> None:
                                     "without it the policy's speeds mean nothing")
 
 
+def trained_algorithm(model_path) -> str:
+    """The algorithm of a model train.py saved (a key of :data:`rrrobot_gym.hyperparams.ALGORITHMS`):
+    its run's ``args.json``'s ``algo``; PPO for a run without one (train.py before --algo)."""
+    args_path = run_directory(model_path) / "args.json"
+    return json.loads(args_path.read_text()).get("algo", "ppo") if args_path.exists() else "ppo"
+
+
 def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent:
-    """Load ``model_path`` (an SB3 PPO zip), its VecNormalize statistics (``vecnormalize_path``, or
+    """Load ``model_path`` (an SB3 model zip: PPO, or the algorithm its run's ``args.json`` names,
+    :func:`trained_algorithm`), its VecNormalize statistics (``vecnormalize_path``, or
     :func:`normalization_path`) and its run's ``env_kwargs.json``; a run missing a file it needs
     is refused (:func:`check_run_files`). A run with ``residual.json`` gives a
     :class:`~rrrobot_gym.agents.residual.ResidualAgent`, one with ``mirror.json`` a
@@ -153,6 +163,7 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     evaluate.py labels its rows with). Unpickles the files: trusted files only.
     """
     from ..envs.task import kwargs_from_json
+    from ..hyperparams import algorithm_class
 
     model_path = Path(model_path)
     if not model_path.exists():
