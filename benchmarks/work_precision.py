@@ -87,7 +87,7 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
     robot starts tilted by 0.3 rad, spinning, legs moving (servo).
     """
     robot = RobotParams(damping=0.0)
-    consts = dynamics.constants(robot, SimConfig(model=model, robot=robot).depth)
+    free = dynamics.derivative_function(robot, model, kinematic=legs != "servo")
     state = initial_state(leg_angles=(1.2, 2.0))
     tilt = 0.3
     state[dynamics.QUAT] = (math.cos(tilt / 2), math.sin(tilt / 2) * 0.8, math.sin(tilt / 2) * 0.6, 0.0)
@@ -96,12 +96,12 @@ def energy_drift(model: str, legs: str, integrator: str, step: float, duration: 
         state[dynamics.LEG_RATES] = (1.0, -2.0)
 
         def f(t, c):
-            return dynamics.derivative_kernel(c, (0.0, 0.0), consts)
+            return free(c, (0.0, 0.0))  # (servo legs: no torque)
 
     else:
 
         def f(t, c):
-            return dynamics.derivative_kernel(c, None, consts, (0.0, 0.0))
+            return free(c, (0.0, 0.0))  # (kinematic legs: no acceleration)
 
     stepper = INTEGRATORS[integrator].step
     steps_per_env = round(ENV_STEP / step)

@@ -13,21 +13,22 @@ import math
 import numpy as np
 
 from . import dynamics
-from .params import MODELS, RobotParams, rotation_point_depth
+from .params import MODELS, RobotParams
 from .simulation import initial_state
 
 PAPER_TABLE1 = {("plane", "x"): 1.29, ("plane", "y"): 1.07, ("pivot", "x"): 1.19, ("pivot", "y"): 0.96}
 """s, the paper's Table I: small-oscillation periods, legs vertical."""
 
 
-def _locked_leg_body_accel(params: RobotParams, depth: float, rotation_vector):
+def _locked_leg_body_accel(params: RobotParams, model: str, rotation_vector):
     """Omega' at rest, tilted by a body-frame rotation vector, legs vertical and held (phi'' = 0)."""
-    state = initial_state()
+    legs = params.num_legs
+    state = initial_state(num_legs=legs)
     angle = float(np.linalg.norm(rotation_vector))
     axis = np.asarray(rotation_vector) / angle if angle else np.zeros(3)
     state[dynamics.QUAT] = np.concatenate([[math.cos(angle / 2)], math.sin(angle / 2) * axis])
-    deriv = dynamics.state_derivative(state.tolist(), None, params, depth, leg_accel=(0.0, 0.0))
-    return np.array(deriv[8:11])
+    deriv = dynamics.state_derivative(state.tolist(), (0.0,) * legs, params, model, kinematic=True)
+    return np.array(deriv[6 + legs : 9 + legs])
 
 
 def small_oscillation_periods(model: str, params: RobotParams | None = None, eps: float = 1e-6):
@@ -42,13 +43,12 @@ def small_oscillation_periods(model: str, params: RobotParams | None = None, eps
     if not (math.isfinite(eps) and eps > 0):
         raise ValueError(f"eps must be a small positive rotation (rad) for the central differences, got {eps!r}")
     params = RobotParams(**{**params.__dict__, "damping": 0.0})
-    depth = rotation_point_depth(model, params)
     stiffness = np.empty((3, 3))
     for j in range(3):
         dv = np.zeros(3)
         dv[j] = eps
         stiffness[:, j] = -(
-            _locked_leg_body_accel(params, depth, dv) - _locked_leg_body_accel(params, depth, -dv)
+            _locked_leg_body_accel(params, model, dv) - _locked_leg_body_accel(params, model, -dv)
         ) / (2 * eps)
     eigval, eigvec = np.linalg.eig(stiffness)
     periods = {}

@@ -140,9 +140,8 @@ def _unrolled(fn, legs: int, namespace):
     return out
 
 
-# The stepper. Plain Python here (it runs uncompiled too, slowly: ``prange`` is ``range``);
-# :func:`_stepper` compiles copies whose globals are the compiled kernels, servo and targets.
-prange = range
+# The stepper. Plain Python here (it runs uncompiled too, slowly); :func:`_stepper` compiles copies
+# whose globals are the compiled kernels, servo and targets.
 derivative_kernel = dynamics.derivative_kernel
 motor_torque, ramp_target, sinusoid_target = control.motor_torque, control.ramp_target, control.sinusoid_target
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
@@ -408,7 +407,7 @@ def _batch(y, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, s
     Whole blocks of LANES robots take the lanes; the rest (fewer than LANES), if at least
     PADDED_MIN, a block of their own padded with copies of the last (_padded), else one by one."""
     blocks, rest, padded, tasks = _partition(y.shape[0])
-    for b in prange(tasks):
+    for b in range(tasks):
         if b < blocks:
             _lanes(y, b * LANES, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows,
                    summary, robot)  # fmt: skip
@@ -432,8 +431,7 @@ def _robot_params(params, i):
 def _partition(n):
     """How _batch shares n robots among tasks: (whole blocks of LANES, robots left over, whether
     those take a padded block, the number of tasks: the blocks, then the padded block or each
-    robot left over). The task count is a plain value, computed before the loop: numba does not
-    parallelise a prange whose bound is a conditional expression."""
+    robot left over)."""
     blocks, rest = n // LANES, n % LANES
     padded = rest >= PADDED_MIN
     return blocks, rest, padded, blocks + 1 if padded else blocks + rest
@@ -511,7 +509,16 @@ _BLOCK_INLINED = (_rows, _limit, _robot, _own, _block_torques, _block_derivative
 _STEPPER = (_leg_target, _servo, _lesser, _greater, _summarise, _partition, _padded_robot, _padded, _unpadded,
             _robot_params)  # fmt: skip
 """This module's other functions the compiled :func:`_batch` calls."""
-_lanes = _single = _block  # (plain Python: one block function; compiled, a copy for each BLOCK)
+
+
+def _plain_block(block: int):
+    """:func:`_block` for blocks of ``block`` robots, uncompiled (what :func:`_stepper` compiles)."""
+    namespace = dict(globals(), BLOCK=block)
+    _copies(_BLOCK_INLINED + _BLOCK_FUNCTIONS, lambda fn: fn, namespace)
+    return namespace["_block"]
+
+
+_lanes, _single = _plain_block(LANES), _plain_block(1)  # (plain Python; compiled: :func:`_stepper`'s copies)
 
 
 SOURCES = (__file__, dynamics.__file__, control.__file__, numerics.__file__)
@@ -601,9 +608,10 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None, legs: int = 2):
+def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
     """The compiled :func:`_batch` for robots of ``legs`` legs (``per_robot``: a copy for robots of
-    their own values, cached under a name of its own), threaded over robots if ``parallel``; with
+    their own values, cached under a name of its own), releasing the GIL (:func:`integrate` shares a
+    batch among threads); with
     ``task`` = (entry, kernels), the compiled ``entry`` instead (:func:`task_stepper`): loaded from
     the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
     import numba
@@ -621,10 +629,9 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None,
         _prune_stale_caches(directory)
         _content_keyed_locator()
     # numba's cache files are named by the function's qualified name and keyed by its signature,
-    # not by parallel=: the threaded copy needs a name of its own, else one is loaded for the other
-    name = entry.__name__ + ("_per_robot" if per_robot else "") + ("_threaded" if parallel else "") + f"_{legs}_legs"
+    name = entry.__name__ + ("_per_robot" if per_robot else "") + f"_{legs}_legs"
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
-        print(f"rrrobot_gym: compiling the numba stepper ({legs} legs){' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}{' (threaded)' if parallel else ''}: up to about {COMPILE_SECONDS} s "
+        print(f"rrrobot_gym: compiling the numba stepper ({legs} legs){' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
@@ -633,7 +640,7 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None,
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
         inline = functools.partial(njit, forceinline=True)  # inlined into the lanes' loops, which lets them vectorise
-        namespace = dict(globals(), prange=numba.prange)
+        namespace = dict(globals())
         # numerics' functions on floats (its select and anywhere in their scalar forms), inlined
         scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
         scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
@@ -652,7 +659,7 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None,
             _copies(_BLOCK_FUNCTIONS, njit, copy, f"{suffix}_{block}", legs)
             namespace[entry_name] = copy["_block"]
         if task is None:
-            return njit(_named_copy(_batch, namespace, name), parallel=parallel)
+            return njit(_named_copy(_batch, namespace, name), nogil=True)
         # The task's own functions, each module's with its own globals, on floats: numerics' select
         # and anywhere in their scalar forms, and the functions compiled before them.
         compiled = dict(scalar)
@@ -662,7 +669,7 @@ def _stepper(parallel: bool, per_robot: bool = False, task: tuple | None = None,
             compiled.update(_copies(functions, njit, {**functions[0].__globals__, **compiled}, f"_{legs}", legs))
         physics = _physics_own if per_robot else _physics_shared
         compiled["_physics"] = _copies((_batch, physics), njit, namespace, suffix)[physics.__name__]
-        return njit(_named_copy(entry, {**entry.__globals__, **compiled}, name), parallel=parallel)
+        return njit(_named_copy(entry, {**entry.__globals__, **compiled}, name))
     finally:
         numba.config.CACHE_DIR = previous
 
@@ -679,7 +686,7 @@ def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2):
     calls the physics (:func:`_physics_shared`, or :func:`_physics_own` where ``per_robot``) as
     ``_physics`` and the task's ``kernels`` (functions of the modules above this one, compiled from
     their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread."""
-    return _stepper(False, per_robot, (entry, tuple(kernels)), legs)
+    return _stepper(per_robot, (entry, tuple(kernels)), legs)
 
 
 @functools.lru_cache(maxsize=32)
@@ -721,26 +728,31 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
-    parallel = workers > 1 and y.shape[0] > 1
-    step = _stepper(parallel, scene is not None, None, legs)
-    if scene is None:
-        args = (y, float(t0), float(h), int(n_steps), k, gains, config.torque_limit, config.leg_rate_limit, kind,
-                params, shared, layout, rows, summary, np.empty(0))  # fmt: skip
-    else:
-        robot, limits = robot_rows(scene, y.shape[0])
-        args = (y, float(t0), float(h), int(n_steps), None, None, *limits, kind, params, shared, layout, rows, summary,
-                robot)  # fmt: skip
-    if parallel:
-        import numba
+    step = _stepper(scene is not None, None, legs)
+    robot, limits = (np.empty(0), (config.torque_limit, config.leg_rate_limit)) if scene is None else robot_rows(scene, len(y))
 
-        previous = numba.get_num_threads()
-        numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))
-        try:
-            step(*args)
-        finally:
-            numba.set_num_threads(previous)
+    def run(first, stop):  # robots first .. stop - 1, into their own arrays (one thread each)
+        part = slice(first, stop)
+        own = (None, None) if scene is not None else (k, gains)
+        chunk = (y[part], float(t0), float(h), int(n_steps), *own, *limits, kind,
+                 params if params.shape[0] == 1 else params[part], shared, layout, np.empty((rows.shape[0], rows.shape[1], stop - first)),
+                 np.empty((summary.shape[0], stop - first)), robot[first * ROBOT_ROWS : stop * ROBOT_ROWS])  # fmt: skip
+        step(*chunk)
+        y[part], rows[:, :, part], summary[:, part] = chunk[0], chunk[-3], chunk[-2]
+
+    # Threads take whole blocks of LANES robots (the last the rest), so each robot steps as it would
+    # in one call: the same bits whatever the number of workers. (The stepper releases the GIL.)
+    blocks = -(-len(y) // LANES)
+    bounds = [min(len(y), LANES * (blocks * w // workers)) for w in range(workers + 1)]
+    chunks = [(a, b) for a, b in zip(bounds, bounds[1:]) if b > a]
+    if len(chunks) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(len(chunks)) as pool:
+            for done in [pool.submit(run, a, b) for a, b in chunks]:
+                done.result()
     else:
-        step(*args)
+        run(0, len(y))
     out = y.reshape(np.shape(state))
     if not record:
         return out, None, None

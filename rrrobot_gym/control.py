@@ -202,7 +202,9 @@ class RampTargets:
             raise ValueError("ramp ends contain NaN or inf")
         change = end - start
         # The compiled stepper's (N, 4 legs) parameters in one piece, the numpy steppers' views of its columns.
-        self._params = np.concatenate([start, end, change, change / duration], axis=1)
+        self._params = np.empty((len(start), 4 * legs))
+        for j, part in enumerate((start, end, change, change / duration)):
+            self._params[:, j * legs : (j + 1) * legs] = part
         columns = tuple(self._params.T)
         self._start, self._end = columns[0:legs], columns[legs:2 * legs]
         self._change, self._slope = columns[2 * legs:3 * legs], columns[3 * legs:4 * legs]

@@ -173,7 +173,7 @@ def constants(params: RobotParams, model: str, values: dict | None = None) -> Co
         ixx, iyy, izz = ixx + pin_mass * (hy * hy + hz * hz), iyy + pin_mass * (hx * hx + hz * hz), izz + pin_mass * (hx * hx + hy * hy)
         ixy, ixz, iyz = ixy - pin_mass * (hx * hy), ixz - pin_mass * (hx * hz), iyz - pin_mass * (hy * hz)
         sx, sy, sz = sx + pin_mass * hx, sy + pin_mass * hy, sz + pin_mass * hz
-        total = total + pin_mass + mass_tip * (tip / params.mass_tip)
+        total = total + (pin_mass + mass_tip * (tip / params.mass_tip))
     return Constants(
         a2=a * a, b2=b * b, c2=c * c, pole=c, rolling=1.0 if check_model(model) == "plane" else 0.0,
         gravity=params.gravity, damping=get("damping"), leg_length=leg_length, mass_tip=mass_tip, total_mass=total,
@@ -423,6 +423,22 @@ def kernel_work(num_legs: int):
     return 2 * n + 7 * num_legs + 5, 0, n, 2 * n, 2 * n + num_legs, 2 * n + 5 * num_legs
 
 
+def derivative_function(params: RobotParams, model: str, kinematic: bool = False, record: bool = False, k=None):
+    """f(c, leg_drive): :func:`state_derivative` of ``params`` on ``model`` with its constants made
+    once (the numpy stepper's and the tools' fast path); ``k``: constants of its own (each robot's)."""
+    k, layout = constants(params, model) if k is None else k, leg_layout(params)
+    size, at, out, drive, scratch, rec = kernel_work(len(layout))
+    legs = len(layout)
+
+    def f(c, leg_drive):
+        w = [*c, *([0.0] * (size - out))]
+        w[drive : drive + legs] = leg_drive
+        derivative_kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, rec if record else -1)
+        return (w[out:drive], w[rec:]) if record else w[out:drive]
+
+    return f
+
+
 def state_derivative(c, leg_drive, params: RobotParams, model: str, kinematic: bool = False, record: bool = False):
     """Time derivative of a state, in components.
 
@@ -436,14 +452,7 @@ def state_derivative(c, leg_drive, params: RobotParams, model: str, kinematic: b
     Returns:
         The derivative components, in the same layout (and the record's, if asked).
     """
-    size, at, out, drive, scratch, rec = kernel_work(params.num_legs)
-    w = [0.0] * size
-    w[at:out] = list(c)
-    w[drive:drive + params.num_legs] = list(leg_drive)
-    derivative_kernel(w, at, out, 1, constants(params, model), leg_layout(params), drive, scratch, kinematic,
-                      rec if record else -1)  # fmt: skip
-    derivative = w[out:drive]
-    return (derivative, w[rec:]) if record else derivative
+    return derivative_function(params, model, kinematic, record)(c, leg_drive)
 
 
 def energy_components(c, params: RobotParams, model: str):
@@ -536,11 +545,12 @@ def _unit_quaternions(quat, what: str) -> np.ndarray:
     return quat
 
 
-def legs_of(size: int) -> int:
-    """The number of legs of a state of ``size`` numbers (9 + 2L), or a ValueError."""
+def legs_of(size: int, what: str = "state") -> int:
+    """The number of legs of a state of ``size`` numbers (9 + 2L), or a ValueError naming ``what``."""
     legs = (int(size) - 9) // 2
     if 9 + 2 * legs != size or not 1 <= legs <= MAX_LEGS:
-        raise ValueError(f"a state has 9 + 2L numbers for L = 1 to {MAX_LEGS} legs, got {size}")
+        raise ValueError(f"{what} must have 9 + 2L entries on its last axis (L = 1 to {MAX_LEGS} legs; 13 for the "
+                         f"paper's robot), got {size}")
     return legs
 
 
@@ -549,7 +559,7 @@ def _states(state, what: str = "state", num_legs: int | None = None) -> np.ndarr
     or any the last axis gives."""
     if num_legs is None:
         state = np.asarray(state, dtype=float) if not isinstance(state, np.ndarray) else state
-        num_legs = legs_of(state.shape[-1]) if state.ndim else 2
+        num_legs = legs_of(state.shape[-1], what) if state.ndim else 2
     state = _shaped(state, 9 + 2 * num_legs, what)
     _unit_quaternions(state[..., QUAT], f"{what}'s entries 2:6")
     return state

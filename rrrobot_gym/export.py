@@ -2,10 +2,10 @@
 
 :func:`export_onnx` writes what ``rrrobot_gym.agents.load_ppo_agent(model).predict(obs,
 deterministic=True)`` computes as one graph: input ``observation`` (N, observation size) float32,
-the env's raw observations; output ``action`` (N, 2) float32, the legs' targets in [-1, 1]. Folded
+the env's raw observations; output ``action`` (N, legs) float32, the legs' targets in [-1, 1]. Folded
 in are the VecNormalize statistics (as constants), the actor's mean action clipped to the action
 space as SB3 does, and for a policy trained mirrored the mirror: rows whose heading points to -Y go
-in mirrored and come out with the legs exchanged back. A residual policy (on a scripted agent) is
+in mirrored and come out mirrored back. A residual policy (on a scripted agent) is
 not one network and is refused. Needs ``rrrobot_gym[train]`` and ``onnx``; loading the model
 unpickles it: trusted files only.
 """
@@ -17,22 +17,25 @@ from pathlib import Path
 
 import numpy as np
 
-from .agents.mirror import SIN_INDEX, SIN_TOLERANCE, MirroredAgent
+from .agents.mirror import SIN_TOLERANCE, MirroredAgent, sin_index
 from .agents.residual import RESIDUAL_FILE, run_directory
 from .envs.task import mirror_actions, mirror_observations
 
 OPSET = 17
 
 
-def mirror_map(config):
-    """(permutation, signs): ``mirror_observations(obs, config) == obs[..., permutation] * signs``,
-    found by mirroring the unit vectors (the mirror only permutes entries and flips signs)."""
-    images = mirror_observations(np.eye(config.observation_size, dtype=np.float32), config)  # row j: e_j's image
+def mirror_map(mirror, size: int):
+    """(permutation, signs, offsets): ``mirror(x) == x[..., permutation] * signs + offsets`` for a
+    mirror of vectors of ``size`` entries that moves, flips and shifts entries (each output one
+    input's, +-, plus a constant: a flipped leg's angle is pi - angle), found from the images of
+    zero and of the unit vectors."""
+    offsets = np.asarray(mirror(np.zeros((1, size), dtype=np.float32)), dtype=np.float32)[0]
+    images = np.asarray(mirror(np.eye(size, dtype=np.float32)), dtype=np.float32) - offsets  # row j: e_j's image
     permutation = np.abs(images).argmax(axis=0)
-    signs = images[permutation, np.arange(config.observation_size)]
-    if not (np.abs(images).sum(axis=0) == 1).all():
-        raise ValueError("the observation mirror is not a signed permutation: it cannot be exported")
-    return permutation, signs.astype(np.float32)
+    signs = images[permutation, np.arange(size)]
+    if not ((np.abs(images).sum(axis=0) == 1).all() and (np.abs(signs) == 1).all()):
+        raise ValueError("the mirror is not a signed permutation of entries: it cannot be exported")
+    return permutation, signs.astype(np.float32), offsets
 
 
 def policy_module(agent):
@@ -46,8 +49,10 @@ def policy_module(agent):
     policy = ppo.model.policy
     low, high = ppo.model.action_space.low, ppo.model.action_space.high
     if mirrored:
-        permutation, signs = mirror_map(agent.config)
-        swap = np.asarray(mirror_actions(np.arange(2)))
+        config, legs = agent.config, agent.config.num_robot_legs
+        permutation, signs, offsets = mirror_map(lambda x: mirror_observations(x, config), config.observation_size)
+        swap, swap_signs, _ = mirror_map(lambda x: mirror_actions(x, config.sim.robot), legs)
+        sin_at = sin_index(config)
     mean, scale = ppo.obs_mean, np.sqrt(ppo.obs_var + ppo.epsilon)  # load_ppo_agent refuses a run without them
 
     class Policy(torch.nn.Module):
@@ -61,17 +66,19 @@ def policy_module(agent):
             if mirrored:
                 self.register_buffer("permutation", torch.as_tensor(permutation, dtype=torch.int64))
                 self.register_buffer("signs", torch.as_tensor(signs))
+                self.register_buffer("offsets", torch.as_tensor(offsets))
                 self.register_buffer("swap", torch.as_tensor(swap, dtype=torch.int64))
+                self.register_buffer("swap_signs", torch.as_tensor(swap_signs))
 
         def forward(self, observation):
             if mirrored:  # MirroredAgent.predict: rows with sin(heading) < 0 as their mirror images
-                flip = (observation[:, SIN_INDEX] < -SIN_TOLERANCE).unsqueeze(1)
-                observation = torch.where(flip, observation[:, self.permutation] * self.signs, observation)
+                flip = (observation[:, sin_at] < -SIN_TOLERANCE).unsqueeze(1)
+                observation = torch.where(flip, observation[:, self.permutation] * self.signs + self.offsets, observation)
             # PPOAgent.normalize: in float64, as it computes, then float32
             scaled = ((observation.double() - self.mean) / self.scale).clamp(-ppo.clip_obs, ppo.clip_obs).float()
             action = self.action_net(self.mlp.forward_actor(self.extractor(scaled)))
             action = torch.maximum(torch.minimum(action, self.high), self.low)  # SB3's predict on a Box space
-            return torch.where(flip, action[:, self.swap], action) if mirrored else action
+            return torch.where(flip, action[:, self.swap] * self.swap_signs, action) if mirrored else action
 
     return Policy().eval()
 

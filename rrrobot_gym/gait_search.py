@@ -264,8 +264,7 @@ def rollout(act, n, duration, reset, *, model, env_kwargs, record=False) -> dict
         steps = control_steps("duration", duration, env.dt)
         obs, _ = env.reset(**reset)
         first = last = env.states[:, 0:2].copy()
-        radius = env.config.sim.robot.radius
-        up, yaw = [upright_contact_points(env.states, radius)], [body_yaw(env.states)]
+        up, yaw = [upright_contact_points(env.states, env.config)], [body_yaw(env.states)]
         end_step, alive = np.full(n, steps), np.ones(n, dtype=bool)
         torque_peak, rate_peak = np.zeros(n), np.zeros(n)
         for k in range(steps):
@@ -283,7 +282,7 @@ def rollout(act, n, duration, reset, *, model, env_kwargs, record=False) -> dict
                 end_step[ending] = k + 1
             alive = running
             if record:
-                upright = np.where(alive[:, None], upright_contact_points(env.states, radius), up[-1])
+                upright = np.where(alive[:, None], upright_contact_points(env.states, env.config), up[-1])
                 if ending.any():
                     upright[ending, 0], upright[ending, 1] = final["x_upright"][ending], final["y_upright"][ending]
                 up.append(upright)

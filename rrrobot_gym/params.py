@@ -200,7 +200,10 @@ class RobotParams:
     @property
     def total_mass(self) -> float:
         """kg, the sum of the point masses."""
-        return self.mass_bottom + sum(pin + tip for pin, tip in self.leg_masses)
+        total = self.mass_bottom
+        for pin, tip in self.leg_masses:  # (leg by leg, as dynamics.constants adds them)
+            total = total + (pin + tip)
+        return total
 
     @property
     def leg_inertia(self) -> float:
@@ -238,12 +241,3 @@ def check_model(model: str) -> str:
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}: expected one of {', '.join(MODELS)}")
     return model
-
-
-def rotation_point_depth(model: str, params: RobotParams) -> float:
-    """m, depth h below the centre of the point the body rotates about.
-
-    On a plane the body rolls, so its instantaneous rotation is about the contact point
-    (h = r); the Pivoting Dynamics model turns about a spherical joint at the centre (h = 0).
-    """
-    return params.radius if check_model(model) == "plane" else 0.0

@@ -368,12 +368,11 @@ def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
         gains, torque_limit, rate_limit = config.gains, config.torque_limit, config.leg_rate_limit
     else:
         k, gains, torque_limit, rate_limit = scene
-    layout = dynamics.leg_layout(config.robot)
-    legs = len(layout)
-    size, at, out, drive, scratch, record = dynamics.kernel_work(legs)
-    kernel = dynamics.derivative_kernel
-    leg_targets = targets.leg_targets
+    legs = config.robot.num_legs
     kinematic = config.legs == "kinematic"
+    derivative = dynamics.derivative_function(config.robot, config.model, kinematic, k=k)
+    recorded = dynamics.derivative_function(config.robot, config.model, kinematic, record=True, k=k)
+    leg_targets = targets.leg_targets
     rates = slice(9 + legs, 9 + 2 * legs)
 
     if kinematic:
@@ -391,18 +390,12 @@ def _stage_fns(config: SimConfig, targets, blend=None, scene=None):
             return torques if torque_limit is None else limit_torque(torques, c[rates], torque_limit, rate_limit)
 
     def f(t, c):
-        w = [*c, *([0.0] * n_rest)]
-        w[drive : drive + legs] = driving(t, c)
-        kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, -1)
-        return w[out:drive]
+        return derivative(c, driving(t, c))
 
     def first(t, c):
-        w = [*c, *([0.0] * n_rest)]
-        w[drive : drive + legs] = driving(t, c)
-        kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, record)
-        return w[out:drive], [*w[record:], *c[rates]]
+        values, record = recorded(c, driving(t, c))
+        return values, [*record, *c[rates]]
 
-    n_rest = size - (9 + 2 * legs)
     return f, first
 
 

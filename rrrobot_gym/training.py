@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .agents.mirror import MIRROR_FILE, MirroredPolicy, is_mirrored, make_mirrored_vec_env, save_mirror
+from .agents.mirror import MIRROR_FILE, MirroredPolicy, has_mirror, is_mirrored, make_mirrored_vec_env, save_mirror
 from .agents.ppo import load_sb3_model, normalization_path, policy_class_to_save, saved_policy_class
 from .agents.residual import FEATURES, RESIDUAL_FILE, check_scale, load_base, make_residual_vec_env, run_directory, save_residual
 from .agents.turn_then_run import load_turn_then_run_agent
@@ -145,8 +145,8 @@ class Args:
     residual_scale: float = _option(0.05, "with --residual-on: the largest change of the base's action (action units)")
     mirror: bool | None = _option(
         None, "run headings towards -Y as mirror images of those towards +Y (rrrobot_gym/agents/mirror.py): the policy "
-        "learns half the compass; default: on for a goal-conditioned policy, off for a --direction-deg specialist or a "
-        "--residual-on policy, and as the --resume run was")
+        "learns half the compass; default: on for a goal-conditioned policy of a robot with that symmetry, off for a "
+        "--direction-deg specialist or a --residual-on policy, and as the --resume run was")
     select_by: str = _option(
         "worst", "which evaluation picks best_model.zip: mean (the headings' mean return) or worst (the worst "
         "heading's return)")
@@ -272,11 +272,18 @@ def parse_args(argv=None) -> Args:
     if args.select_by not in ("mean", "worst"):
         parser.error(f"--select-by must be mean or worst, got {args.select_by!r}")
     resumed_mirrored = args.resume is not None and resumes_mirrored(args.resume)
-    if args.mirror is None:  # auto: a goal-conditioned policy, or as the resumed run was
+    try:
+        symmetric = has_mirror(make_task_config(**env_kwargs(args)))
+    except (TypeError, ValueError) as error:
+        parser.error(f"--env: {error}")
+    if args.mirror is None:  # auto: a goal-conditioned policy of a symmetric robot, or as the resumed run was
         if args.direction_deg is not None or args.residual_on is not None:
             args.mirror = False
         else:
-            args.mirror = resumed_mirrored if args.resume is not None else True
+            args.mirror = resumed_mirrored if args.resume is not None else symmetric
+    if args.mirror and not symmetric:
+        parser.error("--mirror needs a robot with mirror symmetry in its x-z plane (legs in mirrored pairs, "
+                     "rrrobot_gym.dynamics.mirror_legs); this one has none")
     if args.mirror and args.residual_on is not None:
         parser.error("--mirror and --residual-on cannot be combined (the base agent is not mirrored)")
     if args.mirror and args.direction_deg is not None:

@@ -67,13 +67,13 @@ def start_states(rng, num_robots, max_tilt=0.3, max_rate=1.0):
 
 def _power_stepper(config: SimConfig, targets: HeldTargets):
     """f(t, c) for 14 components: the 13 of the state and the work W (J) done on the robot."""
-    k = dynamics.constants(config.robot, config.depth)
+    derivative = dynamics.derivative_function(config.robot, config.model)
     gains, damping = config.gains, config.robot.damping
 
     def f(t, c):
         target = targets.leg_targets(t)
         tau = pd_torque(gains, (c[6], c[7]), (c[11], c[12]), target)
-        deriv = dynamics.derivative_kernel(c, tau, k)
+        deriv = tuple(derivative(c[:13], tau))
         power = tau[0] * c[11] + tau[1] * c[12] + damping * (c[8] * c[8] + c[9] * c[9] + c[10] * c[10])
         return deriv + (power,)
 

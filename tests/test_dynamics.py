@@ -7,13 +7,13 @@ from scipy.integrate import cumulative_simpson, solve_ivp
 from conftest import random_states
 from rrrobot_gym import dynamics
 from rrrobot_gym.control import pd_torque, table2_gait
-from rrrobot_gym.params import RobotParams, rotation_point_depth
+from rrrobot_gym.params import RobotParams
 from rrrobot_gym.simulation import SimConfig, advance, simulate, simulate_reference
 
 
 def _free_derivative(params, model, torque=(0.0, 0.0)):
-    depth = rotation_point_depth(model, params)
-    return lambda t, y: np.array(dynamics.state_derivative(y.tolist(), torque, params, depth))
+    f = dynamics.derivative_function(params, model)
+    return lambda t, y: np.array(f(y.tolist(), torque))
 
 
 @pytest.mark.parametrize("model", ["plane", "pivot"])
@@ -155,15 +155,18 @@ def test_attitude_round_trips_through_paper_angles(model, rng):
 
 
 @pytest.mark.parametrize("model", ["plane", "pivot"])
-def test_contact_kernel_is_what_the_derivative_evaluation_records(model, rng):
-    # The lane stepper records contact_kernel(state, derivative); the float stepper takes
-    # derivative_kernel's contact_out. They must be the same numbers to the bit.
+def test_the_recorded_force_is_newtons_for_the_accelerations_whatever_drives_them(model, rng):
+    # The record a servo evaluation makes (the torques given) equals the one of legs driven with the
+    # accelerations that evaluation gave (kinematic: the torques then come out): the ground's force
+    # is a function of the state and its accelerations, and the torques are the motion's.
     params = RobotParams()
-    depth = rotation_point_depth(model, params)
-    k, kc = dynamics.constants(params, depth), dynamics.contact_constants(params, depth)
+    servo = dynamics.derivative_function(params, model, record=True)
+    kinematic = dynamics.derivative_function(params, model, kinematic=True, record=True)
     for state in random_states(rng, 50, max_tilt=1.2, max_rate=4.0):
         c = state.tolist()
         c[2:6] = (np.array(c[2:6]) * rng.uniform(0.999, 1.001)).tolist()  # RK stages are off unit length
-        recorded = [0.0] * 7  # contact_kernel's seven values
-        derivative = dynamics.derivative_kernel(c, (0.3, -0.2), k, contact_out=recorded)
-        assert list(dynamics.contact_kernel(c, derivative, kc)) == recorded
+        derivative, record = servo(c, (0.3, -0.2))
+        again, kinematic_record = kinematic(c, derivative[11:13])
+        np.testing.assert_allclose(again, derivative, rtol=0, atol=1e-11 * max(1.0, np.abs(derivative).max()))
+        np.testing.assert_allclose(kinematic_record, record, rtol=0, atol=1e-11)
+        assert record[:2] == [0.3, -0.2]

@@ -22,7 +22,7 @@ from family_oracle import (
     oracle_simulate,
 )
 from rrrobot_gym import dynamics
-from rrrobot_gym.params import RobotParams, rotation_point_depth
+from rrrobot_gym.params import RobotParams
 
 SPHERE = (0.12, 0.12, 0.12)
 OBLATE = (0.12, 0.12, 0.09)
@@ -127,15 +127,37 @@ def test_default_legs_are_spread_evenly_on_the_rim_with_unit_tangent_swing_plane
             assert leg["u"][0] > 0 or (leg["u"][0] == 0 and leg["u"][1] > 0)
 
 
+MEMBERS = {
+    "paper": RobotParams(),
+    "oblate-2": RobotParams(shell_axes=OBLATE),
+    "triaxial-3": RobotParams(shell_axes=(0.13, 0.11, 0.10), num_legs=3),
+    "sphere-4": RobotParams(num_legs=4),
+    "prolate-1": pytest.param(RobotParams(shell_axes=PROLATE, num_legs=1), marks=pytest.mark.slow),
+    "oblate-6": pytest.param(RobotParams(shell_axes=OBLATE, num_legs=6, leg_length=0.08), marks=pytest.mark.slow),
+}
+"""Family members the production kernel is checked on: the paper's robot and one of each kind."""
+
+
+def _oracle_robot(params: RobotParams) -> dict:
+    """The oracle's keywords for ``params`` (any legs), without ``model``."""
+    legs = [dict(hinge=leg.hinge, u=leg.zero, v=leg.up, length=length, mass_pin=pin, mass_tip=tip)
+            for leg, length, (pin, tip) in zip(params.legs, params.leg_lengths, params.leg_masses)]  # fmt: skip
+    return dict(shell_axes=params.shell_axes, legs=legs, mass_bottom=params.mass_bottom, gravity=params.gravity,
+                damping=params.damping)
+
+
 @pytest.mark.parametrize("model", MODELS)
-def test_oracle_equals_todays_kernel_on_the_papers_robot(model, rng):
-    params = RobotParams()
-    robot = _robot(SPHERE, 2, damping=params.damping)
-    states = random_states(rng, 200)
-    torques = rng.uniform(-0.3, 0.3, (200, 2))
+@pytest.mark.parametrize("params", MEMBERS.values(), ids=MEMBERS)
+def test_the_production_kernel_equals_the_symbolic_oracle(params, model, rng):
+    """rrrobot_gym.dynamics (written by hand, Kane's equations with the ellipsoid's support point)
+    against the sympy derivation (KanesMethod with the rolling constraint eliminated by sympy):
+    derivatives, energies and the recorded ground force, at random states and torques."""
+    robot, legs = _oracle_robot(params), params.num_legs
+    states = _family_states(rng, legs, 200)
+    torques = rng.uniform(-0.3, 0.3, (200, legs))
     ours = oracle_derivative(states, torques, model=model, **robot)
-    kernel = np.stack(dynamics.state_derivative(list(states.T), list(torques.T), params,
-                                                rotation_point_depth(model, params)), -1)  # fmt: skip
+    kernel, record = dynamics.state_derivative(list(states.T), list(torques.T), params, model, record=True)
+    kernel = np.stack(kernel, -1)
     # each component against the largest of its kind over the states (the rates reach ~1e3 rad/s^2)
     scale = np.max(np.abs(kernel), axis=0)
     assert np.max(np.abs(ours - kernel) / scale) < 1e-10
@@ -144,6 +166,8 @@ def test_oracle_equals_todays_kernel_on_the_papers_robot(model, rng):
         assert np.max(np.abs(oracle_derivative(state, torque, model=model, **robot) - expected) / scale) < 1e-10
     energy = oracle_energy(states, model=model, **robot)
     assert np.max(np.abs(energy - dynamics.total_energy(states, params, model))) < 1e-10 * np.max(np.abs(energy))
+    force = oracle_ground_force(states, kernel, model=model, frame="body", **robot)
+    np.testing.assert_allclose(np.stack(record[legs : legs + 3], -1), force, rtol=0, atol=1e-10 * params.total_mass * 9.81)
 
 
 # ---------------------------------------------------------------------------

@@ -43,7 +43,7 @@ def test_observation_noise_perturbs_what_the_policy_sees_and_not_the_robot():
     states, observations, _ = _states(noisy_env, ACTIONS)
     clean_states, clean, _ = _states(RRRobotEnv(), ACTIONS)
     np.testing.assert_array_equal(states, clean_states)  # (the physics does not see the noise)
-    noise = (observations - clean)[:, task.NOISY_OBSERVATIONS]
+    noise = (observations - clean)[:, task.noisy_observations(2)]
     assert 0.005 < noise[:, 6:].std() < 0.02  # rates and legs: sd 0.01
     np.testing.assert_array_equal(observations[:, 13:], clean[:, 13:])  # the commanded heading is the task's
     assert np.abs(observations[:, 0:6]).max() <= 1.0  # unit vectors stay in the observation space

@@ -119,7 +119,7 @@ def test_kinematic_legs_record_the_torque_their_motion_takes():
     state[dynamics.LEG_ANGLES] = FAST_LEGS.leg_targets(0.0)[0]
     state[dynamics.LEG_RATES] = FAST_LEGS.leg_targets(0.0)[1]
     _, record = advance(config, state, 0.0, 0.01, FAST_LEGS, record=True)
-    derivative = dynamics.state_derivative(state.tolist(), tuple(record.torque[0]), config.robot, config.depth)
+    derivative = dynamics.state_derivative(state.tolist(), tuple(record.torque[0]), config.robot, config.model)
     np.testing.assert_allclose(derivative[11:13], FAST_LEGS.leg_targets(0.0)[2], rtol=1e-9, atol=1e-9)
 
 
@@ -278,7 +278,7 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
         summarise = compiled._stepper(False).py_func.__globals__["_summarise"]
     rng = np.random.default_rng(12)
     samples, robots = 17, 6
-    rows = rng.normal(0.0, 1.0, (samples, compiled.RECORD_ROWS, robots))
+    rows = rng.normal(0.0, 1.0, (samples, compiled.record_rows(2), robots))
     rows[:, 5] = rng.uniform(0.5, 2.0, (samples, robots))  # pushing: normal > 0
     rows[:, 6] = np.abs(rows[:, 6])
     rows[4, 5, 0] = np.nan  # a normal force (and so its quotient) at a middle sample
@@ -292,7 +292,7 @@ def test_a_summary_lets_nan_win_and_sums_squares_sample_by_sample_as_the_records
     rows[:, 7:9, 5] = np.inf  # legs infinitely far from the ground: the least clearance is inf
     summary = np.full((compiled.SUMMARY_ROWS, robots), -7.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        summarise(rows, summary, 0, robots)
+        summarise(rows, summary, 0, robots, 2)
     expected = _Recorder.record_of(rows, 0.0, 0.01).summary()
     for j, key in enumerate(SUMMARY_KEYS):
         assert np.array_equal(summary[j], expected[key], equal_nan=True), key

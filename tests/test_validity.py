@@ -55,7 +55,7 @@ def test_ground_force_equals_mass_times_centre_of_mass_acceleration_minus_gravit
 def test_ground_carries_the_weight_at_rest():
     params = RobotParams()
     state = np.r_[0, 0, 1, 0, 0, 0, np.pi / 2, np.pi / 2, 0, 0, 0, 0, 0]
-    derivative = np.array(dynamics.state_derivative(state.tolist(), (0.0, 0.0), params, params.radius))
+    derivative = np.array(dynamics.state_derivative(state.tolist(), (0.0, 0.0), params, "plane"))
     force, normal = validity.ground_force(state, derivative, params, "plane")
     assert normal[0] == pytest.approx(params.total_mass * params.gravity, rel=1e-12)
     assert validity.friction_ratio(force, normal)[0] == pytest.approx(0.0, abs=1e-12)

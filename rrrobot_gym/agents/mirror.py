@@ -1,7 +1,9 @@
 """A policy that runs the headings on the robot's -Y side as mirror images of the +Y side's.
 
-The robot, the ground, the task and the paper's start are symmetric in the world's x-z plane
-once the legs are exchanged (:func:`rrrobot_gym.dynamics.mirror_states`), so along a heading t
+A robot with legs in mirrored pairs (the paper's, and the family's default placements of 2, 4
+and 6 legs; :func:`rrrobot_gym.dynamics.mirror_legs`), the ground, the task and the paper's
+start are symmetric in the world's x-z plane once each leg takes its image's place
+(:func:`rrrobot_gym.dynamics.mirror_states`), so along a heading t
 with sin t < 0 a mirrored policy is shown the mirror image of the observation
 (:func:`rrrobot_gym.envs.task.mirror_observations`) and its action is mirrored back: its network
 only sees headings in [0, pi]. ``train.py --mirror`` wraps SB3's VecEnv in
@@ -18,11 +20,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..envs.task import OBSERVATION_FIELDS, make_task_config, mirror_actions, mirror_observations
+from ..dynamics import mirror_legs
+from ..envs.task import make_task_config, mirror_actions, mirror_observations, observation_fields
 
 MIRROR_FILE = "mirror.json"
-SIN_INDEX = dict((name, start) for name, start, _ in OBSERVATION_FIELDS)["target_direction_world"] + 1
-"""Where the observation holds the sine of the commanded heading (world frame)."""
+
+
+def sin_index(config) -> int:
+    """Where the observation holds the sine of the commanded heading (world frame)."""
+    return dict((name, start) for name, start, _ in observation_fields(config.num_robot_legs))["target_direction_world"] + 1
+
+
+def has_mirror(config) -> bool:
+    """True if the robot of ``config`` (a TaskConfig) has the mirror symmetry the heading mirror needs."""
+    return mirror_legs(config.sim.robot) is not None
 
 
 SIN_TOLERANCE = 1e-6
@@ -30,9 +41,9 @@ SIN_TOLERANCE = 1e-6
 (pi held as -pi has sine -1.2e-16)."""
 
 
-def mirrored_rows(observations):
+def mirrored_rows(observations, config):
     """(n,) bool: the rows whose commanded heading points to -Y (sin < 0); 0 and pi are not."""
-    return np.asarray(observations)[..., SIN_INDEX] < -SIN_TOLERANCE
+    return np.asarray(observations)[..., sin_index(config)] < -SIN_TOLERANCE
 
 
 def to_policy_frame(observations, flip, config):
@@ -43,11 +54,11 @@ def to_policy_frame(observations, flip, config):
     return out
 
 
-def to_env_frame(actions, flip):
-    """Actions (n, 2) with the ``flip`` rows' legs exchanged back."""
+def to_env_frame(actions, flip, config):
+    """Actions (n, L) with the ``flip`` rows mirrored back (each leg its image's)."""
     out = np.array(actions, dtype=np.float32)
     if flip.any():
-        out[flip] = mirror_actions(out[flip])
+        out[flip] = mirror_actions(out[flip], config.sim.robot)
     return out
 
 
@@ -64,21 +75,21 @@ def make_mirrored_vec_env(venv, config):
             self.flip = np.zeros(venv.num_envs, dtype=bool)
 
         def _view(self, observations):
-            self.flip = mirrored_rows(observations)
+            self.flip = mirrored_rows(observations, config)
             return to_policy_frame(observations, self.flip, config)
 
         def reset(self):
             return self._view(self.venv.reset())
 
         def step_async(self, actions):
-            self.venv.step_async(to_env_frame(actions, self.flip))
+            self.venv.step_async(to_env_frame(actions, self.flip, config))
 
         def step_wait(self):
             observations, rewards, dones, infos = self.venv.step_wait()
             for i in np.flatnonzero(dones):
                 # (PPO bootstraps a truncated episode's value from it: in its episode's frame)
                 final = np.asarray(infos[i]["terminal_observation"])[None]
-                infos[i]["terminal_observation"] = to_policy_frame(final, mirrored_rows(final), config)[0]
+                infos[i]["terminal_observation"] = to_policy_frame(final, mirrored_rows(final, config), config)[0]
             return self._view(observations), rewards, dones, infos
 
     return MirroredVecEnv()
@@ -105,9 +116,9 @@ class MirroredAgent:
         observation = self.policy.check_observation(observation)
         single = observation.ndim == 1
         obs = observation[None] if single else observation
-        flip = mirrored_rows(obs)
+        flip = mirrored_rows(obs, self.config)
         actions, _ = self.policy.predict(to_policy_frame(obs, flip, self.config), deterministic=deterministic)
-        actions = to_env_frame(actions, flip)
+        actions = to_env_frame(actions, flip, self.config)
         return (actions[0] if single else actions), state
 
 
