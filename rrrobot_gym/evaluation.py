@@ -272,7 +272,10 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
 def policy_source(agent) -> dict:
     """What a record says of a policy loaded from a file (``agent.path``, set by
     :func:`rrrobot_gym.agents.load_ppo_agent`): ``policy_file`` (relative to the working directory
-    where it lies inside it) and ``trained_on``, its training env's model; {} for other agents."""
+    where it lies inside it), ``algorithm`` (train.py's ``--algo``) and ``trained_on``, its training
+    env's model; {} for other agents."""
+    from .agents.ppo import trained_algorithm
+
     path = getattr(agent, "path", None)
     if path is None:
         return {}
@@ -281,16 +284,18 @@ def policy_source(agent) -> dict:
         shown = path.resolve().relative_to(Path.cwd().resolve())
     except ValueError:
         shown = path
-    return {"policy_file": str(shown), "trained_on": agent.env_config.get("model", "plane")}
+    return {"policy_file": str(shown), "algorithm": trained_algorithm(path), "trained_on": agent.env_config.get("model", "plane")}
 
 
 def row_label(name: str, source: dict, model: str) -> str:
-    """A table row's agent: a policy's name with its file, and the model it was trained on where that
-    is not the table's (``source``: :func:`policy_source`'s)."""
+    """A table row's agent: a policy's algorithm (PPO's row keeps its name) with its file, and the
+    model it was trained on where that is not the table's (``source``: :func:`policy_source`'s)."""
     if "policy_file" not in source:
         return name
+    algorithm = source.get("algorithm", "ppo")
+    shown = name if algorithm == "ppo" or name != "ppo" else algorithm
     elsewhere = f", trained on {source['trained_on']}" if source["trained_on"] != model else ""
-    return f"{name} ({source['policy_file']}{elsewhere})"
+    return f"{shown} ({source['policy_file']}{elsewhere})"
 
 
 def robot_seeds(seed: int, slot: int, n: int) -> list:
