@@ -340,22 +340,35 @@ def test_every_option_has_help():
 
 def test_check_accuracy_reports_the_shipped_policy_of_each_model_at_its_own_step(tmp_path, capsys):
     """evaluate.py --check-accuracy, models by default both: the shipped plane and pivot policies each
-    run again at a 10x finer step (1/3000 s, the same 0.05 s control step), each table headed by its
-    largest change and the 0.1 % verdict; the JSON keeps both."""
+    run again at a 10x finer step (1/3000 s, the same 0.05 s control step), from the paper's start and
+    from --accuracy-starts starts a heading drawn with the env's reset noise, the same at both steps;
+    each table headed by the largest change of a mean and the 0.1 % verdict; the JSON keeps both."""
     pytest.importorskip("stable_baselines3")
     from rrrobot_gym.evaluation import main
 
     out = tmp_path / "r.json"
-    main(["--duration", "0.5", "--check-accuracy", "--json", str(out)], **SHIPPED)
+    main(["--duration", "0.5", "--check-accuracy", "--accuracy-starts", "3", "--json", str(out)], **SHIPPED)
     text = capsys.readouterr().out
     for model in ("plane", "pivot"):
-        assert f"at its step, 1/300 s, and at a 10x finer one, 1/3000 s ({model}): largest change" in text
+        assert f"at its step, 1/300 s, and at a 10x finer one, 1/3000 s ({model}): means over 3 starts a heading" in text
     checked = json.loads(out.read_text())["accuracy_check"]
     assert set(checked) == {"plane", "pivot"}
     for records in checked.values():
         assert [r["heading_deg"] for r in records] == [float(h) for h in range(0, 360, 45)]
-        assert all(r["step_s"] == pytest.approx(1 / 300) and r["fine_step_s"] == pytest.approx(1 / 3000) for r in records)
-        assert all(r["relative_change"] == pytest.approx(r["speed_mps"] / r["fine_step_speed_mps"] - 1.0) for r in records)
+        for r in records:
+            assert r["step_s"] == pytest.approx(1 / 300) and r["fine_step_s"] == pytest.approx(1 / 3000)
+            assert r["relative_change"] == pytest.approx(r["speed_mps"] / r["fine_step_speed_mps"] - 1.0)
+            assert r["starts_used"] == 3 and r["speed_range_mps"][0] < r["speed_range_mps"][1]  # (starts that differ)
+            assert r["mean_relative_change"] == pytest.approx(r["mean_speed_mps"] / r["fine_step_mean_speed_mps"] - 1.0)
+
+
+def test_check_accuracy_takes_a_whole_number_of_starts(capsys):
+    from rrrobot_gym.evaluation import main
+
+    with pytest.raises(SystemExit):
+        main(["--no-policy", "--models", "plane", "--duration", "0.5", "--check-accuracy", "--accuracy-starts", "0"])
+    err = capsys.readouterr()
+    assert "--accuracy-starts must be a number of starts >= 1" in err.err and "| gait1 |" not in err.out
 
 
 def test_check_accuracy_refines_an_agent_s_own_step():
