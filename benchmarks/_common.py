@@ -18,6 +18,11 @@ import numpy as np
 from rrrobot_gym import dynamics
 from rrrobot_gym.simulation import SimConfig, simulate_reference
 
+ROOT = Path(__file__).resolve().parent.parent
+POLICIES = {"plane": ROOT / "agents" / "pretrained" / "best_model.zip",
+            "pivot": ROOT / "agents" / "pretrained_pivot" / "best_model.zip"}
+"""The shipped PPO policies, one a model."""
+
 CACHE_DIR = Path(os.environ.get("RRROBOT_BENCH_CACHE", Path(__file__).resolve().parent / ".cache"))
 """Reference trajectories are slow (seconds each) and deterministic: kept here between runs."""
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 import importlib.util
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -41,7 +40,18 @@ from rrrobot_gym.evaluation import COMPASS_DEG, run_episodes, score
 from rrrobot_gym.params import RobotParams
 from rrrobot_gym.simulation import SimConfig, advance, initial_state
 
-from ._common import contact_error, fmt, machine, markdown_table, median_time, parser, reference, write_json
+from ._common import (
+    POLICIES,
+    ROOT,
+    contact_error,
+    fmt,
+    machine,
+    markdown_table,
+    median_time,
+    parser,
+    reference,
+    write_json,
+)
 from .work_precision import ENV_STEP, run_steps
 
 OUR_SETTINGS = {
@@ -49,10 +59,6 @@ OUR_SETTINGS = {
     "pivot": [("rk4 1/140 s (auto)", "auto"), ("rk4 1/300 s (default)", 1 / 300), ("rk4 1/600 s", 1 / 600)],
 }
 MUJOCO_STEPS = (1 / 300, 1 / 1000, 1 / 3000)
-ROOT = Path(__file__).resolve().parent.parent
-POLICIES = {"plane": ROOT / "agents" / "pretrained" / "best_model.zip",
-            "pivot": ROOT / "agents" / "pretrained_pivot" / "best_model.zip"}
-"""The shipped policies."""
 POLICY_MUJOCO_STEP = 0.0005
 
 

@@ -39,7 +39,6 @@ from .agents.turn_then_run import load_turn_then_run_agent
 from .cli import UsageError, check_output_path, keyword_value
 from .envs.task import RANDOMIZATIONS, action_to_leg_targets, control_steps, make_task_config
 from .envs.vector import RRRobotVectorEnv
-from .simulation import DEFAULT_TIMESTEP
 
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
                     "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
@@ -61,10 +60,11 @@ def shared_env_kwargs(agents, **env_kwargs) -> dict:
 
 
 def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed: int = 0, info_keys=EFFORT_KEYS,
-                 randomize=None, robot_seeds=None, **env_kwargs):
+                 randomize=None, robot_seeds=None, start_noise: float = 0.0, **env_kwargs):
     """Run every agent (``agents``: {name: agent}) once along each heading (degrees), all in one
-    batched env, from the paper's start, on the nominal robot unless ``randomize`` (the env
-    keyword; a policy's own is not used) draws one per episode.
+    batched env, from the paper's start (``start_noise`` > 0: a start drawn with that reset noise,
+    the env's ``reset_noise_scale``), on the nominal robot unless ``randomize`` (the env keyword; a
+    policy's own is not used) draws one per episode.
 
     ``seed`` seeds the env: sub-env i gets ``seed + i``, unless ``robot_seeds`` (one per heading,
     the same for every agent) seeds heading i's robot; the env's own generator (observation noise)
@@ -79,7 +79,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     env_kwargs = {**shared_env_kwargs(agents, **env_kwargs), "randomize": randomize}
     headings = np.tile(np.radians(np.asarray(headings_deg, dtype=float)), len(names))
     env = RRRobotVectorEnv(
-        num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=0.0, **env_kwargs
+        num_envs=len(headings), max_episode_steps=None, model=model, reset_noise_scale=start_noise, **env_kwargs
     )
     try:  # (the nearest whole number of control steps: score divides by their time)
         steps = control_steps("duration", duration, env.dt)
@@ -272,7 +272,10 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
 def policy_source(agent) -> dict:
     """What a record says of a policy loaded from a file (``agent.path``, set by
     :func:`rrrobot_gym.agents.load_ppo_agent`): ``policy_file`` (relative to the working directory
-    where it lies inside it) and ``trained_on``, its training env's model; {} for other agents."""
+    where it lies inside it), ``algorithm`` (train.py's ``--algo``) and ``trained_on``, its training
+    env's model; {} for other agents."""
+    from .agents.ppo import trained_algorithm
+
     path = getattr(agent, "path", None)
     if path is None:
         return {}
@@ -281,16 +284,18 @@ def policy_source(agent) -> dict:
         shown = path.resolve().relative_to(Path.cwd().resolve())
     except ValueError:
         shown = path
-    return {"policy_file": str(shown), "trained_on": agent.env_config.get("model", "plane")}
+    return {"policy_file": str(shown), "algorithm": trained_algorithm(path), "trained_on": agent.env_config.get("model", "plane")}
 
 
 def row_label(name: str, source: dict, model: str) -> str:
-    """A table row's agent: a policy's name with its file, and the model it was trained on where that
-    is not the table's (``source``: :func:`policy_source`'s)."""
+    """A table row's agent: a policy's algorithm (PPO's row keeps its name) with its file, and the
+    model it was trained on where that is not the table's (``source``: :func:`policy_source`'s)."""
     if "policy_file" not in source:
         return name
+    algorithm = source.get("algorithm", "ppo")
+    shown = name if algorithm == "ppo" or name != "ppo" else algorithm
     elsewhere = f", trained on {source['trained_on']}" if source["trained_on"] != model else ""
-    return f"{name} ({source['policy_file']}{elsewhere})"
+    return f"{shown} ({source['policy_file']}{elsewhere})"
 
 
 def robot_seeds(seed: int, slot: int, n: int) -> list:
@@ -454,18 +459,111 @@ def targets_text(model: str, target: dict) -> str:
     return text
 
 
-def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = 10):
-    """The agent's speed along the compass headings at the default step and at a ``refine`` times
-    finer one (same control step): a speed that depends on the step is the integrator's artefact."""
-    coarse = score(run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed)["agent"], COMPASS_DEG)
-    fine_run = run_episodes(
-        {"agent": agent}, model, COMPASS_DEG, duration, seed, timestep=DEFAULT_TIMESTEP / refine, frame_skip=15 * refine
-    )["agent"]
-    fine = score(fine_run, COMPASS_DEG)
-    return [
-        {"heading_deg": c["heading_deg"], "speed_mps": c["speed_mps"], "fine_step_speed_mps": f["speed_mps"]}
-        for c, f in zip(coarse, fine)
+ACCURACY_REFINE = 10
+"""``--check-accuracy`` runs each policy again at a step this many times finer (the same control step)."""
+ACCURACY_TOLERANCE = 1e-3
+"""The largest relative change of a heading's mean speed at the finer step that ``--check-accuracy`` takes
+for the integrator's error alone: 0.1 %."""
+ACCURACY_STARTS = 128
+"""``--check-accuracy``'s starts per compass heading, drawn with the env's reset noise. The shipped pivot
+policy's closed loop is chaotic: starts 1e-12 rad apart move its 50 s speeds by up to 1.1 %, so one
+run's change with the step measures that, not the step; the mean of many starts does not. With 128
+its means' standard errors stay under 0.07 % (with 32, up to 0.15 %: too wide to judge 0.1 %)."""
+
+
+def accuracy_check(agent, model: str, duration: float, seed: int = 0, refine: int = ACCURACY_REFINE,
+                   starts: int = ACCURACY_STARTS):
+    """The agent's speed along the compass headings at its own integration step (its env keywords';
+    RRRobot-v0's default is 1/300 s) and at a ``refine`` times finer one with the same control step:
+    a speed that depends on the step is the integrator's artefact. Per heading: the run from the
+    paper's start at both steps (m/s), the steps (s) and its relative change, coarse / fine - 1;
+    with ``starts`` > 1 also the mean over that many starts drawn with the env's reset noise (the
+    same starts at both steps, seeded from ``seed``), its relative change and that change's
+    standard error (of the paired differences), over the starts whose episodes ran to the end at
+    both steps (``starts_used``)."""
+    config = make_task_config(**{**getattr(agent, "env_kwargs", {}), "model": model})
+    step, frame_skip = config.sim.step, config.frame_skip
+    fine_step = {"timestep": step / refine, "frame_skip": frame_skip * refine}
+    records = []
+    for settings in ({}, fine_step):
+        runs = [run_episodes({"agent": agent}, model, COMPASS_DEG, duration, seed, **settings)["agent"]]
+        if starts > 1:
+            runs.append(run_episodes({"agent": agent}, model, [h for h in COMPASS_DEG for _ in range(starts)], duration,
+                                     seed, start_noise=make_task_config().reset_noise_scale, **settings)["agent"])  # fmt: skip
+        records.append([score(run, [h for h in COMPASS_DEG for _ in range(len(run["terminated"]) // len(COMPASS_DEG))])
+                        for run in runs])  # fmt: skip
+    (coarse, *coarse_starts), (fine, *fine_starts) = records
+    out = []
+    for i, (c, f) in enumerate(zip(coarse, fine)):
+        record = {"heading_deg": c["heading_deg"], "speed_mps": c["speed_mps"], "fine_step_speed_mps": f["speed_mps"],
+                  "step_s": step, "fine_step_s": step / refine, "relative_change": c["speed_mps"] / f["speed_mps"] - 1.0}
+        if starts > 1:
+            mine = slice(i * starts, (i + 1) * starts)
+            pairs = [(a["speed_mps"], b["speed_mps"]) for a, b in zip(coarse_starts[0][mine], fine_starts[0][mine])
+                     if not (a["terminated"] or b["terminated"])]
+            a, b = np.array(pairs).T if pairs else (np.full(0, np.nan), np.full(0, np.nan))
+            mean_a, mean_b = float(np.mean(a)) if pairs else math.nan, float(np.mean(b)) if pairs else math.nan
+            spread = float(np.std(a - b, ddof=1) / math.sqrt(len(a))) if len(a) > 1 else math.nan
+            record.update(starts=starts, starts_used=len(pairs), mean_speed_mps=mean_a, fine_step_mean_speed_mps=mean_b,
+                          mean_relative_change=mean_a / mean_b - 1.0, mean_relative_change_se=spread / abs(mean_b),
+                          speed_range_mps=[float(np.min(a)), float(np.max(a))] if pairs else [math.nan, math.nan])
+        out.append(record)  # fmt: skip
+    return out
+
+
+def step_text(step: float) -> str:
+    """An integration step as the tables name it: 1/300 s, or 0.0125 s where 1/step is no whole number."""
+    per_second = 1.0 / step
+    return f"1/{per_second:.0f} s" if abs(per_second - round(per_second)) < 1e-6 * per_second else f"{step:.4g} s"
+
+
+def accuracy_markdown(model: str, checked) -> str:
+    """The table of :func:`accuracy_check`'s records on ``model``, headed by the largest change of a
+    mean speed (of a run from the paper's start where it ran no ensemble) and whether it is within
+    :data:`ACCURACY_TOLERANCE`: a mean's change beyond it by more than two standard errors is the
+    step's; one within two standard errors of it may be the starts' noise."""
+    coarse, fine = step_text(checked[0]["step_s"]), step_text(checked[0]["fine_step_s"])
+    single = max(abs(a["relative_change"]) for a in checked)
+    tolerance = f"{ACCURACY_TOLERANCE * 100:g} %"
+    if "mean_relative_change" in checked[0]:
+        worst = max(abs(a["mean_relative_change"]) for a in checked)
+        over = [a for a in checked if abs(a["mean_relative_change"]) > ACCURACY_TOLERANCE]
+        beyond = [f"{a['heading_deg']:g} deg" for a in over
+                  if abs(a["mean_relative_change"]) - 2.0 * a["mean_relative_change_se"] > ACCURACY_TOLERANCE]
+        if not over:
+            verdict = f"within {tolerance}"
+        elif beyond:
+            verdict = f"NOT within {tolerance} (by more than two standard errors at {', '.join(beyond)})"
+        else:
+            verdict = (f"within {tolerance} up to the starts' noise (each change beyond it within two standard "
+                       f"errors of it; more starts, --accuracy-starts, narrow them)")
+        starts, used = checked[0]["starts"], min(a["starts_used"] for a in checked)
+        se = max(a["mean_relative_change_se"] for a in checked)
+        head = (f"means over {starts} starts a heading (the env's reset noise{'' if used == starts else f'; {used} ran to the end'}) "
+                f"change by at most {worst * 100:.3f} % (standard error up to {se * 100:.3f} %), {verdict}; the run "
+                f"from the paper's start alone by {single * 100:.3f} %")
+    else:
+        head = f"the run from the paper's start changes by at most {single * 100:.3f} %, " + (
+            f"within {tolerance}" if single <= ACCURACY_TOLERANCE else f"NOT within {tolerance}")
+    lines = [
+        f"PPO speed (mm/s) at its step, {coarse}, and at a {ACCURACY_REFINE}x finer one, {fine} ({model}): {head}",
+        "",
+        "| heading | " + " | ".join(f"{a['heading_deg']:g} deg" for a in checked) + " |",
+        "|---" * (len(checked) + 1) + "|",
+        f"| paper's start, {coarse} | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in checked) + " |",
+        f"| paper's start, {fine} | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in checked) + " |",
+        "| change | " + " | ".join(f"{a['relative_change'] * 100:+.3f} %" for a in checked) + " |",
     ]
+    if "mean_relative_change" in checked[0]:
+        lines += [
+            f"| mean, {coarse} | " + " | ".join(f"{a['mean_speed_mps'] * 1e3:.2f}" for a in checked) + " |",
+            f"| mean, {fine} | " + " | ".join(f"{a['fine_step_mean_speed_mps'] * 1e3:.2f}" for a in checked) + " |",
+            "| change of the mean | " + " | ".join(
+                f"{a['mean_relative_change'] * 100:+.3f} +- {a['mean_relative_change_se'] * 100:.3f} %" for a in checked) + " |",
+            f"| range of runs, {coarse} | " + " | ".join(
+                f"{a['speed_range_mps'][0] * 1e3:.2f} to {a['speed_range_mps'][1] * 1e3:.2f}" for a in checked) + " |",
+        ]  # fmt: skip
+    return "\n".join(lines) + "\n"
 
 
 def ratios(records, model="plane"):
@@ -671,7 +769,15 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the named set of ranges --randomize draws from (the env docstring's Domain "
                              "Randomization table; default: default)")
     parser.add_argument("--check-accuracy", action="store_true",
-                        help="also run each model's policy with a 10x finer integration step and compare its speeds")
+                        help="also run the policy of each model of --models (by default both: the shipped plane and "
+                             "pivot policies) with a 10x finer integration step, the same control step, and compare "
+                             "its speeds along the compass headings, from the paper's start and as the mean over "
+                             "--accuracy-starts starts a heading (within 0.1 %%: the integrator's error is small)")
+    parser.add_argument("--accuracy-starts", type=int, default=ACCURACY_STARTS, metavar="K",
+                        help=f"--check-accuracy's starts per compass heading, drawn with the env's reset noise, the same "
+                             f"at both steps (default {ACCURACY_STARTS}; 1: the paper's start only). A chaotic closed loop "
+                             f"(the shipped pivot policy's) moves one run's speed by up to 1 %% with any change; the mean "
+                             f"of many starts measures the step")
     return parser
 
 
@@ -740,6 +846,8 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         parser.error(f"--plots: {args.plots} is a file, not a directory")
     if args.seed < 0:
         parser.error(f"--seed must be >= 0, got {args.seed}")
+    if args.accuracy_starts < 1:
+        parser.error(f"--accuracy-starts must be a number of starts >= 1, got {args.accuracy_starts}")
     if args.randomize < 0:
         parser.error(f"--randomize must be a number of robots >= 0, got {args.randomize}")
     if len(set(args.models)) < len(args.models):  # (each was evaluated, and reported, as often as named)
@@ -823,12 +931,8 @@ def main(argv=None, default_policy=None, default_pivot_policy=None):
         policy = agents_on(model, agents, per_model).get("ppo")
         if policy is None:
             continue
-        checked = accuracy[model] = accuracy_check(policy, model, args.duration, args.seed)
-        text += f"\nPPO speed (mm/s) at the default step and at a 10x finer one ({model}):\n\n"
-        text += "| heading | " + " | ".join(f"{int(a['heading_deg'])} deg" for a in checked) + " |\n"
-        text += "|---" * (len(checked) + 1) + "|\n"
-        text += "| default 1/300 s | " + " | ".join(f"{a['speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
-        text += "| 1/3000 s | " + " | ".join(f"{a['fine_step_speed_mps'] * 1e3:.2f}" for a in checked) + " |\n"
+        checked = accuracy[model] = accuracy_check(policy, model, args.duration, args.seed, starts=args.accuracy_starts)
+        text += "\n" + accuracy_markdown(model, checked)
     randomized = []
     if args.randomize:
         own = {}

@@ -60,7 +60,7 @@ def test_each_algorithm_writes_a_model_that_evaluate_py_scores(algo, tmp_path, c
     capsys.readouterr()
     evaluation.main(["--policy", str(run_dir / "best_model.zip"), "--models", "plane", "--duration", "2",
                      "--json", str(out)])
-    assert "| ppo |" in capsys.readouterr().out  # (evaluate.py's learned-policy row, whatever its algorithm)
+    assert f"| {algo} ({run_dir / 'best_model.zip'}" in capsys.readouterr().out  # (its row: its algorithm, its file)
     records = [r for r in json.loads(out.read_text())["records"] if r["agent"] == "ppo" and r["compass"]]
     assert len(records) == 8 and all(math.isfinite(r["speed_mps"]) for r in records)
     from rrrobot_gym.export import export_onnx

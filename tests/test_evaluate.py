@@ -380,3 +380,48 @@ def test_every_option_has_help():
 
     undocumented = [action.option_strings for action in build_parser()._actions if not action.help]
     assert not undocumented
+
+
+def test_check_accuracy_reports_the_shipped_policy_of_each_model_at_its_own_step(tmp_path, capsys):
+    """evaluate.py --check-accuracy, models by default both: the shipped plane and pivot policies each
+    run again at a 10x finer step (1/3000 s, the same 0.05 s control step), from the paper's start and
+    from --accuracy-starts starts a heading drawn with the env's reset noise, the same at both steps;
+    each table headed by the largest change of a mean and the 0.1 % verdict; the JSON keeps both."""
+    pytest.importorskip("stable_baselines3")
+    from rrrobot_gym.evaluation import main
+
+    out = tmp_path / "r.json"
+    main(["--duration", "0.5", "--check-accuracy", "--accuracy-starts", "3", "--json", str(out)], **SHIPPED)
+    text = capsys.readouterr().out
+    for model in ("plane", "pivot"):
+        assert f"at its step, 1/300 s, and at a 10x finer one, 1/3000 s ({model}): means over 3 starts a heading" in text
+    checked = json.loads(out.read_text())["accuracy_check"]
+    assert set(checked) == {"plane", "pivot"}
+    for records in checked.values():
+        assert [r["heading_deg"] for r in records] == [float(h) for h in range(0, 360, 45)]
+        for r in records:
+            assert r["step_s"] == pytest.approx(1 / 300) and r["fine_step_s"] == pytest.approx(1 / 3000)
+            assert r["relative_change"] == pytest.approx(r["speed_mps"] / r["fine_step_speed_mps"] - 1.0)
+            assert r["starts_used"] == 3 and r["speed_range_mps"][0] < r["speed_range_mps"][1]  # (starts that differ)
+            assert r["mean_relative_change"] == pytest.approx(r["mean_speed_mps"] / r["fine_step_mean_speed_mps"] - 1.0)
+
+
+def test_check_accuracy_takes_a_whole_number_of_starts(capsys):
+    from rrrobot_gym.evaluation import main
+
+    with pytest.raises(SystemExit):
+        main(["--no-policy", "--models", "plane", "--duration", "0.5", "--check-accuracy", "--accuracy-starts", "0"])
+    err = capsys.readouterr()
+    assert "--accuracy-starts must be a number of starts >= 1" in err.err and "| gait1 |" not in err.out
+
+
+def test_check_accuracy_refines_an_agent_s_own_step():
+    """An agent trained at another step (1/200 s, 10 substeps a control step) is checked against
+    1/2000 s, not the default's 1/3000 s."""
+    from rrrobot_gym.evaluation import accuracy_check, accuracy_markdown
+
+    agent = gait_agent("gait1")
+    agent.env_kwargs = {"timestep": 1 / 200, "frame_skip": 10}
+    checked = accuracy_check(agent, "plane", 0.5)
+    assert checked[0]["step_s"] == pytest.approx(1 / 200) and checked[0]["fine_step_s"] == pytest.approx(1 / 2000)
+    assert "at its step, 1/200 s, and at a 10x finer one, 1/2000 s (plane)" in accuracy_markdown("plane", checked)
