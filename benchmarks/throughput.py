@@ -1,6 +1,6 @@
 """Env steps per second of RRRobot-v0: the single env and the batched vector env.
 
-    python -m benchmarks.throughput [--quick] [--json FILE]
+    python -m benchmarks.throughput [--quick] [--json FILE] [--family]
 
 An env step is one control step (0.05 s of robot time) of one robot, with everything a
 step does: the physics with its step record (the torques applied and the ground force at
@@ -12,6 +12,10 @@ rows with ``workers=2`` are the vector env on both cores against that one-proces
 Medians of repeats (the ratio: the median of each repeat's ratio). Each backend
 (``--backends``, default: numba, if installed, and numpy) is measured in turn, after one
 warm-up step (numba compiles on its first).
+
+``--family`` instead times robots of the family side by side (the paper's, more legs, ellipsoid
+shells) in the vector env at N = 64 and the single env, each member's run in turn within every
+repeat, and reports each one's env steps/s and its ratio to the paper robot's.
 """
 
 from __future__ import annotations
@@ -72,7 +76,7 @@ def _warm_up(env, actions, physics_step):
 
 def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
     env = gymnasium.make("RRRobot-v0", **env_kwargs)
-    actions = gentle_actions(rng, (2,), steps)
+    actions = gentle_actions(rng, env.action_space.shape, steps)
     env.reset(seed=0)
     config = env.unwrapped.config
     targets = RampTargets(np.full(2, 0.5 * np.pi), np.full(2, 0.6 * np.pi), 0.0, config.dt)
@@ -85,7 +89,7 @@ def single_env(steps: int, repeats: int, rng, **env_kwargs) -> dict:
 
 def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, **env_kwargs) -> dict:
     env = RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, workers=workers, **env_kwargs)
-    actions = gentle_actions(rng, (num_envs, 2), steps)
+    actions = gentle_actions(rng, env.action_space.shape, steps)
     env.reset(seed=0)
     targets = RampTargets(np.full((num_envs, 2), 0.5 * np.pi), np.full((num_envs, 2), 0.6 * np.pi), 0.0, env.dt)
     physics = _physics(env.config, env.states, targets)
@@ -96,12 +100,61 @@ def vector_env(num_envs: int, steps: int, repeats: int, rng, workers: int = 1, *
             "physics_only_steps_per_s": num_envs * steps / physics_seconds, "env_over_physics": ratio}
 
 
+FAMILY = {"paper robot (sphere, 2 legs)": {}, "sphere, 3 legs": {"num_legs": 3}, "sphere, 4 legs": {"num_legs": 4},
+          "oblate (0.12, 0.12, 0.09), 2 legs": {"shell_axes": (0.12, 0.12, 0.09)},
+          "oblate (0.12, 0.12, 0.09), 4 legs": {"shell_axes": (0.12, 0.12, 0.09), "num_legs": 4},
+          "sphere, 6 legs": {"num_legs": 6}}  # fmt: skip
+"""The members ``--family`` times (env keywords), the paper's robot first."""
+
+
+def family_rows(num_envs: int, steps: int, repeats: int) -> list:
+    """Env steps/s of each :data:`FAMILY` member at ``num_envs`` (0: the single env), medians of
+    ``repeats`` rounds in which every member runs its ``steps`` in turn, and each over the paper's."""
+    envs, actions = {}, {}
+    for name, kwargs in FAMILY.items():
+        env = (gymnasium.make("RRRobot-v0", **kwargs) if num_envs == 0 else
+               RRRobotVectorEnv(num_envs=num_envs, max_episode_steps=None, **kwargs))  # fmt: skip
+        shape = env.action_space.shape
+        actions[name] = gentle_actions(np.random.default_rng(0), shape, steps)
+        env.reset(seed=0)
+        env.step(actions[name][0])  # (numba compiles each leg count's steppers on its first step)
+        envs[name] = env
+    seconds = {name: [] for name in FAMILY}
+    for _ in range(repeats):
+        for name, env in envs.items():
+            env.reset(seed=0)
+            start = time.perf_counter()
+            for action in actions[name]:
+                env.step(action)
+            seconds[name].append(time.perf_counter() - start)
+    robots = max(num_envs, 1)
+    rates = {name: robots * steps / statistics.median(times) for name, times in seconds.items()}
+    paper = rates[next(iter(FAMILY))]
+    return [{"member": name, "num_envs": robots, "env": "single" if num_envs == 0 else "vector",
+             "env_steps_per_s": rate, "over_paper_robot": rate / paper} for name, rate in rates.items()]  # fmt: skip
+
+
+def family_main(args):
+    rows = []
+    for num_envs, steps in ((0, 50 if args.quick else 300), (64, 20 if args.quick else 150)):
+        rows += family_rows(num_envs, steps, 3 if args.quick else 5)
+    table = markdown_table(["member", "env", "N", "env steps/s", "over the paper robot"],
+                           [[r["member"], r["env"], r["num_envs"], f"{r['env_steps_per_s']:,.0f}",
+                             f"{r['over_paper_robot']:.2f}"] for r in rows])  # fmt: skip
+    print(table)
+    write_json(args.json, {"machine": machine(), "results": rows, "time": time.time()})
+    return rows
+
+
 def main(argv=None):
     p = parser(__doc__.split("\n\n")[0])
+    p.add_argument("--family", action="store_true", help="time members of the robot family side by side instead")
     default = ["numba", "numpy"] if compiled.available() else ["numpy"]
     p.add_argument("--backends", nargs="+", choices=("numba", "numpy"), default=default,
                    help=f"simulator backends to measure, in turn (default: {' '.join(default)})")  # fmt: skip
     args = p.parse_args(argv)
+    if args.family:
+        return family_main(args)
     rng = np.random.default_rng(0)
     repeats = 3 if args.quick else 5
     single_steps = 50 if args.quick else 400

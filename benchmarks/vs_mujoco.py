@@ -17,8 +17,9 @@ keywords) at every RK4 stage (0.5 ms; the plane on a floor of the env's friction
 speed along the heading in both, their ratio, whether either left the model (here the env's
 termination; in MuJoCo a leg tip at the floor or the tilt pi/2) and the largest distance between
 the contact paths. ``--policy``: the same, MuJoCo replaying our env's actions open loop.
-``--family`` instead checks the MuJoCo peer of the robot family (ellipsoid shells, 1-6 legs) against
-the sympy oracle ``tests/family_oracle.py`` integrated by scipy (DOP853, rtol 1e-10): members of
+``--family`` instead checks the MuJoCo peer of the robot family (ellipsoid shells, 1-6 legs), and
+rrrobot_gym's own simulator (RK4 at the default step), against the sympy oracle
+``tests/family_oracle.py`` integrated by scipy (DOP853, rtol 1e-10): members of
 the family under a PD servo on the gait phi_k = pi/2 + 0.3 sin(8 t + 2 pi k / L), 5 s (--quick:
 one member, 2 s), both models, from the paper's start and from a tilted, spinning one; the
 largest contact-point distance and attitude difference, at several MuJoCo steps (and, on the
@@ -233,6 +234,18 @@ def _attitude_difference(quat_a, quat_b) -> np.ndarray:
     return 2.0 * np.arcsin(np.clip(chord, 0.0, 1.0))
 
 
+def _ours(axes, num_legs: int, model: str, start, duration: float, sample_dt: float) -> np.ndarray:
+    """rrrobot_gym's run of the family's test gait (:func:`rrrobot_gym.simulation.simulate`, RK4 at
+    the default step, the servo evaluated at every stage as the peer's is): states (T, 9 + 2L)."""
+    from rrrobot_gym.control import Gait
+    from rrrobot_gym.simulation import SimConfig, simulate
+
+    gait = Gait(amplitude=0.3, frequency=8.0, phase=tuple(2.0 * math.pi * np.arange(1, num_legs + 1) / num_legs),
+                offset=(math.pi / 2,) * num_legs)  # (mujoco_peer.sinusoid_servo's)
+    config = SimConfig(model=model, robot=RobotParams(shell_axes=axes, num_legs=num_legs))
+    return simulate(config, gait, duration, state=start, sample_dt=sample_dt).states
+
+
 def family_rows(quick: bool) -> list:
     """The MuJoCo peer of each family member against the oracle (module docstring, ``--family``)."""
     from .mujoco_peer import simulate_family, sinusoid_servo
@@ -252,6 +265,9 @@ def family_rows(quick: bool) -> list:
                 _, ref = oracle.oracle_simulate(start, torque, duration, model=model, t_eval=times, rtol=1e-10,
                                                 atol=1e-10, **robot)  # fmt: skip
                 oracle_wall = time.perf_counter() - wall
+                ours = _ours(axes, num_legs, model, start, duration, sample_dt)
+                ours_row = {"ours_max_contact_distance_m": float(np.max(np.hypot(*(ours[:, :2] - ref[:, :2]).T))),
+                            "ours_max_attitude_difference_rad": float(np.max(_attitude_difference(ours[:, 2:6], ref[:, 2:6])))}
                 for step, timeconst in FAMILY_MUJOCO[model][:2] if quick else FAMILY_MUJOCO[model]:
                     wall = time.perf_counter()
                     _, states, _, tilt = simulate_family(model, torque, duration, timestep=step, sample_dt=sample_dt,
@@ -263,7 +279,7 @@ def family_rows(quick: bool) -> list:
                            "max_attitude_difference_rad": float(np.max(_attitude_difference(states[:, 2:6], ref[:, 2:6]))),
                            "max_leg_angle_difference_rad": float(np.max(np.abs(states[:, 6 : 6 + num_legs] - ref[:, 6 : 6 + num_legs]))),
                            "travel_m": float(np.hypot(*(ref[-1, :2] - ref[0, :2]))), "largest_tilt_rad": tilt,
-                           "oracle_wall_s": oracle_wall, "mujoco_wall_s": time.perf_counter() - wall}  # fmt: skip
+                           "oracle_wall_s": oracle_wall, "mujoco_wall_s": time.perf_counter() - wall, **ours_row}  # fmt: skip
                     rows.append(row)
                     print(row, flush=True)
     return rows
@@ -274,10 +290,12 @@ def family_main(args):
     duration = 2.0 if args.quick else 5.0
     text = markdown_table(
         ["member", "model", "start", "MuJoCo step (ms)", "contact time constant (ms)", "travel (mm)", "largest tilt (rad)",
-         f"largest contact distance, {duration:g} s (mm)", "largest attitude difference (rad)"],
+         f"MuJoCo: largest contact distance, {duration:g} s (mm)", "MuJoCo: largest attitude difference (rad)",
+         "rrrobot_gym RK4 1/300 s: contact (mm)", "rrrobot_gym: attitude (rad)"],
         [[r["member"], r["model"], r["start"], fmt(r["mujoco_step_s"] * 1e3),
           "-" if r["contact_timeconst_s"] is None else fmt(r["contact_timeconst_s"] * 1e3), f"{r['travel_m'] * 1e3:.1f}",
-          f"{r['largest_tilt_rad']:.3f}", f"{r['max_contact_distance_m'] * 1e3:.2g}", f"{r['max_attitude_difference_rad']:.2g}"]
+          f"{r['largest_tilt_rad']:.3f}", f"{r['max_contact_distance_m'] * 1e3:.2g}", f"{r['max_attitude_difference_rad']:.2g}",
+          f"{r['ours_max_contact_distance_m'] * 1e3:.2g}", f"{r['ours_max_attitude_difference_rad']:.2g}"]
          for r in rows],
     )  # fmt: skip
     print()

@@ -29,6 +29,35 @@ def test_energy_is_conserved_without_torque_or_damping(model, rng):
         assert np.ptp(energy) / abs(energy[0]) < 1e-9
 
 
+FAMILY = {
+    "oblate-2": RobotParams(damping=0.0, shell_axes=(0.12, 0.12, 0.09)),
+    "prolate-2": RobotParams(damping=0.0, shell_axes=(0.11, 0.11, 0.14)),
+    "triaxial-3": RobotParams(damping=0.0, shell_axes=(0.13, 0.11, 0.10), num_legs=3),
+    "sphere-4": RobotParams(damping=0.0, num_legs=4),
+    "oblate-4": RobotParams(damping=0.0, shell_axes=(0.14, 0.12, 0.09), num_legs=4),
+}
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+@pytest.mark.parametrize("params", FAMILY.values(), ids=FAMILY)
+def test_the_familys_energy_is_conserved_with_the_legs_held(params, model, rng):
+    """Legs held (prescribed at rest: kinematic, no acceleration) and no damping: the shell rocks
+    and spins, on an ellipsoid the contact running over it, and the energy stays put."""
+    legs = params.num_legs
+    f = dynamics.derivative_function(params, model, kinematic=True)
+    start = np.zeros(9 + 2 * legs)
+    start[2:6] = (np.cos(0.25), np.sin(0.25) * 0.6, np.sin(0.25) * 0.8, 0.0)  # tilted 0.5 rad
+    start[6 : 6 + legs] = rng.uniform(0.2, 2.6, legs)  # (held: rates 0)
+    start[6 + legs : 9 + legs] = (0.8, -0.5, 3.0)  # rocking and spinning
+    sol = solve_ivp(lambda t, y: np.array(f(y.tolist(), (0.0,) * legs)), (0, 3), start, method="DOP853",
+                    rtol=1e-11, atol=1e-11)  # fmt: skip
+    energy = dynamics.total_energy(sol.y.T, params, model)
+    assert np.ptp(np.linalg.norm(sol.y[2:6], axis=0)) < 1e-8  # (a unit quaternion, to the solver's tolerance)
+    assert np.ptp(sol.y[6 : 6 + legs], axis=1).max() == 0.0  # the legs really held
+    assert np.ptp(dynamics.paper_angles(sol.y[2:6].T)[:, 0]) > 0.1  # it rocked
+    assert np.ptp(energy) / abs(energy[0]) < 1e-9
+
+
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 def test_energy_changes_by_servo_work_plus_damping_loss(model):
     """dE/dt = tau . phidot + k |w|^2 along a driven, damped gait."""

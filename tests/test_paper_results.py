@@ -132,6 +132,24 @@ def test_the_stored_reference_paths_are_what_the_reference_solver_gives_today(mo
         assert np.ptp(stored[:, 1]) > 1e-3  # the robot moved: the comparison is not of two rests
 
 
+TWO_LEG_PATHS = reference_paths_module.PATH.parent / "table2_rk4_paths_two_leg_equations.npz"
+"""The Table II contact paths (x, y every 0.05 s over 50 s, RK4 at the default step) of the equations
+written for the paper's two-legged sphere alone, before the family's replaced them (its ``commit``)."""
+
+
+@pytest.mark.parametrize("model", ["plane", "pivot"])
+@pytest.mark.parametrize("gait_number", [1, 2, 3])
+def test_the_familys_equations_keep_the_papers_robot_to_1e_12_m(model, gait_number):
+    """The family's equations (any legs, ellipsoid shells) take other operations than the two-leg
+    sphere's did; on the paper's robot its Table II paths must not move by more than 1e-12 m."""
+    with np.load(TWO_LEG_PATHS) as data:
+        before = data[f"{model}_gait{gait_number}"]
+    path = run(model, gait_number)
+    now = np.column_stack([path.x, path.y])[:: round(0.05 / 0.01)]
+    assert now.shape == before.shape and np.ptp(before[:, 1]) > 1e-3
+    assert np.max(np.hypot(*(now - before).T)) < 1e-12
+
+
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 @pytest.mark.parametrize("gait_number", [1, 2, 3])
 def test_the_default_step_keeps_the_contact_point_within_1mm_of_the_reference(model, gait_number, reference_paths):
