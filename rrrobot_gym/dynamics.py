@@ -356,7 +356,8 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     for m in range(num_legs):
         c1, c2, c3 = w[scratch + 4 * m * step], w[scratch + (4 * m + 1) * step], w[scratch + (4 * m + 2) * step]
         force = w[scratch + (4 * m + 3) * step]
-        mass, inertia, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
+        length, mass = k[7] * layout[m][9], k[8] * layout[m][10]
+        inertia = mass * (length * length)  # (as _leg's)
         c_od = c1 * od0 + c2 * od1 + c3 * od2
         if kinematic:
             accel = w[drive + m * step]
@@ -367,6 +368,7 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
         w[out + (9 + num_legs + m) * step] = accel
         w[out + (6 + m) * step] = w[at + (9 + num_legs + m) * step]
         if record >= 0:
+            _, _, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
             w[record + m * step] = torque
             w[record + (5 + num_legs + m) * step] = height + (px * nx + py * ny + pz * nz)
             ma = mass * accel
