@@ -1,6 +1,6 @@
 """Accuracy of the env's own scene: restarted 5 s windows of the shipped policies and of random actions.
 
-    python -m benchmarks.scene_accuracy [--quick] [--json FILE] [--models MODEL ...] [--actions KIND ...]
+    python -m benchmarks.scene_accuracy [--quick] [--json FILE] [--models MODEL ...] [--actions KIND ...] [--robots NAME ...]
 
 RRRobot-v0 runs a servo by default (0.5 N m stall, 10 rad/s no-load, a 60 rad/s^2 motion
 profile), and the motor's clip puts kinks in the right-hand side, where RK4 loses its order;
@@ -10,7 +10,8 @@ nominal robot, from the paper's start, episodes not ended by leaving the model; 
 still ends one) is rolled out closed loop for 45 s (--quick: 5 s) with each kind of actions
 (``--actions``): ``policy``, the shipped PPO policy of the model along 0, 45, 90, 135 and 180 deg
 (the policies run the other headings as mirror images of these); ``random``, uniform random
-actions on 5 robots. The rollout keeps the states and the servo's references (the ramps the
+actions on 5 robots. ``--robots`` adds members of the family (:data:`ROBOTS`: an oblate shell, four
+legs), with random actions (they have no shipped policy). The rollout keeps the states and the servo's references (the ramps the
 motion profile made). From the states at 0, 10, 20, 30 and 40 s (--quick: 0 s) the next 5 s are
 replayed open loop on the recorded references: with RK4 at each step of STEPS_S (the default
 first), and with ``simulate_reference`` (DOP853, rtol = atol = 1e-10, the same servo, solved control
@@ -50,6 +51,9 @@ from ._common import (
 )
 
 MODELS = ("plane", "pivot")
+ROBOTS = {"paper": {}, "oblate-2": {"shell_axes": (0.12, 0.12, 0.09)}, "sphere-4": {"num_legs": 4},
+          "oblate-4": {"shell_axes": (0.12, 0.12, 0.09), "num_legs": 4}}  # fmt: skip
+"""The robots ``--robots`` names: the paper's (default), and family members (env keywords)."""
 ACTIONS = ("policy", "random")
 POLICY_HEADINGS_DEG = (0.0, 45.0, 90.0, 135.0, 180.0)
 """The policy's headings: the shipped policies run 225-315 deg as mirror images of 135-45 deg."""
@@ -65,7 +69,7 @@ both models (the pivot's policy windows amplify it about 10^5 times), and stands
 rounding of RK4 at SENSITIVITY_STEP_S."""
 
 
-def rollout(model: str, actions: str, duration: float, seed: int = 0):
+def rollout(model: str, actions: str, duration: float, seed: int = 0, robot: str = "paper"):
     """The closed-loop run a window restarts from: (states (T + 1, N, 13), the references' ramp
     starts and ends (T, N, 2), each robot's end time (N,) s (inf: ran to the end), the control
     step (s), the simulator config)."""
@@ -76,7 +80,7 @@ def rollout(model: str, actions: str, duration: float, seed: int = 0):
         kwargs, directions = dict(agent.env_config), np.radians(POLICY_HEADINGS_DEG)
     else:
         agent, kwargs, directions = None, {}, np.zeros(RANDOM_ROBOTS)
-    kwargs.update(model=model, randomize=None, reset_noise_scale=0.0, terminate_outside_model=False)
+    kwargs.update(model=model, randomize=None, reset_noise_scale=0.0, terminate_outside_model=False, **ROBOTS[robot])
     env = RRRobotVectorEnv(num_envs=len(directions), max_episode_steps=None, **kwargs)
     obs, _ = env.reset(seed=seed, options={"target_direction": directions})
     rng = np.random.default_rng(seed)
@@ -85,7 +89,7 @@ def rollout(model: str, actions: str, duration: float, seed: int = 0):
     ended = np.full(len(directions), np.inf)
     for i in range(steps):
         if agent is None:
-            action = rng.uniform(-1.0, 1.0, (len(directions), 2)).astype(np.float32)
+            action = rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32)
         else:
             action, _ = agent.predict(obs, deterministic=True)
         starts.append(env.leg_targets.copy())
@@ -157,15 +161,15 @@ def per_window(values, picked, at_s):
     return [float(values[picked[:, 1] == t].max()) if np.any(picked[:, 1] == t) else None for t in at_s]
 
 
-def measure(model: str, actions: str, duration: float, at_s) -> dict:
-    """Every step's errors on one model and kind of actions (the module docstring)."""
+def measure(model: str, actions: str, duration: float, at_s, robot: str = "paper") -> dict:
+    """Every step's errors on one model, kind of actions and robot (the module docstring)."""
     began = time.perf_counter()
-    states, ramp_starts, ramp_ends, ended, dt, sim = rollout(model, actions, duration)
+    states, ramp_starts, ramp_ends, ended, dt, sim = rollout(model, actions, duration, robot=robot)
     start, w_starts, w_ends, picked = windows(states, ramp_starts, ramp_ends, ended, dt, at_s)
     reference = cached_reference(sim, start, w_starts, w_ends, dt)
     gain = amplification(sim, start, w_starts, w_ends, dt)
     result = {
-        "model": model, "actions": actions, "config": repr(sim), "control_step_s": dt,
+        "model": model, "actions": actions, "robot": robot, "config": repr(sim), "control_step_s": dt,
         "robots": POLICY_HEADINGS_DEG if actions == "policy" else RANDOM_ROBOTS,
         "windows": [[int(robot), float(t)] for robot, t in picked], "ended_s": [float(t) for t in ended],
         "amplification_m_per_rad": {"per_window_max": per_window(gain, picked, at_s), "median": float(np.median(gain))},
@@ -194,15 +198,17 @@ def step_label(row) -> str:
 
 
 def table(results, at_s) -> str:
-    header = ["model", "actions", "RK4 step", "evaluations / env step"] + [f"{t:g} s" for t in at_s] + ["max"]
+    header = ["model", "robot", "actions", "RK4 step", "evaluations / env step"] + [f"{t:g} s" for t in at_s] + ["max"]
     lines = []
     for r in results:
+        robot = r.get("robot", "paper")
         for row in r["rows"]:
             cells = [fmt(v * 1e3) if v is not None else "-" for v in row["per_window_max_m"]]
-            lines.append([r["model"], r["actions"], step_label(row), row["evals_per_env_step"], *cells,
+            lines.append([r["model"], robot, r["actions"], step_label(row), row["evals_per_env_step"], *cells,
                           fmt(row["max_m"] * 1e3)])  # fmt: skip
         gain = r["amplification_m_per_rad"]["per_window_max"]
-        lines.append([r["model"], r["actions"], "amplification (m/rad)", "", *(fmt(v) if v is not None else "-" for v in gain), ""])
+        lines.append([r["model"], robot, r["actions"], "amplification (m/rad)", "",
+                      *(fmt(v) if v is not None else "-" for v in gain), ""])  # fmt: skip
     return markdown_table(header, lines)
 
 
@@ -211,21 +217,24 @@ def main(argv=None):
     p.add_argument("--models", nargs="+", default=list(MODELS), choices=MODELS, help="the dynamic models (default: both)")
     p.add_argument("--actions", nargs="+", default=list(ACTIONS), choices=ACTIONS,
                    help="the runs' actions: the shipped policy of the model, uniform random actions (default: both)")
+    p.add_argument("--robots", nargs="+", default=["paper"], choices=tuple(ROBOTS),
+                   help="the robots: the paper's (default) and family members, these with random actions only")
     args = p.parse_args(argv)
-    for flag, values in (("--models", args.models), ("--actions", args.actions)):
+    for flag, values in (("--models", args.models), ("--actions", args.actions), ("--robots", args.robots)):
         if len(set(values)) < len(values):
             p.error(f"{flag} names one twice: {' '.join(values)}")
     at_s = WINDOW_STARTS_S[:1] if args.quick else WINDOW_STARTS_S
     duration = at_s[-1] + WINDOW_S
     results = []
-    for model in args.models:
-        for actions in args.actions:
-            r = measure(model, actions, duration, at_s)
-            results.append(r)
-            worst = ", ".join(f"{step_label(row)} {row['max_m'] * 1e3:.3g}" for row in r["rows"])
-            print(f"{model} {actions}: {len(r['windows'])} windows; max contact error (mm): {worst}; the replay at "
-                  f"the env's step reproduces its states to the bit: {r['reproduces_env']} ({r['seconds']:.0f} s)",
-                  flush=True)  # fmt: skip
+    runs = [(model, actions, robot) for robot in args.robots for model in args.models for actions in args.actions
+            if robot == "paper" or actions == "random"]  # (only the paper's robot has shipped policies)
+    for model, actions, robot in runs:
+        r = measure(model, actions, duration, at_s, robot)
+        results.append(r)
+        worst = ", ".join(f"{step_label(row)} {row['max_m'] * 1e3:.3g}" for row in r["rows"])
+        print(f"{model} {robot} {actions}: {len(r['windows'])} windows; max contact error (mm): {worst}; the replay at "
+              f"the env's step reproduces its states to the bit: {r['reproduces_env']} ({r['seconds']:.0f} s)",
+              flush=True)  # fmt: skip
     print(f"\nMax contact error (mm) of {WINDOW_S:g} s windows restarted at each time, against the reference:\n")
     print(table(results, at_s))
     write_json(args.json, {"machine": machine(), "window_s": WINDOW_S, "window_starts_s": list(at_s),
