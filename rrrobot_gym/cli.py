@@ -757,10 +757,16 @@ def format_search(result) -> str:
     ]
     for gait in result.gaits:
         p = gait["parameters"]
+        legs = sum(key.startswith("amplitude_") for key in p)
+
+        def each(kind):
+            return "/".join(f"{p[f'{kind}_{k}']:.3f}" for k in range(1, legs + 1))
+
+        later = "/".join(f"{p[name]:.3f}" for name in p if name.startswith("phase_") and name != "phase_gap")
+        phases = f", gap {p['phase_gap']:.3f} rad" if legs == 2 else f", phases {later} rad" if later else ""
         line = (
             f"{gait['name']}: {1e3 * gait['speed_mps']:.1f} mm/s towards {gait['direction_deg']:.0f} deg; "
-            f"a {p['amplitude_1']:.3f}/{p['amplitude_2']:.3f} rad, o {p['offset_1']:.3f}/{p['offset_2']:.3f} rad, "
-            f"w {p['frequency']:.3f} rad/s, gap {p['phase_gap']:.3f} rad"
+            f"a {each('amplitude')} rad, o {each('offset')} rad, w {p['frequency']:.3f} rad/s{phases}"
         )
         if gait["terminated_starts"]:
             line += f" (left the model on {gait['terminated_starts']} starts)"

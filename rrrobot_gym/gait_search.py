@@ -1,7 +1,8 @@
 """Gait search: CMA-ES over open-loop per-leg sinusoids, scored in one batched env.
 
-The gait family is phi_k(t) = o_k + a_k sin(w t + beta_k), beta_1 = 0, beta_2 = phase gap: six
-numbers (:class:`SinusoidGait`). A population runs as ONE
+The gait family is phi_k(t) = o_k + a_k sin(w t + beta_k), beta_1 = 0, for each of the robot's L
+legs: 3L numbers (:class:`SinusoidGait`, :func:`parameter_names`), six for the paper's robot, whose
+beta_2 is the phase gap. A population runs as ONE
 :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv` with the env's own envelope, so a searched gait
 is scored exactly as the env would score it.
 
@@ -13,9 +14,9 @@ or ``rrrobot gait-search``. Needs the ``search`` extra (``cma``, ``tqdm``); ``ra
 
 Glossary
 --------
-parameters      (P, 6) float, one row a gait, columns :data:`PARAMETER_NAMES`
+parameters      (P, 3L) float, one row a gait, columns :func:`parameter_names` (L)
 unit box        the search's coordinates: each parameter mapped affinely from its
-                :data:`BOUNDS` interval onto [0, 1], so one CMA step size suits all six
+                :func:`bounds` interval onto [0, 1], so one CMA step size suits them all
 start seeds     the env's reset seeds of the starts a gait is scored from (start noise
                 ``reset_noise_scale``); every gait of a search sees the same starts
 objective       "own": speed along the gait's own net displacement; "heading": speed
@@ -26,7 +27,7 @@ fitness         what CMA-ES maximises (m/s): the objective's speed, penalised fo
 Output JSON (:meth:`SearchResult.to_json`, schema ``rrrobot_gym.gait_search/1``)
 ---------------------------------------------------------------------------------
 - ``schema``, ``family`` ("sinusoid"), ``parameter_names``, ``bounds`` ({name: [lo, hi]})
-- ``model``, ``objective``, ``heading_deg`` (null for "own"), ``env_kwargs`` (the env
+- ``num_legs`` (the robot's L; absent means 2), ``model``, ``objective``, ``heading_deg`` (null for "own"), ``env_kwargs`` (the env
   keywords besides ``model`` and ``reset_noise_scale``, every servo keyword among them:
   :func:`rrrobot_gym.envs.task.with_servo`), ``reset_noise_scale``, ``ramp_s``
   (s, :func:`ramp_factor`; absent means 0), ``duration_s`` (episode length scored), ``start_seeds``
@@ -60,25 +61,50 @@ from .analysis import json_safe
 from .envs.task import (LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action, upright_contact_points,
                          with_servo)
 from .control import TARGETS_SINUSOID, sinusoid_targets
-from .params import real_number, whole_number
+from .params import MAX_LEGS, real_number, whole_number
 
 SCHEMA = "rrrobot_gym.gait_search/1"
-PARAMETER_NAMES = ("amplitude_1", "amplitude_2", "offset_1", "offset_2", "frequency", "phase_gap")
 OBJECTIVES = ("own", "heading")
 
-BOUNDS = {
-    "amplitude_1": (0.0, 1.5),
-    "amplitude_2": (0.0, 1.5),
-    "offset_1": (LEG_TARGET_MIN, LEG_TARGET_MAX),
-    "offset_2": (LEG_TARGET_MIN, LEG_TARGET_MAX),
-    "frequency": (1.0, 15.0),
-    "phase_gap": (-math.pi, math.pi),
-}
-"""The search box, per parameter (rad, rad, rad, rad, rad/s, rad). Offsets span the whole action
-range; amplitudes are repaired to keep o_k +- a_k inside it (:func:`repair`), so the targets are a
-true sinusoid, never one flattened by the action clip. Frequencies: from three periods in a 20 s
-episode to about 8 control steps a period (the paper's gaits run at 8 rad/s). The phase gap's sign
-picks the direction of travel (the paper's swapped phases).
+
+def parameter_names(num_legs: int = 2) -> tuple:
+    """The names of an L-leg sinusoid's 3L numbers, in the order of its parameter arrays:
+    ``amplitude_1..L``, ``offset_1..L``, ``frequency``, then the phases of legs 2..L after leg 1's
+    (leg 1's is 0): ``phase_gap`` for the paper's two legs, ``phase_2 .. phase_L`` otherwise."""
+    legs = range(1, _leg_count(num_legs) + 1)
+    phases = ("phase_gap",) if num_legs == 2 else tuple(f"phase_{k}" for k in legs if k > 1)
+    return (*(f"amplitude_{k}" for k in legs), *(f"offset_{k}" for k in legs), "frequency", *phases)
+
+
+def bounds(num_legs: int = 2) -> dict:
+    """The search box of an L-leg sinusoid, per parameter (:func:`parameter_names`; rad, rad/s)."""
+    box = {"amplitude": (0.0, 1.5), "offset": (LEG_TARGET_MIN, LEG_TARGET_MAX), "frequency": (1.0, 15.0),
+           "phase": (-math.pi, math.pi)}  # fmt: skip
+    return {name: box[name.split("_")[0]] for name in parameter_names(num_legs)}
+
+
+def _leg_count(num_legs) -> int:
+    if isinstance(num_legs, bool) or not isinstance(num_legs, (int, np.integer)) or not 1 <= num_legs <= MAX_LEGS:
+        raise ValueError(f"num_legs must be a whole number from 1 to {MAX_LEGS}, got {num_legs!r}")
+    return int(num_legs)
+
+
+def legs_of_parameters(size: int) -> int:
+    """L of a sinusoid given as ``size`` numbers (3L), or a ValueError naming the sizes allowed."""
+    if size % 3 or not 1 <= size // 3 <= MAX_LEGS:
+        raise ValueError(f"a sinusoid gait has 3 numbers a leg (amplitudes, offsets, a frequency and the phases of "
+                         f"legs 2..L), 3 to {3 * MAX_LEGS} in all; got {size}")
+    return size // 3
+
+
+PARAMETER_NAMES = parameter_names(2)
+"""The paper's robot's six: ``amplitude_1, amplitude_2, offset_1, offset_2, frequency, phase_gap``."""
+BOUNDS = bounds(2)
+"""The search box, per parameter (rad, rad, rad, rad, rad/s, rad); :func:`bounds` for L legs. Offsets
+span the whole action range; amplitudes are repaired to keep o_k +- a_k inside it (:func:`repair`), so
+the targets are a true sinusoid, never one flattened by the action clip. Frequencies: from three
+periods in a 20 s episode to about 8 control steps a period (the paper's gaits run at 8 rad/s). The
+phase gap's sign picks the direction of travel (the paper's swapped phases).
 """
 
 
@@ -87,23 +113,26 @@ TERMINATION_PENALTY = 1.0
 found without the envelope is ~0.17 m/s)."""
 
 
-def _lows_highs():
-    lows = np.array([BOUNDS[n][0] for n in PARAMETER_NAMES])
-    highs = np.array([BOUNDS[n][1] for n in PARAMETER_NAMES])
-    return lows, highs
+def _lows_highs(num_legs: int = 2):
+    box = bounds(num_legs)
+    return np.array([low for low, _ in box.values()]), np.array([high for _, high in box.values()])
 
 
 def repair(parameters) -> np.ndarray:
-    """Parameters (P, 6) or (6,) clipped to :data:`BOUNDS`, amplitudes shrunk so that
+    """Parameters (P, 3L) or (3L,) clipped to :func:`bounds`, amplitudes shrunk so that
     o_k +- a_k stays inside the action range (see :data:`BOUNDS`)."""
     params = np.array(parameters, dtype=float)
-    if params.shape[-1:] != (len(PARAMETER_NAMES),) or not np.all(np.isfinite(params)):
-        raise ValueError(
-            f"gait parameters must be finite, shape (6,) or (P, 6) ({', '.join(PARAMETER_NAMES)}), got {parameters!r}"
-        )
-    lows, highs = _lows_highs()
+    try:
+        legs = legs_of_parameters(params.shape[-1]) if params.ndim in (1, 2) else None
+    except ValueError:
+        legs = None
+    if legs is None or not np.all(np.isfinite(params)):
+        raise ValueError(f"gait parameters must be finite, shape (3L,) or (P, 3L) for L legs "
+                         f"({', '.join(PARAMETER_NAMES)} for two), got {parameters!r}")  # fmt: skip
+    lows, highs = _lows_highs(legs)
     params = np.clip(params, lows, highs)
-    for a, o in ((0, 2), (1, 3)):
+    for a in range(legs):
+        o = legs + a
         room = np.minimum(params[..., o] - LEG_TARGET_MIN, LEG_TARGET_MAX - params[..., o])
         params[..., a] = np.minimum(params[..., a], room)
     return params
@@ -127,19 +156,19 @@ def ramp_factor(times, ramp_s: float) -> np.ndarray:
 
 
 def sinusoid_angles(parameters, times, ramp_s: float = 0.0) -> np.ndarray:
-    """Leg target angles (..., 2), rad, of gaits ``parameters`` (..., 6) at ``times`` (s,
-    broadcast against the leading axes): phi_k = o_k + r(t) a_k sin(w t + beta_k), r the
+    """Leg target angles (..., L), rad, of L-leg gaits ``parameters`` (..., 3L) at ``times`` (s,
+    broadcast against the leading axes): phi_k = o_k + r(t) a_k sin(w t + beta_k), beta_1 = 0, r the
     amplitude's ramp over the first ``ramp_s`` s (:func:`ramp_factor`; none by default)."""
     p = np.asarray(parameters, dtype=float)
     t = np.asarray(times, dtype=float)
-    arg = p[..., 4] * t
-    swing1, swing2 = p[..., 0] * np.sin(arg), p[..., 1] * np.sin(arg + p[..., 5])
-    if ramp_s > 0.0:
-        r = ramp_factor(t, ramp_s)
-        swing1, swing2 = r * swing1, r * swing2
-    leg1 = p[..., 2] + swing1
-    leg2 = p[..., 3] + swing2
-    return np.stack(np.broadcast_arrays(leg1, leg2), axis=-1)
+    legs = legs_of_parameters(p.shape[-1])
+    arg = p[..., 2 * legs] * t
+    r = ramp_factor(t, ramp_s) if ramp_s > 0.0 else None
+    angles = []
+    for k in range(legs):
+        swing = p[..., k] * np.sin(arg if k == 0 else arg + p[..., 2 * legs + k])
+        angles.append(p[..., legs + k] + (swing if r is None else r * swing))
+    return np.stack(np.broadcast_arrays(*angles), axis=-1)
 
 
 def _check_ramp(ramp_s) -> float:
@@ -157,52 +186,72 @@ def positive_seconds(label: str, value) -> float:
     return float(value)
 
 
-@dataclass(frozen=True)
 class SinusoidGait:
-    """phi_k(t) = offset_k + amplitude_k sin(frequency t + beta_k), beta_1 = 0, beta_2 = phase_gap.
+    """phi_k(t) = offset_k + amplitude_k sin(frequency t + beta_k), beta_1 = 0, for L legs.
 
-    The paper's Table II gaits are the case amplitude_1 = amplitude_2 = 0.3 rad,
-    frequency 8 rad/s, phase_gap pi/2, both offsets gamma. Has the ``angles(times)``
-    and ``leg_targets(t)`` of :class:`rrrobot_gym.control.Gait`, so it drives
+    Made from the 3L numbers in :func:`parameter_names` order, positionally or by name
+    (``SinusoidGait(a1, a2, o1, o2, w, gap)`` for the paper's robot; :meth:`from_dict`), each
+    readable as an attribute (``gait.amplitude_1``). The paper's Table II gaits are the case
+    amplitude_1 = amplitude_2 = 0.3 rad, frequency 8 rad/s, phase_gap pi/2, both offsets gamma. Has
+    the ``angles(times)`` and ``leg_targets(t)`` of :class:`rrrobot_gym.control.Gait`, so it drives
     :class:`rrrobot_gym.agents.GaitAgent` and :func:`rrrobot_gym.simulation.simulate` alike.
     ``ramp_s`` > 0 grows the swing in over that many seconds (:func:`ramp_factor`; not a
     searched parameter but a setting of the search that found the gait).
     """
 
-    amplitude_1: float  # rad
-    amplitude_2: float  # rad
-    offset_1: float  # rad, 0 horizontal along +X, pi/2 vertical
-    offset_2: float  # rad
-    frequency: float  # rad/s
-    phase_gap: float  # rad, beta_2 - beta_1
-    ramp_s: float = 0.0  # s, the swing's ramp from nothing (0: full from the start)
-    name: str = "sinusoid"
+    def __init__(self, *values, ramp_s: float = 0.0, name: str = "sinusoid", **named):
+        if values and named:
+            raise ValueError("give a SinusoidGait's parameters by position or by name, not both")
+        if named:
+            legs = sum(key.startswith("amplitude_") for key in named)
+            names = parameter_names(legs) if 1 <= legs <= MAX_LEGS else ()
+            if set(named) != set(names):
+                raise ValueError(f"sinusoid gait parameters must be exactly {', '.join(names or PARAMETER_NAMES)}; "
+                                 f"got {', '.join(map(str, named))}")  # fmt: skip
+            values = tuple(named[key] for key in names)
+        legs = legs_of_parameters(len(values))
+        names = parameter_names(legs)
+        values = tuple(real_number(f"SinusoidGait.{key}", value) for key, value in zip(names, values))
+        for key, value in zip(names[:legs], values):
+            if value < 0.0:
+                raise ValueError(f"SinusoidGait.{key} must be >= 0 rad, got {value}")
+        object.__setattr__(self, "_values", values)
+        object.__setattr__(self, "num_legs", legs)
+        object.__setattr__(self, "ramp_s", _check_ramp(ramp_s))
+        object.__setattr__(self, "name", str(name))
 
-    def __post_init__(self):
-        for key in PARAMETER_NAMES:
-            object.__setattr__(self, key, real_number(f"SinusoidGait.{key}", getattr(self, key)))
-        for key in ("amplitude_1", "amplitude_2"):
-            if getattr(self, key) < 0.0:
-                raise ValueError(f"SinusoidGait.{key} must be >= 0 rad, got {getattr(self, key)}")
-        object.__setattr__(self, "ramp_s", _check_ramp(self.ramp_s))
+    def __getattr__(self, key):
+        values = self.__dict__.get("_values")
+        names = parameter_names(self.__dict__["num_legs"]) if values is not None else ()
+        if key in names:
+            return values[names.index(key)]
+        raise AttributeError(f"{type(self).__name__} has no attribute {key!r}")
+
+    def __setattr__(self, key, value):
+        raise AttributeError(f"a SinusoidGait is frozen: cannot set {key}")
+
+    def _key(self):
+        return self._values, self.ramp_s, self.name
+
+    def __eq__(self, other):
+        return isinstance(other, SinusoidGait) and self._key() == other._key()
+
+    def __hash__(self):
+        return hash(self._key())
+
+    def __repr__(self):
+        items = ", ".join(f"{k}={v!r}" for k, v in self.parameters().items())
+        return f"SinusoidGait({items}, ramp_s={self.ramp_s!r}, name={self.name!r})"
 
     @classmethod
     def from_dict(cls, values: dict, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
-        missing = [k for k in PARAMETER_NAMES if k not in values]
-        extra = [k for k in values if k not in PARAMETER_NAMES]
-        if missing or extra:
-            raise ValueError(
-                f"sinusoid gait parameters must be exactly {', '.join(PARAMETER_NAMES)}"
-                + (f"; missing {', '.join(missing)}" if missing else "")
-                + (f"; unknown {', '.join(map(str, extra))}" if extra else "")
-            )
-        return cls(**{k: values[k] for k in PARAMETER_NAMES}, ramp_s=ramp_s, name=name)
+        return cls(**values, ramp_s=ramp_s, name=name)
 
     def as_array(self) -> np.ndarray:
-        return np.array([getattr(self, k) for k in PARAMETER_NAMES])
+        return np.array(self._values)
 
     def parameters(self) -> dict:
-        return {k: getattr(self, k) for k in PARAMETER_NAMES}
+        return dict(zip(parameter_names(self.num_legs), self._values))
 
     @property
     def period(self) -> float:
@@ -210,31 +259,36 @@ class SinusoidGait:
         return 2.0 * math.pi / abs(self.frequency) if self.frequency else math.inf
 
     def angles(self, times) -> np.ndarray:
-        """Target leg angles at an array of times, shape (T, 2), rad."""
+        """Target leg angles at an array of times, shape (T, L), rad."""
         return sinusoid_angles(self.as_array(), np.asarray(times, dtype=float), self.ramp_s)
+
+    def _legs(self):
+        """(amplitudes, phases, offsets), a tuple a leg each."""
+        L, v = self.num_legs, self._values
+        return v[:L], (0.0, *v[2 * L + 1:]), v[L:2 * L]
 
     def compiled_targets(self):
         """(kind, per-robot parameters, shared parameters) for :mod:`rrrobot_gym.compiled`; None
         with a ramp, which the compiled stepper does not know (the numpy path runs it)."""
         if self.ramp_s > 0.0:
             return None
-        params = (self.amplitude_1, self.amplitude_2, self.frequency, 0.0, self.phase_gap, self.offset_1, self.offset_2)
-        return TARGETS_SINUSOID, params, ()
+        amplitudes, phases, offsets = self._legs()
+        return TARGETS_SINUSOID, (*amplitudes, self.frequency, *phases, *offsets), ()
 
     def leg_targets(self, t):
-        """(angles, rates, accelerations) of both legs at time t, the ramp's own rate included."""
-        amplitudes, phases = (self.amplitude_1, self.amplitude_2), (0.0, self.phase_gap)
-        offsets, w = (self.offset_1, self.offset_2), self.frequency
+        """(angles, rates, accelerations) of every leg at time t, the ramp's own rate included."""
+        amplitudes, phases, offsets = self._legs()
+        w = self.frequency
         if t >= self.ramp_s:
             return sinusoid_targets(t, amplitudes, w, phases, offsets)
         # phi = o + r a sin(w t + b): the ramp r's rate r' and curvature r'' enter by the product rule
         u = max(t, 0.0) / self.ramp_s
         r, dr, ddr = u * u * (3.0 - 2.0 * u), 6.0 * u * (1.0 - u) / self.ramp_s, (6.0 - 12.0 * u) / self.ramp_s**2
-        (s1, s2), (d1, d2), (dd1, dd2) = sinusoid_targets(t, amplitudes, w, phases, (0.0, 0.0))
+        s, d, dd = sinusoid_targets(t, amplitudes, w, phases, (0.0,) * self.num_legs)
         return (
-            (offsets[0] + r * s1, offsets[1] + r * s2),
-            (dr * s1 + r * d1, dr * s2 + r * d2),
-            (ddr * s1 + 2.0 * dr * d1 + r * dd1, ddr * s2 + 2.0 * dr * d2 + r * dd2),
+            tuple(o + r * sk for o, sk in zip(offsets, s)),
+            tuple(dr * sk + r * dk for sk, dk in zip(s, d)),
+            tuple(ddr * sk + 2.0 * dr * dk + r * ddk for sk, dk, ddk in zip(s, d, dd)),
         )
 
 
@@ -320,10 +374,22 @@ class PopulationRuns:
         return cls(duration=parts[0].duration, **fields)
 
 
-def _check_population(parameters) -> np.ndarray:
+def robot_legs(**env_kwargs) -> int:
+    """How many legs the robot of these env keywords has (the env's own reading of them)."""
+    from .envs.task import make_task_config
+
+    return make_task_config(**env_kwargs).num_robot_legs
+
+
+def _check_population(parameters, num_legs: int | None = None) -> np.ndarray:
+    """Gaits (P, 3L), P >= 1, finite; with ``num_legs``, L must be it (the robot's leg count)."""
     params = np.asarray(parameters, dtype=float)
-    if params.ndim != 2 or params.shape[1] != len(PARAMETER_NAMES) or len(params) == 0:
-        raise ValueError(f"parameters must have shape (P, {len(PARAMETER_NAMES)}) with P >= 1, got {params.shape}")
+    if params.ndim != 2 or len(params) == 0 or params.shape[1] % 3 or not 1 <= params.shape[1] // 3 <= MAX_LEGS:
+        raise ValueError(f"parameters must have shape (P, 3L) with P >= 1 for L legs ((P, {len(PARAMETER_NAMES)}) "
+                         f"for two), got {params.shape}")  # fmt: skip
+    if num_legs is not None and params.shape[1] != 3 * num_legs:
+        raise ValueError(f"the robot has {num_legs} legs, so a gait has {3 * num_legs} parameters "
+                         f"({', '.join(parameter_names(num_legs))}); got {params.shape[1]}")  # fmt: skip
     if not np.all(np.isfinite(params)):
         raise ValueError("parameters contain NaN or inf")
     return params
@@ -339,7 +405,7 @@ def rollout_population(parameters, *, model="plane", duration=20.0, start_seeds=
     :class:`rrrobot_gym.agents.GaitAgent` does, the swing ramped in over ``ramp_s`` s.
     """
     ramp_s = _check_ramp(ramp_s)
-    params = _check_population(parameters)
+    params = _check_population(parameters, robot_legs(model=model, **env_kwargs))
     seeds = [int(s) for s in start_seeds]
     if not seeds:
         raise ValueError("start_seeds must name at least one start")
@@ -556,7 +622,7 @@ def evaluate_population(
     ray_chunks: int | None = None,
     **env_kwargs,
 ) -> PopulationScores:
-    """Score gaits ``parameters`` (P, 6), used as given (see :func:`repair`): one batched env, or
+    """Score gaits ``parameters`` (P, 3L), used as given (see :func:`repair`): one batched env, or
     with ``ray_address`` (or "local" to start a Ray here) chunks of rows as Ray tasks (:func:`ray_map`).
     Other keywords go to :class:`rrrobot_gym.envs.vector.RRRobotVectorEnv`."""
     _check_objective(objective, heading_deg)
@@ -589,8 +655,9 @@ class SearchResult:
     history: list = field(default_factory=list)
 
     def to_json(self) -> dict:
-        return json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(PARAMETER_NAMES),
-                           "bounds": {k: list(v) for k, v in BOUNDS.items()}, **self.settings,
+        legs = self.settings.get("num_legs", 2)
+        return json_safe({"schema": SCHEMA, "family": "sinusoid", "parameter_names": list(parameter_names(legs)),
+                           "bounds": {k: list(v) for k, v in bounds(legs).items()}, **self.settings,
                            "used": self.used, "gaits": self.gaits, "history": self.history})
 
     def write_json(self, path) -> None:
@@ -666,20 +733,22 @@ def search(
     start_seeds = tuple(int(s) for s in start_seeds)
     if any(s >= ROBUSTNESS_SEED_OFFSET for s in start_seeds):
         raise ValueError(f"start_seeds must be below {ROBUSTNESS_SEED_OFFSET} (the robustness seeds start there)")
-    if start is not None:
-        start = start.as_array() if hasattr(start, "as_array") else np.asarray(start, dtype=float)
-        if start.shape != (6,) or not np.all(np.isfinite(start)):
-            raise ValueError(f"start must be a SinusoidGait or 6 finite parameters, got {start!r}")
     # Fail on a bad env keyword now, not after the first population.
     from .envs.vector import RRRobotVectorEnv
 
     probe = RRRobotVectorEnv(num_envs=1, model=model, reset_noise_scale=reset_noise_scale, **env_kwargs)
     probe.close()
+    legs = probe.config.num_robot_legs
+    if start is not None:
+        start = start.as_array() if hasattr(start, "as_array") else np.asarray(start, dtype=float)
+        if start.shape != (3 * legs,) or not np.all(np.isfinite(start)):
+            raise ValueError(f"start must be a SinusoidGait or {3 * legs} finite parameters (the robot has {legs} "
+                             f"legs), got {start!r}")  # fmt: skip
     scored = control_steps("duration", duration, probe.dt) * probe.dt  # (the time each run simulates)
     if robustness_duration is not None:
         control_steps("robustness_duration", robustness_duration, probe.dt)
 
-    to_params, to_unit = unit_box()
+    to_params, to_unit = unit_box(num_legs=legs)
     scoring = dict(model=model, objective=objective, heading_deg=heading_deg, duration=duration,
                    start_seeds=start_seeds, reset_noise_scale=reset_noise_scale, ramp_s=ramp_s,
                    ray_address=ray_address, ray_chunks=ray_chunks, **env_kwargs)
@@ -712,7 +781,7 @@ def search(
     try:
         first = [] if start is None else [repair(start)]
         deadline = None if budget_seconds is None else began + budget_seconds
-        archive = maximise(score, to_params, to_unit, dimension=6, first=first, screen=screen, popsize=popsize,
+        archive = maximise(score, to_params, to_unit, dimension=3 * legs, first=first, screen=screen, popsize=popsize,
                            sigma0=sigma0, seed=seed, remaining=budget(deadline, budget_evaluations), report=report)
     finally:
         if bar is not None:
@@ -731,7 +800,7 @@ def search(
         pool, order = keep, by_fitness[:keep]
         search_ranks = list(range(1, len(order) + 1))
     gaits = [{
-        "parameters": dict(zip(PARAMETER_NAMES, map(float, params[i]))),
+        "parameters": dict(zip(parameter_names(legs), map(float, params[i]))),
         "fitness": float(rows[i, 0]),
         "speed_mps": float(rows[i, 1]),
         "direction_deg": float(rows[i, 2]),
@@ -751,7 +820,7 @@ def search(
     label = name or f"searched-{model}-{objective}" + (f"{heading_deg:g}" if objective == "heading" else "")
     gaits = [{"name": f"{label}-{rank}", **gait} for rank, gait in enumerate(gaits[:keep], start=1)]
     settings = {
-        "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": with_servo(env_kwargs),
+        "num_legs": legs, "model": model, "objective": objective, "heading_deg": heading_deg, "env_kwargs": with_servo(env_kwargs),
         "reset_noise_scale": reset_noise_scale, "ramp_s": ramp_s, "duration_s": float(scored),
         "start_seeds": list(start_seeds),
         "seed": int(seed), "budget": {"evaluations": budget_evaluations, "seconds": budget_seconds},
@@ -763,16 +832,17 @@ def search(
     return SearchResult(gaits=gaits, settings=settings, used=used, history=history)
 
 
-def unit_box(extra_bounds=()):
-    """(to_params, to_unit): the affine maps from the unit box onto the sinusoid's six numbers
-    (:data:`BOUNDS`, repaired: :func:`repair`) and then ``extra_bounds`` ((low, high) each), and back."""
-    lows, highs = _lows_highs()
+def unit_box(extra_bounds=(), num_legs: int = 2):
+    """(to_params, to_unit): the affine maps from the unit box onto an L-leg sinusoid's 3L numbers
+    (:func:`bounds`, repaired: :func:`repair`) and then ``extra_bounds`` ((low, high) each), and back."""
+    lows, highs = _lows_highs(num_legs)
+    size = len(lows)
     lows = np.r_[lows, [low for low, _ in extra_bounds]]
     highs = np.r_[highs, [high for _, high in extra_bounds]]
 
     def to_params(unit):
         params = lows + np.clip(unit, 0.0, 1.0) * (highs - lows)
-        params[:6] = repair(params[:6])
+        params[:size] = repair(params[:size])
         return params
 
     return to_params, lambda params: (np.asarray(params) - lows) / (highs - lows)
@@ -872,7 +942,7 @@ fail or pass the new starts together."""
 def distinct_fittest(units, by_fitness, count: int, spacing: float = POOL_SPACING) -> list:
     """Indices of up to ``count`` gaits, fittest first (``by_fitness``: indices best first), each
     at least ``spacing`` from every one taken before it in every coordinate's largest difference
-    (``units`` (P, 6), the gaits in the unit box)."""
+    (``units`` (P, 3L), the gaits in the unit box)."""
     units = np.asarray(units, dtype=float)
     taken = []
     for i in by_fitness:
@@ -899,7 +969,7 @@ def rank_robust_first(gaits: list) -> list:
 def robustness(parameters, *, model="plane", objective="own", heading_deg=None, directions_deg=None, seeds=8,
                duration=50.0, reset_noise_scale=0.01, ramp_s=0.0, ray_address=None, ray_chunks=None,
                **env_kwargs) -> list:  # fmt: skip
-    """Re-score gaits (P, 6) on ``seeds`` start-noise seeds the search never used
+    """Re-score gaits (P, 3L) on ``seeds`` start-noise seeds the search never used
     (``ROBUSTNESS_SEED_OFFSET + i``), and once from the paper's start (no noise).
 
     Speeds (m/s) are along the heading, or for "own" the gait's direction as the search measured it

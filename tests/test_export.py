@@ -17,8 +17,9 @@ import gymnasium  # noqa: E402
 
 import rrrobot_gym  # noqa: E402,F401  (registers RRRobot-v0)
 from rrrobot_gym.agents import load_ppo_agent  # noqa: E402
-from rrrobot_gym.agents.mirror import SIN_INDEX  # noqa: E402
+from rrrobot_gym.agents.mirror import sin_index  # noqa: E402
 from rrrobot_gym.cli import main  # noqa: E402
+from rrrobot_gym.envs.task import make_task_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ["pretrained", "pretrained_pivot"]
@@ -50,7 +51,7 @@ def test_the_onnx_network_gives_the_policy_s_actions(shipped, tmp_path, capsys):
     assert f"wrote {out}" in capsys.readouterr().out
     agent = load_ppo_agent(model)
     observations = _recorded_observations(agent)
-    sines = observations[:, SIN_INDEX]
+    sines = observations[:, sin_index(make_task_config(**agent.env_config))]
     assert (sines < -0.5).sum() >= 20 and (sines > 0.5).sum() >= 20  # both sides of the mirror seen
     # and observations far outside the training statistics, so the normalisation's clip acts
     observations = np.concatenate([observations, 1e3 * observations[::8]])

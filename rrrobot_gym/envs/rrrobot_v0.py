@@ -36,7 +36,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     counter-clockwise circle (Gait 3); a policy has to find such gaits and steer them.
 
     ## Action Space
-    A `Box(-1, 1, (2,), float32)`. Each entry sets a leg's target angle for the end of the control
+    A `Box(-1, 1, (L,), float32)`, L = `num_legs` (2, the paper's robot, by default). Each entry sets a leg's target angle for the end of the control
     step (`dt` = `frame_skip` x `timestep` = 0.05 s by default), affinely: -1 is -pi/4 rad, 0 is
     pi/2 (vertical, the rest pose), +1 is 5 pi/4, from 45 degrees below horizontal pointing
     forward to 45 degrees below horizontal pointing back (leg angle 0 is horizontal along the
@@ -53,9 +53,14 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     |-----|------------------------------------|-----|-----|------------------|------------------|-------------|
     | 0   | target angle of leg 1 (at body -Y) | -1  | 1   | -pi/4            | 5 pi/4           | angle (rad) |
     | 1   | target angle of leg 2 (at body +Y) | -1  | 1   | -pi/4            | 5 pi/4           | angle (rad) |
+    | k-1 | target angle of leg k (k <= L)     | -1  | 1   | -pi/4            | 5 pi/4           | angle (rad) |
+
+    With `num_legs` L the default placement (`rrrobot_gym.params.default_legs`) spreads the legs
+    evenly around the rim, leg k at -90 + (k - 1) 360 / L degrees from body +X, each hinge axis
+    tangent to the rim; the two-leg row labels hold for L = 2.
 
     ## Observation Space
-    A `Box(low, high, (15,), float32)`: unit vectors lie in [-1, 1], the rest is unbounded. The
+    A `Box(low, high, (11 + 2L,), float32)` ((15,) for the paper's two legs): unit vectors lie in [-1, 1], the rest is unbounded. The
     attitude enters as two unit vectors in body coordinates (z up when upright, legs at -Y and
     +Y), world up and the commanded heading: together they fix the attitude relative to the task
     with no singularity, and they do not change when the whole scene turns about the vertical,
@@ -74,14 +79,17 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
     | 7   | body angular velocity about body y                             | -Inf | Inf | angular velocity (rad/s) |
     | 8   | body angular velocity about body z                             | -Inf | Inf | angular velocity (rad/s) |
     | 9   | leg 1 angle (0 horizontal along body +X, pi/2 up)              | -Inf | Inf | angle (rad)              |
-    | 10  | leg 2 angle                                                    | -Inf | Inf | angle (rad)              |
-    | 11  | leg 1 angular rate                                             | -Inf | Inf | angular velocity (rad/s) |
+    | 10  | leg 2 angle (9 + k - 1: leg k's, k <= L)                       | -Inf | Inf | angle (rad)              |
+    | 11  | leg 1 angular rate (9 + L: leg 1's, 9 + L + k - 1: leg k's)    | -Inf | Inf | angular velocity (rad/s) |
     | 12  | leg 2 angular rate                                             | -Inf | Inf | angular velocity (rad/s) |
     | 13  | commanded heading in world coordinates, cos(target_direction)  | -1   | 1   | unit vector (-)          |
     | 14  | commanded heading in world coordinates, sin(target_direction)  | -1   | 1   | unit vector (-)          |
     | excluded (15) | contact point x                                      | -Inf | Inf | position (m)             |
     | excluded (16) | contact point y                                      | -Inf | Inf | position (m)             |
 
+    The rows' numbers are the two-leg robot's; with L legs the L angles start at 9, the L rates
+    at 9 + L, the world heading at 9 + 2L, the contact point at 11 + 2L
+    (`rrrobot_gym.envs.task.observation_fields(L)` names every entry).
     `exclude_current_positions_from_observation=False` appends the contact point (x, y) as entries
     15 and 16 (it is in `info` as `x_position`, `y_position` either way); a `clock_frequency`
     appends (sin, cos)(clock_frequency t), t the episode time (s), after them.
@@ -231,8 +239,8 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.state = None  # (13,) float64, see rrrobot_gym.dynamics.STATE_FIELDS
         self.episode_target_direction = None  # rad, this episode's commanded heading
         self.time = 0.0  # s since the episode began
-        self.leg_targets = None  # (2,) rad, the servo's reference at the end of the last step
-        self.leg_target_rates = None  # (2,) rad/s, its rate over the last step (task.step_targets)
+        self.leg_targets = None  # (L,) rad, the servo's reference at the end of the last step
+        self.leg_target_rates = None  # (L,) rad/s, its rate over the last step (task.step_targets)
         self.robot_draws = {}  # {name: (1,) array}: this episode's randomized robot (task.draw_robots)
         self._last_action = None  # (2,) the last action, for a randomized action delay
         self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
@@ -266,7 +274,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.episode_target_direction = heading
         self.time = 0.0
         self.leg_targets = self.state[self.config.sim.fields.leg_angles].copy()
-        self.leg_target_rates = np.zeros(2)
+        self.leg_target_rates = np.zeros(self.config.num_robot_legs)
         self._last_action = task.leg_targets_to_action(self.leg_targets).clip(-1.0, 1.0)
         self.contact_lost = 0.0
         self._observation = observation

@@ -1066,7 +1066,8 @@ def upright_pose(x, y, rows, p):
     h = np.sqrt(anx * anx + bny * bny)  # the horizontal part of A n (the contact's, times sqrt(n^T A n))
     off_pole = h > 1e-12 * c
     safe = select(off_pole, h, 1.0)
-    ux, uy = anx / safe, bny / safe  # the contact's horizontal direction in the body
+    # the contact's horizontal direction in the body (any one at the pole, where the arc is 0)
+    ux, uy = select(off_pole, anx / safe, 1.0), select(off_pole, bny / safe, 0.0)
     rho = 1.0 / np.sqrt((ux * ux) / (a * a) + (uy * uy) / (b * b))  # the equator's radius that way
     # the contact's angle from the pole on the meridian (rho sin beta, -c cos beta): tan beta = h / (rho c n_z)
     beta = arctan2(h, rho * c * cos_tilt)

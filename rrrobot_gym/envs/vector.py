@@ -102,10 +102,10 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
         self.states = None
-        self.leg_targets = None  # (N, 2) rad, the servo's reference at the end of the last step
-        self.leg_target_rates = None  # (N, 2) rad/s, its rate over the last step (task.step_targets)
+        self.leg_targets = None  # (N, L) rad, the servo's reference at the end of the last step
+        self.leg_target_rates = None  # (N, L) rad/s, its rate over the last step (task.step_targets)
         self.robot_draws = {}  # {name: (N,) array}: each sub-env's randomized robot (task.draw_robots)
-        self._last_actions = None  # (N, 2), for a randomized action delay
+        self._last_actions = None  # (N, L), for a randomized action delay
         self.contact_lost = None  # (N,) s, how long each shell has been off the ground
         self.episode_target_directions = None
         self.episode_steps = np.zeros(self.num_envs, dtype=np.int64)
@@ -198,9 +198,9 @@ class RRRobotVectorEnv(VectorEnv, EzPickle):
         return [None if s is None else whole_number(f"seed[{i}] (or None)", s, minimum=0) for i, s in enumerate(seeds)]
 
     def _draw_starts(self, indices):
-        """Start states (len, 13) and headings (len,) for the sub-envs ``indices``, each from its own generator."""
+        """Start states (len, 9 + 2L) and headings (len,) for the sub-envs ``indices``, each from its own generator."""
         draws = [task.draw_start(self._generators[i], self.config) for i in indices]
-        noise = np.array([noise for noise, _ in draws]).reshape(len(indices), 10)
+        noise = np.array([noise for noise, _ in draws]).reshape(len(indices), 6 + 2 * self.config.num_robot_legs)
         targets = np.array([target for _, target in draws], dtype=np.float64)
         return task.start_states(noise), targets
 
