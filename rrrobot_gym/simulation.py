@@ -21,7 +21,6 @@ import cmath
 import difflib
 import functools
 import math
-import types
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 

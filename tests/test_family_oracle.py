@@ -12,7 +12,6 @@ import math
 import numpy as np
 import pytest
 
-from conftest import random_states
 from family_oracle import (
     default_legs,
     oracle_centre,

@@ -8,7 +8,6 @@ stability limit, a robot spinning too fast for the step, a singular robot) it sa
 so by name instead of returning garbage.
 """
 
-import math
 
 import numpy as np
 import pytest

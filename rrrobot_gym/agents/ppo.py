@@ -163,7 +163,6 @@ def load_ppo_agent(model_path, vecnormalize_path=None, device="cpu") -> PPOAgent
     evaluate.py labels its rows with). Unpickles the files: trusted files only.
     """
     from ..envs.task import kwargs_from_json
-    from ..hyperparams import algorithm_class
 
     model_path = Path(model_path)
     if not model_path.exists():
