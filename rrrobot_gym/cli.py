@@ -153,6 +153,16 @@ def _env_keyword(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _numbers(text: str) -> tuple:
+    """Comma-separated numbers."""
+    return tuple(_number(part) for part in text.split(","))
+
+
+def _counts(text: str) -> tuple:
+    """Comma-separated whole numbers."""
+    return tuple(_positive_int(part) for part in text.split(","))
+
+
 def _gait_name(text: str) -> str:
     """A name for searched gaits: letters, digits, '-', '_' and '.' (agent names in tables and on the command line)."""
     if not text or not all(c.isalnum() or c in "-_." for c in text):
@@ -266,6 +276,24 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the fittest gaits re-scored on the new starts; those that stay in the model on every "
                              "start are written first (default: %(default)s)")
     search.set_defaults(run=run_gait_search)
+    study = sub.add_parser(
+        "shape-study",
+        help="what the shell's shape and the leg count do to speed: one gait search a family member (needs "
+             "rrrobot_gym[search] and matplotlib)",
+        description="Search gaits (rrrobot gait-search, objective own, plane, default servo) for shells of "
+        "semi-axes (0.12, 0.12, 0.12 c/a) with two legs and for the sphere with each leg count, the same number of "
+        "gaits scored and seed each, and write summary.json, each member's gaits and speed.png into --out-dir "
+        "(rrrobot_gym/shape_study.py).",
+    )
+    study.add_argument("--out-dir", type=Path, required=True, metavar="DIR", help="where the study is written")
+    study.add_argument("--evaluations", type=_positive_int, default=6000,
+                       help="gaits each member's search scores (default: %(default)s)")
+    study.add_argument("--ratios", type=_numbers, metavar="R,R,...",
+                       help="shell ratios c/a (default: 0.6,0.7,0.8,0.9,1,1.1,1.2,1.4)")
+    study.add_argument("--legs", type=_counts, metavar="N,N,...", help="leg counts on the sphere (default: 2,3,4)")
+    study.add_argument("--seed", type=_count, default=0, help="every member's search seed (default: %(default)s)")
+    study.add_argument("--no-progress", action="store_true", help="print nothing until the end")
+    study.set_defaults(run=run_shape_study)
     _add_turn_then_run_parsers(sub)
     return parser
 
@@ -854,6 +882,26 @@ def run_export_onnx(args) -> None:
 
 
 # ---------------------------------------------------------------- video
+
+
+def run_shape_study(args) -> None:
+    from . import shape_study
+
+    for module, extra in (("cma", "search"), ("matplotlib", "plots")):
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"shape-study needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+    if args.out_dir.exists() and not args.out_dir.is_dir():
+        raise UsageError(f"cannot write --out-dir {args.out_dir}: it is a file")
+    options = {"ratios": args.ratios or shape_study.DEFAULT_RATIOS, "leg_counts": args.legs or shape_study.DEFAULT_LEG_COUNTS}
+    try:
+        shape_study.members(**options)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    summary = shape_study.run(args.out_dir, evaluations=args.evaluations, seed=args.seed,
+                              progress=None if args.no_progress else print, command=args.command_line, **options)
+    print(f"wrote {args.out_dir / 'summary.json'} and {args.out_dir / 'speed.png'} in {summary['wall_seconds']:.0f} s")
 
 
 def run_video(args) -> None:

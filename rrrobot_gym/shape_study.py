@@ -1,0 +1,151 @@
+"""What the shell's shape and the leg count do to speed: the best searched gait of each family member.
+
+The paper's closing question ("the influence of body shape on the translation", "more legs"),
+answered the way the project answers every speed question: each member gets the same gait search
+(:func:`rrrobot_gym.gait_search.search`, objective "own", the same number of gaits scored and the same seed,
+so the machine's load cannot favour one) on the plane at
+the paper's masses and the default servo, and its best gait is re-scored on starts the search never
+saw. Members:
+
+- shells of semi-axes (a, a, c), a = 0.12 m (the paper's radius), for each ratio c/a in ``ratios``
+  (c/a < 1 oblate, 1 the paper's sphere, > 1 prolate), with the paper's two legs;
+- the sphere with each leg count in ``leg_counts`` (the default rim placement,
+  :func:`rrrobot_gym.params.default_legs`).
+
+Only the shape changes along the first axis: the point masses stay the paper's (the bottom mass
+at the shell's bottom, (0, 0, -c); the pins on the rim). Along the second each leg brings its own pin
+and tip masses, so a four-leg robot is heavier by two legs' 0.22 kg.
+
+    rrrobot shape-study --evaluations 6000 --out-dir docs/studies/shape
+
+writes ``summary.json`` (schema ``rrrobot_gym.shape_study/1``: the command, the wall time, one row a
+member), each member's search file under ``gaits/`` (usable by evaluate.py and train.py's
+``--bar-from``) and ``speed.png``: the best gait's speed against c/a and against the leg count.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from . import gait_search
+from .analysis import json_safe
+from .params import MAX_LEGS, whole_number
+
+SCHEMA = "rrrobot_gym.shape_study/1"
+RADIUS = 0.12
+"""m, the paper's shell radius: every shell's equatorial semi-axes a = b."""
+DEFAULT_RATIOS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.4)
+"""c/a of the shells studied: oblate to prolate through the paper's sphere."""
+DEFAULT_LEG_COUNTS = (2, 3, 4)
+
+
+def members(ratios=DEFAULT_RATIOS, leg_counts=DEFAULT_LEG_COUNTS) -> list:
+    """The members studied, in order: (label, env keywords, c/a, leg count); the sphere with two legs
+    once, as a member of both axes."""
+    ratios, leg_counts = _ratios(ratios), _leg_counts(leg_counts)
+    rows = []
+    for ratio in ratios:
+        kwargs = {} if ratio == 1.0 else {"shell_axes": (RADIUS, RADIUS, round(RADIUS * ratio, 12))}
+        rows.append((f"c{ratio:g}-legs2", kwargs, ratio, 2))
+    for legs in leg_counts:
+        if legs == 2 and 1.0 in ratios:
+            continue
+        rows.append((f"c1-legs{legs}", {} if legs == 2 else {"num_legs": legs}, 1.0, legs))
+    return rows
+
+
+def _ratios(ratios) -> tuple:
+    out = []
+    for r in ratios:
+        if isinstance(r, bool) or not isinstance(r, (int, float)) or not (math.isfinite(r) and 0.2 <= r <= 5.0):
+            raise ValueError(f"a shell ratio c/a must be a number from 0.2 to 5, got {r!r}")
+        out.append(float(r))
+    if len(set(out)) < len(out):
+        raise ValueError(f"shell ratios repeat: {ratios!r}")
+    return tuple(out)
+
+
+def _leg_counts(counts) -> tuple:
+    out = []
+    for n in counts:
+        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_LEGS:
+            raise ValueError(f"a leg count must be a whole number from 2 to {MAX_LEGS} (one leg needs timestep="
+                             f"'auto', which the study does not mix in), got {n!r}")  # fmt: skip
+        out.append(n)
+    if len(set(out)) < len(out):
+        raise ValueError(f"leg counts repeat: {counts!r}")
+    return tuple(out)
+
+
+def run(out_dir, *, ratios=DEFAULT_RATIOS, leg_counts=DEFAULT_LEG_COUNTS, evaluations: int = 6000,
+        seed: int = 0, progress=None, command: str | None = None, plot: bool = True) -> dict:  # fmt: skip
+    """Search every member (:func:`members`) for ``evaluations`` gaits each and write the study into
+    ``out_dir``; returns the summary (the JSON's contents). ``progress(line)`` hears each member's result."""
+    evaluations = whole_number("evaluations", evaluations)
+    rows = members(ratios, leg_counts)
+    out_dir = Path(out_dir)
+    (out_dir / "gaits").mkdir(parents=True, exist_ok=True)
+    began = time.perf_counter()
+    results = []
+    for label, kwargs, ratio, legs in rows:
+        result = gait_search.search(model="plane", objective="own", budget_evaluations=evaluations, seed=seed,
+                                    name=label, keep=1, progress=False, command=command, **kwargs)  # fmt: skip
+        path = out_dir / "gaits" / f"{label}.json"
+        result.write_json(path)
+        best = result.gaits[0]
+        robust = best["robustness"]
+        row = {
+            "member": label, "c_over_a": ratio, "num_legs": legs,
+            "shell_axes": list(kwargs.get("shell_axes", (RADIUS,) * 3)),
+            "speed_mps": robust["mean_speed_mps"], "worst_start_speed_mps": robust["min_speed_mps"],
+            "paper_start_speed_mps": robust["paper_start_speed_mps"], "search_speed_mps": best["speed_mps"],
+            "direction_deg": best["direction_deg"], "robust": best["robust"],
+            "peak_torque_nm": robust["peak_torque_nm"], "peak_leg_rate_radps": robust["peak_leg_rate_radps"],
+            "evaluations": result.used["evaluations"], "search_seconds": result.used["seconds"],
+            "gait": best["parameters"], "gait_file": f"gaits/{label}.json",
+        }  # fmt: skip
+        results.append(row)
+        if progress is not None:
+            progress(f"{label}: {1e3 * row['speed_mps']:.1f} mm/s ({result.used['evaluations']} gaits searched, "
+                     f"{'robust' if row['robust'] else 'NOT robust'})")  # fmt: skip
+    summary = {
+        "schema": SCHEMA, "command": command, "wall_seconds": round(time.perf_counter() - began, 1),
+        "model": "plane", "objective": "own", "evaluations_per_member": evaluations, "seed": int(seed),
+        "speed": "mean over the re-score's new starts (8 x 50 s) of the best robust gait, along its own direction",
+        "members": results,
+    }  # fmt: skip
+    gait_search.write_json(out_dir / "summary.json", json_safe(summary))
+    if plot:
+        plot_summary(summary, out_dir / "speed.png")
+    return summary
+
+
+def plot_summary(summary: dict, path) -> None:
+    """speed.png: the best gait's speed against c/a (two legs) and against the leg count (the sphere)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = summary["members"]
+    shells = sorted((r for r in rows if r["num_legs"] == 2), key=lambda r: r["c_over_a"])
+    legs = sorted((r for r in rows if r["c_over_a"] == 1.0), key=lambda r: r["num_legs"])
+    fig, (left, right) = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
+    for ax, group, key, label in ((left, shells, "c_over_a", "shell c/a (a = b = 0.12 m; 1: the paper's sphere)"),
+                                  (right, legs, "num_legs", "legs on the sphere")):  # fmt: skip
+        x = [r[key] for r in group]
+        ax.plot(x, [1e3 * r["speed_mps"] for r in group], "o-", label="mean over new starts")
+        ax.plot(x, [1e3 * r["worst_start_speed_mps"] for r in group], "v:", label="worst start")
+        ax.set_xlabel(label)
+        ax.grid(alpha=0.3)
+    right.set_xticks([r["num_legs"] for r in legs])
+    left.axvline(1.0, color="0.6", lw=0.8)
+    left.set_ylabel("best searched gait's speed (mm/s)")
+    left.legend(fontsize=8)
+    fig.suptitle(f"RRRobot family on the plane: {summary['evaluations_per_member']:,} gaits searched a member",
+                 fontsize=10)  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
