@@ -163,6 +163,11 @@ def _counts(text: str) -> tuple:
     return tuple(_positive_int(part) for part in text.split(","))
 
 
+def _seed_list(text: str) -> tuple:
+    """Comma-separated seeds (whole numbers >= 0)."""
+    return tuple(_count(part) for part in text.split(","))
+
+
 def _gait_name(text: str) -> str:
     """A name for searched gaits: letters, digits, '-', '_' and '.' (agent names in tables and on the command line)."""
     if not text or not all(c.isalnum() or c in "-_." for c in text):
@@ -286,12 +291,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(rrrobot_gym/shape_study.py).",
     )
     study.add_argument("--out-dir", type=Path, required=True, metavar="DIR", help="where the study is written")
-    study.add_argument("--evaluations", type=_positive_int, default=6000,
+    study.add_argument("--evaluations", type=_positive_int, default=8000,
                        help="gaits each member's search scores (default: %(default)s)")
     study.add_argument("--ratios", type=_numbers, metavar="R,R,...",
                        help="shell ratios c/a (default: 0.6,0.7,0.8,0.9,1,1.1,1.2,1.4)")
     study.add_argument("--legs", type=_counts, metavar="N,N,...", help="leg counts on the sphere (default: 2,3,4)")
-    study.add_argument("--seed", type=_count, default=0, help="every member's search seed (default: %(default)s)")
+    study.add_argument("--seeds", type=_seed_list, default=(0, 1),
+                       help="each member is searched once per seed; its best search counts (default: 0,1)")
     study.add_argument("--no-progress", action="store_true", help="print nothing until the end")
     study.set_defaults(run=run_shape_study)
     _add_turn_then_run_parsers(sub)
@@ -899,7 +905,7 @@ def run_shape_study(args) -> None:
         shape_study.members(**options)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    summary = shape_study.run(args.out_dir, evaluations=args.evaluations, seed=args.seed,
+    summary = shape_study.run(args.out_dir, evaluations=args.evaluations, seeds=args.seeds,
                               progress=None if args.no_progress else print, command=args.command_line, **options)
     print(f"wrote {args.out_dir / 'summary.json'} and {args.out_dir / 'speed.png'} in {summary['wall_seconds']:.0f} s")
 
