@@ -42,7 +42,7 @@ from .envs.vector import RRRobotVectorEnv
 
 PHYSICS_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit", "kp", "kd", "robot", "damping", "legs", "timestep", "integrator",
                     "frame_skip", "friction_coefficient", "max_slip_velocity", "max_liftoff_time",
-                    "contact_quadrature", "action_hold")  # fmt: skip
+                    "contact_quadrature", "action_hold", "num_legs", "shell_axes")  # fmt: skip
 """Env keywords that change what any agent can do: a policy's apply to every agent on its model."""
 SERVO_KEYWORDS = ("torque_limit", "leg_rate_limit", "leg_accel_limit")
 """The servo's keywords: every record names them, default or not."""
@@ -69,7 +69,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     ``seed`` seeds the env: sub-env i gets ``seed + i``, unless ``robot_seeds`` (one per heading,
     the same for every agent) seeds heading i's robot; the env's own generator (observation noise)
     gets ``seed`` either way. Returns {name: run}, each run a dict of arrays: ``times`` (T+1,) s,
-    ``xy`` (T+1, H, 2) contact path (m), ``leg_angles`` (T+1, H, 2) and ``leg_targets`` (T, H, 2)
+    ``xy`` (T+1, H, 2) contact path (m), ``leg_angles`` (T+1, H, L) and ``leg_targets`` (T, H, L)
     rad, ``terminated`` (H,), ``draws`` ({name: (H,)}, the randomized robots of the reset info) and
     per control step (T, H) the env info's step summaries named by ``info_keys``. After a robot's
     episode ends its path holds its last position, then NaN (and its summaries NaN).
@@ -93,13 +93,14 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
     obs, reset_info = env.reset(seed=seed if robot_seeds is None else list(robot_seeds) * len(names),
                                 options={"target_direction": headings})
     draws = {key[len("randomized_"):]: reset_info[key] for key in reset_info if key.startswith("randomized_")}
-    xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, 6:8].copy()], []
+    leg_columns = env.config.sim.fields.leg_angles
+    xy, legs, targets = [env.states[:, 0:2].copy()], [env.states[:, leg_columns].copy()], []
     effort = {key: [] for key in info_keys}
     agent_states = {name: None for name in names}
     episode_start = np.ones(n_head, dtype=bool)
     ended = np.zeros(len(headings), dtype=bool)
     for _ in range(steps):
-        actions = np.empty((len(headings), 2), dtype=np.float32)
+        actions = np.empty((len(headings), env.config.num_robot_legs), dtype=np.float32)
         for a, name in enumerate(names):
             rows = slice(a * n_head, (a + 1) * n_head)
             actions[rows], agent_states[name] = agents[name].predict(
@@ -125,7 +126,7 @@ def run_episodes(agents, model: str, headings_deg, duration: float = 50.0, seed:
         current[gone] = np.nan
         targets.append(leg_target)
         xy.append(current[:, 0:2])
-        legs.append(current[:, 6:8])
+        legs.append(current[:, leg_columns])
         for key in info_keys:
             step_effort[key][gone] = np.nan
             effort[key].append(step_effort[key])
@@ -179,6 +180,8 @@ def physics_of(agents) -> dict:
     chosen = {}
     for name, agent in agents.items():
         for key, value in getattr(agent, "env_kwargs", {}).items():
+            if key == "shell_axes" and value is not None:
+                value = tuple(float(v) for v in value)  # (a list from JSON, a tuple from Python)
             if key in PHYSICS_KEYWORDS:
                 if key in chosen and chosen[key][1] != value:
                     raise ValueError(f"agents {chosen[key][0]!r} and {name!r} were trained with different {key}: "
@@ -237,6 +240,12 @@ def agents_on(model: str, agents: dict, per_model=None) -> dict:
     return dict(sorted(merged.items(), key=lambda item: item[0] != "ppo"))  # (stable: the rest as given)
 
 
+def gait_legs(agent):
+    """The leg count of an open-loop gait agent's gait (None for any other agent)."""
+    gait = getattr(agent, "gait", None)
+    return None if gait is None else int(np.shape(gait.angles(np.zeros(1)))[-1])
+
+
 def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_model=None, physics=None):
     """Records for every agent, model and heading, plus the runs for plotting.
 
@@ -250,6 +259,11 @@ def evaluate(agents: dict, models, duration: float = 50.0, seed: int = 0, per_mo
     for model in models:
         on_model = agents_on(model, agents, per_model)
         imposed = physics_on(model, on_model, physics)
+        legs = make_task_config(model=model, **imposed).num_robot_legs
+        other = [name for name, agent in on_model.items() if gait_legs(agent) not in (None, legs)]
+        if other:  # (the Table II gaits beside a family member's policy or gaits)
+            print(f"not scored on the {legs}-leg robot: {', '.join(other)} (gaits of another leg count)", file=sys.stderr)
+            on_model = {name: agent for name, agent in on_model.items() if name not in other}
         # Open-loop gaits go one way: score them along it too (a closed-loop agent has no such direction).
         gaits = {name: agent for name, agent in on_model.items() if name != "ppo" and not getattr(agent, "closed_loop", False)}
         first = run_episodes(gaits, model, [0.0], duration, seed, **imposed) if gaits else {}
@@ -340,6 +354,11 @@ def evaluate_randomized(agents: dict, models, n: int, duration: float = 50.0, se
     for model in models:
         on_model = agents_on(model, agents, per_model)
         imposed = physics_on(model, on_model, physics)
+        legs = make_task_config(model=model, **imposed).num_robot_legs
+        other = [name for name, agent in on_model.items() if gait_legs(agent) not in (None, legs)]
+        if other:  # (the Table II gaits beside a family member's policy or gaits)
+            print(f"not scored on the {legs}-leg robot: {', '.join(other)} (gaits of another leg count)", file=sys.stderr)
+            on_model = {name: agent for name, agent in on_model.items() if name not in other}
         headings = [float(h) for h in COMPASS_DEG for _ in range(n)]
         seeds = [s for slot in range(len(COMPASS_DEG)) for s in robot_seeds(seed, slot, n)]
         own_here = {name: deg for name, deg in (own or {}).get(model, {}).items() if name in on_model}

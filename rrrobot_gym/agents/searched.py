@@ -38,5 +38,7 @@ def load_gait_agents(path) -> dict:
     for gait in gaits:
         agent = GaitAgent(gait, dt=dt, name=gait.name)
         agent.search_env_kwargs = dict(env_kwargs)
+        # the robot it was searched for: evaluate.py runs it (and every agent beside it) on that robot
+        agent.env_kwargs = {k: env_kwargs[k] for k in ("num_legs", "shell_axes") if k in env_kwargs}
         agents[gait.name] = agent
     return agents
