@@ -4,6 +4,7 @@ naming the keyword."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import gymnasium
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 import rrrobot_gym  # noqa: F401  (registers RRRobot-v0)
-from rrrobot_gym import gait_search
+from rrrobot_gym import evaluation, gait_search
 from rrrobot_gym.agents.mirror import has_mirror
 from rrrobot_gym.envs.task import TERMINATIONS, make_task_config
 from rrrobot_gym.envs.vector import RRRobotVectorEnv
@@ -130,5 +131,12 @@ def test_a_search_on_a_three_leg_robot_writes_its_leg_counts_names_and_loads_bac
     result.write_json(path)
     gaits = gait_search.load_gaits(path)
     assert [g.num_legs for g in gaits] == [3, 3]
+    # evaluate.py runs the file's gaits on their robot, leaving out the two-leg Table II gaits
+    report = tmp_path / "report.json"
+    records = evaluation.main(["--no-policy", "--gaits", str(path), "--models", "plane", "--duration", "1",
+                               "--json", str(report)])  # fmt: skip
+    assert json.loads(report.read_text())["records"] == json.loads(json.dumps(records))
+    scored = {r["agent"] for r in records}
+    assert scored == {g.name for g in gaits}
     with pytest.raises(ValueError, match="3 legs, so a gait has 9 parameters"):
         gait_search.evaluate_population(np.zeros((1, 6)), duration=1.0, num_legs=3, backend="numpy")
