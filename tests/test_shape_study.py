@@ -53,3 +53,19 @@ def test_the_cli_refuses_a_bad_ratio_before_any_search(tmp_path, capsys):
     assert main(["shape-study", "--out-dir", str(tmp_path), "--ratios", "0.6,9"]) == 2
     assert "c/a must be a number from 0.2 to 5" in capsys.readouterr().err
     assert not (tmp_path / "summary.json").exists()
+
+
+def test_every_search_starts_from_the_papers_best_gait_carried_over_to_its_legs():
+    """Two legs: the paper robot's gait itself; four: legs 1 and 3 (at -90 and +90 deg, the paper's
+    two) swing as the paper's and legs 2 and 4 rest upright."""
+    import math
+
+    import numpy as np
+
+    from rrrobot_gym.gait_search import SinusoidGait
+
+    assert tuple(shape_study.start_gait(2)) == shape_study.PAPER_GAIT
+    paper, four = SinusoidGait(*shape_study.PAPER_GAIT), SinusoidGait(*shape_study.start_gait(4))
+    times = np.linspace(0.0, 3.0, 31)
+    np.testing.assert_array_equal(four.angles(times)[:, [0, 2]], paper.angles(times))
+    np.testing.assert_array_equal(four.angles(times)[:, [1, 3]], 0.5 * math.pi)
