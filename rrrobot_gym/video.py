@@ -40,7 +40,7 @@ def record(agent, heading_deg: float, seconds: float, every: int = 2, width: int
         for step in range(1, steps + 1):
             action, state = agent.predict(observation[None], state=state, episode_start=np.array([step == 1]),
                                           deterministic=True)
-            observation, _, terminated, _, _ = env.step(np.asarray(action, dtype=np.float32).reshape(2))
+            observation, _, terminated, _, _ = env.step(np.asarray(action, dtype=np.float32).reshape(env.action_space.shape))
             if step % every == 0 or terminated:
                 frames.append(env.render())
             if terminated:

@@ -247,6 +247,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self._observation = None  # the last observation returned, float32
         self._upright = (None, None)  # (the state, its upright contact point (1, 2)), reused by the next step
         self._path = None  # contact points so far, kept only when rendering
+        self._heading = (None, None, None)  # (a heading, its (2, 1) cos and sin, (1,) itself), for the compiled step
         self._viewer = None
         self._no_window = False  # human mode where no window can open: warned once, nothing shown
         self.compiled_task = task.CompiledTask(self.config, 1) if task.CompiledTask.applies(self.config) else None
@@ -297,11 +298,13 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
             observation, reward, terminated, info = self._task_step(before, action, applied, upright)
         else:
             target = self.episode_target_direction
+            if self._heading[0] != target:  # (once an episode: its sine and cosine cost as much as a step's Python)
+                self._heading = (target, np.array(task.heading_vectors([target])).reshape(2, 1), np.array([target]))
             if upright is None:
                 upright = task.upright_contact_points(before[None], self.config)
             after, targets, rates, observations, values, flags, rewards, terminations, lost = self.compiled_task.step(
                 before[None], self._observation[None], self.leg_targets[None], self.leg_target_rates[None],
-                applied[None], action[None], np.array(task.heading_vectors([target])).reshape(2, 1), np.array([target]),
+                applied[None], action[None], self._heading[1], self._heading[2],
                 np.array([self.time]), np.array([self.time + self.dt]), np.array([self.contact_lost]), upright,
             )  # fmt: skip
             self.state, observation, self.leg_targets, self.leg_target_rates = after[0], observations[0], targets[0], rates[0]
