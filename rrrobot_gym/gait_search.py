@@ -243,6 +243,11 @@ class SinusoidGait:
         items = ", ".join(f"{k}={v!r}" for k, v in self.parameters().items())
         return f"SinusoidGait({items}, ramp_s={self.ramp_s!r}, name={self.name!r})"
 
+    def replace(self, **changes) -> "SinusoidGait":
+        """A copy with some parameters (by name), ``ramp_s`` or ``name`` changed."""
+        values = {**self.parameters(), "ramp_s": self.ramp_s, "name": self.name, **changes}
+        return SinusoidGait(**values)
+
     @classmethod
     def from_dict(cls, values: dict, name: str = "sinusoid", ramp_s: float = 0.0) -> "SinusoidGait":
         return cls(**values, ramp_s=ramp_s, name=name)

@@ -405,8 +405,6 @@ def test_a_ramped_gait_starts_at_rest_and_its_rates_are_the_derivatives_of_its_a
 
 
 def test_a_ramped_gait_is_simulated_on_numpy_and_its_legs_follow_the_growing_swing():
-    from dataclasses import replace as with_fields
-
     from rrrobot_gym.simulation import SimConfig, simulate
 
     assert RAMPED.compiled_targets() is None  # the compiled stepper has no ramp
@@ -419,7 +417,7 @@ def test_a_ramped_gait_is_simulated_on_numpy_and_its_legs_follow_the_growing_swi
     swing_early = legs[early].max(axis=0) - legs[early].min(axis=0)
     swing_late = legs[late].max(axis=0) - legs[late].min(axis=0)
     assert np.all(swing_early < 0.2 * swing_late) and np.all(swing_late > 1.5 * np.array([1.2, 0.9]))
-    assert with_fields(RAMPED, ramp_s=0.0).compiled_targets() is not None
+    assert RAMPED.replace(ramp_s=0.0).compiled_targets() is not None
 
 
 def test_gait_files_carry_their_ramp_and_old_files_mean_none(tmp_path):

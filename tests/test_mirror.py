@@ -89,7 +89,7 @@ def test_a_mirrored_agent_runs_minus_y_headings_as_mirror_images_of_plus_y_ones(
     agent = MirroredAgent(policy)
     env = RRRobotVectorEnv(num_envs=len(HEADINGS_DEG), reset_noise_scale=0.0)
     obs, _ = env.reset(options={"target_direction": np.radians(HEADINGS_DEG)})
-    np.testing.assert_array_equal(mirrored_rows(obs), HEADINGS_DEG < 0)
+    np.testing.assert_array_equal(mirrored_rows(obs, env.config), HEADINGS_DEG < 0)
     for _ in range(60):
         actions, _ = agent.predict(obs)
         plain, _ = policy.predict(obs)
