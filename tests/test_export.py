@@ -22,7 +22,7 @@ from rrrobot_gym.cli import main  # noqa: E402
 from rrrobot_gym.envs.task import make_task_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-SHIPPED = ["pretrained", "pretrained_pivot"]
+SHIPPED = ["pretrained", "pretrained_pivot", "family_legs4"]  # (the last: a four-leg robot)
 HEADINGS_DEG = (0, 45, 90, 135, 180, -135, -90, -45)
 """From the paper's start: the +Y side, the -Y side (mirrored) and both axis headings (not)."""
 
@@ -60,7 +60,8 @@ def test_the_onnx_network_gives_the_policy_s_actions(shipped, tmp_path, capsys):
     assert [i.name for i in session.get_inputs()] == ["observation"]
     onnx_actions = session.run(["action"], {"observation": observations.astype(np.float32)})[0]
     expected, _ = agent.predict(observations, deterministic=True)
-    assert onnx_actions.shape == (len(observations), 2) and onnx_actions.dtype == np.float32
+    legs = make_task_config(**agent.env_config).num_robot_legs  # (one action a leg)
+    assert onnx_actions.shape == (len(observations), legs) and onnx_actions.dtype == np.float32
     np.testing.assert_allclose(onnx_actions, expected, rtol=0, atol=1e-5)
     assert np.abs(expected).max() > 0.1  # (the actions are not trivially equal)
     # one row at a time (the batch axis is dynamic) gives the same
