@@ -760,6 +760,15 @@ def run_gait_search(args) -> None:
     print(f"wrote {args.out}")
 
 
+def require(command: str, modules) -> None:
+    """A usage error naming the extra to install if one of ``modules`` ((module, extra) pairs) is missing."""
+    for module, extra in modules:
+        try:
+            __import__(module)
+        except ImportError:
+            raise UsageError(f"{command} needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+
+
 def _run_search(args, modules, search):
     """``search()``, after the checks the search commands share before any work: a .json ``--out``,
     the ``modules`` ((module, extra) pairs; Ray's with ``--ray-address``) and a Ray head that
@@ -770,11 +779,7 @@ def _run_search(args, modules, search):
         raise UsageError(f"--out must name a .json file, got {str(args.out)!r}")
     check_output_path("--out", args.out)
     ray_address = getattr(args, "ray_address", None)
-    for module, extra in modules + ((("ray", "distributed"),) if ray_address else ()):
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"{args.command} needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+    require(args.command, modules + ((("ray", "distributed"),) if ray_address else ()))
     try:
         if ray_address is not None:
             check_ray_address(ray_address)
@@ -873,11 +878,7 @@ def run_export_onnx(args) -> None:
     if args.out.suffix != ".onnx":
         raise UsageError(f"--out must name a .onnx file, got {str(args.out)!r}")
     check_output_path("--out", args.out)
-    for module in ("torch", "stable_baselines3", "onnx"):
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"export-onnx needs {module}: pip install 'rrrobot_gym[train]'") from None
+    require("export-onnx", [(module, "train") for module in ("torch", "stable_baselines3", "onnx")])
     from .export import export_onnx
 
     try:
@@ -893,11 +894,7 @@ def run_export_onnx(args) -> None:
 def run_shape_study(args) -> None:
     from . import shape_study
 
-    for module, extra in (("cma", "search"), ("matplotlib", "plots")):
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"shape-study needs {module}: pip install 'rrrobot_gym[{extra}]'") from None
+    require("shape-study", (("cma", "search"), ("matplotlib", "plots")))
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise UsageError(f"cannot write --out-dir {args.out_dir}: it is a file")
     options = {"ratios": args.ratios or shape_study.DEFAULT_RATIOS, "leg_counts": args.legs or shape_study.DEFAULT_LEG_COUNTS}
@@ -925,11 +922,7 @@ def run_video(args) -> None:
     if suffix == ".mp4" and (args.width % 2 or args.height % 2):
         raise UsageError(f"an MP4 needs an even --width and --height (H.264's colour planes), got {args.width} x "
                          f"{args.height}")
-    for module in ("PIL", "imageio") + (("imageio_ffmpeg",) if suffix == ".mp4" else ()):
-        try:
-            __import__(module)
-        except ImportError:
-            raise UsageError(f"video needs {module}: pip install 'rrrobot_gym[video]'") from None
+    require("video", [(module, "video") for module in ("PIL", "imageio") + (("imageio_ffmpeg",) if suffix == ".mp4" else ())])
     if args.policy is not None:
         agent, model, env_kwargs = _video_policy(args)
     else:

@@ -296,3 +296,20 @@ def test_gait_search_env_refuses_a_keyword_set_by_an_option_of_its_own(spec, opt
         build_parser().parse_args([*required, "--env", spec])
     assert f"set {spec.split('=')[0].replace('-', '_')} with {option}, not --env" in capsys.readouterr().err
     assert build_parser().parse_args([*required, "--env", "max_slip_velocity=0.05"]).env == [("max_slip_velocity", 0.05)]
+
+
+@pytest.mark.parametrize("argv, module, extra", [
+    (["shape-study", "--out-dir", "OUT"], "cma", "search"),
+    (["shape-study", "--out-dir", "OUT"], "matplotlib", "plots"),
+    (["gait-search", "--model", "plane", "--out", "OUT/g.json"], "cma", "search"),
+    (["export-onnx", "agents/pretrained/best_model.zip", "--out", "OUT/p.onnx"], "onnx", "train"),
+    (["video", "--gait", "1", "--out", "OUT/v.gif"], "imageio", "video"),
+])  # fmt: skip
+def test_a_missing_extra_is_named_with_its_install_command_before_any_work(argv, module, extra, tmp_path, monkeypatch,
+                                                                           capsys):
+    monkeypatch.setitem(sys.modules, module, None)  # (import then raises ImportError)
+    command = argv[0]
+    status, err = rrrobot_here(capsys, *[a.replace("OUT", str(tmp_path)) for a in argv])
+    assert status == 2
+    assert f"{command} needs {module}: pip install 'rrrobot_gym[{extra}]'" in err and len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []  # nothing written
