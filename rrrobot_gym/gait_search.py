@@ -389,7 +389,11 @@ def robot_legs(**env_kwargs) -> int:
 def _check_population(parameters, num_legs: int | None = None) -> np.ndarray:
     """Gaits (P, 3L), P >= 1, finite; with ``num_legs``, L must be it (the robot's leg count)."""
     params = np.asarray(parameters, dtype=float)
-    if params.ndim != 2 or len(params) == 0 or params.shape[1] % 3 or not 1 <= params.shape[1] // 3 <= MAX_LEGS:
+    try:
+        legs = legs_of_parameters(params.shape[1]) if params.ndim == 2 and len(params) else None
+    except ValueError:
+        legs = None
+    if legs is None:
         raise ValueError(f"parameters must have shape (P, 3L) with P >= 1 for L legs ((P, {len(PARAMETER_NAMES)}) "
                          f"for two), got {params.shape}")  # fmt: skip
     if num_legs is not None and params.shape[1] != 3 * num_legs:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import gymnasium
 import numpy as np
 from gymnasium.error import DependencyNotInstalled
@@ -242,7 +241,7 @@ class RRRobotEnv(gymnasium.Env, EzPickle):
         self.leg_targets = None  # (L,) rad, the servo's reference at the end of the last step
         self.leg_target_rates = None  # (L,) rad/s, its rate over the last step (task.step_targets)
         self.robot_draws = {}  # {name: (1,) array}: this episode's randomized robot (task.draw_robots)
-        self._last_action = None  # (2,) the last action, for a randomized action delay
+        self._last_action = None  # (L,) the last action, for a randomized action delay
         self.contact_lost = 0.0  # s, how long the shell has been off the ground (normal force <= 0)
         self._observation = None  # the last observation returned, float32
         self._upright = (None, None)  # (the state, its upright contact point (1, 2)), reused by the next step
