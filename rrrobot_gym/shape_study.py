@@ -108,7 +108,7 @@ def start_gait(num_legs: int) -> np.ndarray:
 
 
 def run(out_dir, *, ratios=DEFAULT_RATIOS, leg_counts=DEFAULT_LEG_COUNTS, evaluations: int = 8000,
-        seeds=(0, 1), progress=None, command: str | None = None, plot: bool = True) -> dict:  # fmt: skip
+        seeds=(0, 1), progress=None, command: str | None = None) -> dict:  # fmt: skip
     """Search every member (:func:`members`) with each of ``seeds``, ``evaluations`` gaits a search,
     and write the study into ``out_dir``; returns the summary (the JSON's contents). A member's speed
     is its best search's best gait re-scored on 8 new noisy starts, 50 s each (mean along the gait's
@@ -159,8 +159,7 @@ def run(out_dir, *, ratios=DEFAULT_RATIOS, leg_counts=DEFAULT_LEG_COUNTS, evalua
         "members": results,
     }  # fmt: skip
     gait_search.write_json(out_dir / "summary.json", json_safe(summary))
-    if plot:
-        plot_summary(summary, out_dir / "speed.png")
+    plot_summary(summary, out_dir / "speed.png")
     return summary
 
 
