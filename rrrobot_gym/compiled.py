@@ -152,7 +152,10 @@ Constants = dynamics.Constants
 # overlap those it reads, and takes the robots in SIMD lanes. Bit-identity with the numpy stepper
 # needs the same order of operations: no fast-math, no fused multiply-adds, no libm trig. Two copies
 # are compiled: BLOCK = LANES (the lanes) and BLOCK = 1 (one robot, the single env's).
-LANES = 32
+LANES = int(os.environ.get("RR_LANES", "32"))
+E_SPLIT = "split" in os.environ.get("RR_E", "")
+attitude_kernel = dynamics.attitude_kernel
+E_PAIR = "pair" in os.environ.get("RR_E", "")
 BLOCK = LANES  # (each compiled copy's own)
 
 
@@ -164,7 +167,7 @@ def _rows(legs):
     n = 9 + 2 * legs
     drive = 6 * n
     scratch = drive + legs
-    record = scratch + 4 * legs
+    record = scratch + 4 * legs + 10
     params = record + 3 * legs + 5
     robot = params + 4 * legs
     return 0, n, 2 * n, 3 * n, 4 * n, 5 * n, drive, scratch, record, params, robot, robot + ROBOT_ROWS
@@ -300,10 +303,25 @@ def _block_derivatives(w, k, gains, layout, record):
     scalar); k None: each robot's own constants."""
     B, legs = BLOCK, len(layout)
     _, S, _, _, _, D, DRIVE, X, REC, _, R, _ = _rows(legs)
-    for i in range(B):
-        lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
-        derivative_kernel(w, S * B + i, D * B + i, B, lk, layout, DRIVE * B + i, X * B + i, False,
-                          REC * B + i if record else -1)  # fmt: skip
+    if E_SPLIT:
+        for i in range(B):
+            lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
+            attitude_kernel(w, S * B + i, D * B + i, B, lk, layout, X * B + i)
+    if B == 1 or not E_PAIR:
+        for i in range(B):
+            lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
+            derivative_kernel(w, S * B + i, D * B + i, B, lk, layout, DRIVE * B + i, X * B + i, False,
+                              REC * B + i if record else -1)  # fmt: skip
+    else:
+        H = B // 2
+        for i in range(H):
+            lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
+            derivative_kernel(w, S * B + i, D * B + i, B, lk, layout, DRIVE * B + i, X * B + i, False,
+                              REC * B + i if record else -1)  # fmt: skip
+            j = i + H
+            lk, _, _, _ = _own(w, R * B + j, B, k, gains, None, None)
+            derivative_kernel(w, S * B + j, D * B + j, B, lk, layout, DRIVE * B + j, X * B + j, False,
+                              REC * B + j if record else -1)  # fmt: skip
 
 
 def _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout, record):
@@ -321,9 +339,9 @@ def _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared,
         _block_derivatives(w, k, gains, layout, False)
 
 
-def _block_combine(w, legs, keep, scale):
+def _block_combine(w, layout, keep, scale):
     """Copy the last derivative to rows ``keep`` and set the stage state to y + scale * it."""
-    B = BLOCK
+    B, legs = BLOCK, len(layout)
     Y, S, _, _, _, D, _, _, _, _, _, _ = _rows(legs)
     for m in range((9 + 2 * legs) * B):  # one loop over every row's lanes: long enough to be vectorised, not unrolled
         d = w[D * B + m]
@@ -331,9 +349,9 @@ def _block_combine(w, legs, keep, scale):
         w[S * B + m] = w[Y * B + m] + scale * d
 
 
-def _block_update(w, legs, sixth):
+def _block_update(w, layout, sixth):
     """RK4's step from the four stages, then the quaternion back to unit length."""
-    B = BLOCK
+    B, legs = BLOCK, len(layout)
     Y, S, K1, K2, K3, D, _, _, _, _, _, _ = _rows(legs)
     for m in range((9 + 2 * legs) * B):
         w[Y * B + m] = w[Y * B + m] + sixth * (w[K1 * B + m] + 2.0 * (w[K2 * B + m] + w[K3 * B + m]) + w[D * B + m])
@@ -362,13 +380,13 @@ def _block_substep(w, first, t, h, k, gains, torque_limit, rate_limit, kind, par
         for m in range(size * B):  # rows REC .. REC + size - 1 are the record's, in its order
             j = m // B
             flat[(row * size + j) * n + first + m - j * B] = w[REC * B + m]
-    _block_combine(w, legs, K1, half)
+    _block_combine(w, layout, K1, half)
     _block_stage(w, t + half, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
-    _block_combine(w, legs, K2, half)
+    _block_combine(w, layout, K2, half)
     _block_stage(w, t + half, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
-    _block_combine(w, legs, K3, h)
+    _block_combine(w, layout, K3, h)
     _block_stage(w, t + h, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
-    _block_update(w, legs, sixth)
+    _block_update(w, layout, sixth)
 
 
 def _block(y, first, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, summary,
@@ -635,6 +653,10 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
               file=sys.stderr, flush=True)  # fmt: skip
     previous = numba.config.CACHE_DIR
+    if os.environ.get("RR_LLVM"):
+        import llvmlite.binding as llb
+        for opt in os.environ["RR_LLVM"].split(","):
+            llb.set_option("", opt)
     numba.config.CACHE_DIR = directory  # read when a dispatcher is made, not later
     try:
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
@@ -644,8 +666,11 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
         # numerics' functions on floats (its select and anywhere in their scalar forms), inlined
         scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
         scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
-        kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar}, f"_{legs}", legs)
+        fm = os.environ.get("RR_FM")
+        kin = functools.partial(inline, fastmath=set(fm.split(","))) if fm else inline
+        kernels = _copies(dynamics.KERNELS, kin, {**vars(dynamics), **scalar}, f"_{legs}", legs)
         namespace["derivative_kernel"] = kernels["derivative_kernel"]
+        namespace["attitude_kernel"] = kernels["attitude_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         # (copies with other globals, or unrolled for another leg count: names of their own in the cache)

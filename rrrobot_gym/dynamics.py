@@ -76,6 +76,17 @@ from .numerics import sincos
 from .params import MAX_LEGS, RobotParams, check_model
 
 
+import os as _os
+E_DIV = "div" in _os.environ.get("RR_E", "")
+E_SPHERE = "sphere" in _os.environ.get("RR_E", "")
+E_NOOP = "noop" in _os.environ.get("RR_E", "")
+E_SPLIT = "split" in _os.environ.get("RR_E", "")
+E_REC = "rec" in _os.environ.get("RR_E", "")
+FIXED_LAYOUT_ON = "fixed" in _os.environ.get("RR_E", "")
+FIXED_LAYOUT = ((0.0, -0.12, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0), (0.0, 0.12, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0))
+INV_D = 1.0 / (0.057 * (0.1 * 0.1))
+
+
 class StateFields(NamedTuple):
     """Where each field of a state of ``num_legs`` legs lies (slices of the last axis)."""
 
@@ -229,6 +240,10 @@ def _shell(n, omega, k):
     (ndot = n x Omega), and the centre's height above the ground, sqrt(n^T A n)."""
     nx, ny, nz = n
     ox, oy, oz = omega
+    if E_SPHERE:
+        ndx, ndy, ndz = _cross(nx, ny, nz, ox, oy, oz)
+        r = k[3]
+        return (-r * nx, -r * ny, -r * nz), (-r * ndx, -r * ndy, -r * ndz), r
     a2, b2, c2 = k[0], k[1], k[2]
     anx, any_, anz = a2 * nx, b2 * ny, c2 * nz
     q2 = nx * anx + ny * any_ + nz * anz
@@ -285,16 +300,29 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     in body coordinates (pivot: the joint's; Newton's second law for the whole robot with these
     accelerations), its part along world up, its magnitude along the ground, and each leg tip's
     height above the ground (2L + 5 values)."""
+    if FIXED_LAYOUT_ON:
+        layout = FIXED_LAYOUT
     num_legs = len(layout)
+    if E_NOOP:
+        for j in range(9 + 2 * num_legs):
+            w[out + j * step] = 0.0
+        return
     qw, qx, qy, qz = w[at + 2 * step], w[at + 3 * step], w[at + 4 * step], w[at + 5 * step]
     ox, oy, oz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
     gravity, damping, rolling = k[5], k[6], k[4]
-    xx, yy, zz, xy, xz, yz, wx, wy, wz = _rotation_products(qw, qx, qy, qz)
-    nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
-    (sx, sy, sz), (sdx, sdy, sdz), height = _shell((nx, ny, nz), (ox, oy, oz), k)
-    # the point the body turns about and its rate over the shell (0 for the pivot)
-    dx, dy, dz = rolling * sx, rolling * sy, rolling * sz
-    ddx, ddy, ddz = rolling * sdx, rolling * sdy, rolling * sdz
+    if E_SPLIT:
+        a0 = scratch + 4 * num_legs * step
+        nx, ny, nz = w[a0], w[a0 + step], w[a0 + 2 * step]
+        dx, dy, dz = w[a0 + 3 * step], w[a0 + 4 * step], w[a0 + 5 * step]
+        ddx, ddy, ddz = w[a0 + 6 * step], w[a0 + 7 * step], w[a0 + 8 * step]
+        height = w[a0 + 9 * step]
+    else:
+        xx, yy, zz, xy, xz, yz, wx, wy, wz = _rotation_products(qw, qx, qy, qz)
+        nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
+        (sx, sy, sz), (sdx, sdy, sdz), height = _shell((nx, ny, nz), (ox, oy, oz), k)
+        # the point the body turns about and its rate over the shell (0 for the pivot)
+        dx, dy, dz = rolling * sx, rolling * sy, rolling * sz
+        ddx, ddy, ddz = rolling * sdx, rolling * sdy, rolling * sdz
     wdx, wdy, wdz = _cross(ox, oy, oz, ddx, ddy, ddz)  # Omega x ddot
     o_sq = ox * ox + oy * oy + oz * oz
     # Pass over the legs: the tips' inertia and first moment, each leg's coupling c_k and force
@@ -332,7 +360,7 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
         else:
             force = force + drive_m
             w[scratch + (4 * m + 3) * step] = force
-            inv = 1.0 / inertia
+            inv = INV_D if E_DIV else 1.0 / inertia
             h1, h2, h3 = c1 * inv, c2 * inv, c3 * inv
             rxx, rxy, rxz = rxx + c1 * h1, rxy + c1 * h2, rxz + c1 * h3
             ryy, ryz, rzz = ryy + c2 * h2, ryz + c2 * h3, rzz + c3 * h3
@@ -363,12 +391,15 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
             accel = w[drive + m * step]
             torque = inertia * accel + c_od - force
         else:
-            accel = (force - c_od) / inertia
+            accel = (force - c_od) * INV_D if E_DIV else (force - c_od) / inertia
             torque = w[drive + m * step]
         w[out + (9 + num_legs + m) * step] = accel
         w[out + (6 + m) * step] = w[at + (9 + num_legs + m) * step]
         if record >= 0:
-            _, _, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
+            if E_REC:
+                px = py = pz = ex = ey = ez = 0.0
+            else:
+                _, _, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
             w[record + m * step] = torque
             w[record + (5 + num_legs + m) * step] = height + (px * nx + py * ny + pz * nz)
             ma = mass * accel
@@ -376,9 +407,10 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     w[out + (6 + num_legs) * step] = od0
     w[out + (7 + num_legs) * step] = od1
     w[out + (8 + num_legs) * step] = od2
-    # the contact point on the ground: R sdot (rows 0 and 1 of R)
-    w[out] = (1.0 - yy - zz) * sdx + (xy - wz) * sdy + (xz + wy) * sdz
-    w[out + step] = (xy + wz) * sdx + (1.0 - xx - zz) * sdy + (yz - wx) * sdz
+    if not E_SPLIT:
+        # the contact point on the ground: R sdot (rows 0 and 1 of R)
+        w[out] = (1.0 - yy - zz) * sdx + (xy - wz) * sdy + (xz + wy) * sdz
+        w[out + step] = (xy + wz) * sdx + (1.0 - xx - zz) * sdy + (yz - wx) * sdz
     # qdot = 1/2 q (x) (0, Omega) for a body-frame rate.
     hox, hoy, hoz = 0.5 * ox, 0.5 * oy, 0.5 * oz
     w[out + 2 * step] = -(qx * hox + qy * hoy + qz * hoz)
@@ -402,6 +434,23 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
         w[record + (num_legs + 4) * step] = tangential_force(force_x, force_y, force_z, normal)
 
 
+def attitude_kernel(w, at, out, step, k, layout, scratch):
+    num_legs = len(layout)
+    qw, qx, qy, qz = w[at + 2 * step], w[at + 3 * step], w[at + 4 * step], w[at + 5 * step]
+    ox, oy, oz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
+    rolling = k[4]
+    xx, yy, zz, xy, xz, yz, wx, wy, wz = _rotation_products(qw, qx, qy, qz)
+    nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
+    (sx, sy, sz), (sdx, sdy, sdz), height = _shell((nx, ny, nz), (ox, oy, oz), k)
+    a0 = scratch + 4 * num_legs * step
+    w[a0], w[a0 + step], w[a0 + 2 * step] = nx, ny, nz
+    w[a0 + 3 * step], w[a0 + 4 * step], w[a0 + 5 * step] = rolling * sx, rolling * sy, rolling * sz
+    w[a0 + 6 * step], w[a0 + 7 * step], w[a0 + 8 * step] = rolling * sdx, rolling * sdy, rolling * sdz
+    w[a0 + 9 * step] = height
+    w[out] = (1.0 - yy - zz) * sdx + (xy - wz) * sdy + (xz + wy) * sdz
+    w[out + step] = (xy + wz) * sdx + (1.0 - xx - zz) * sdy + (yz - wx) * sdz
+
+
 def tangential_force(fx, fy, fz, normal):
     """The part of a force (fx, fy, fz) along the ground, sqrt(|F|^2 - normal^2), given its part
     ``normal`` along world up (0 where rounding makes the square negative); floats or arrays.
@@ -412,7 +461,7 @@ def tangential_force(fx, fy, fz, normal):
     return np.sqrt(np.maximum(along_sq, 0.0))
 
 
-KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, tangential_force,
+KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, attitude_kernel, tangential_force,
            derivative_kernel)  # fmt: skip
 """The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
 :data:`rrrobot_gym.numerics.KERNELS`)."""
