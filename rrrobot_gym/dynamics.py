@@ -80,6 +80,9 @@ import os as _os
 E_DIV = "div" in _os.environ.get("RR_E", "")
 E_SPHERE = "sphere" in _os.environ.get("RR_E", "")
 E_NOOP = "noop" in _os.environ.get("RR_E", "")
+E_GEN = "gen" in _os.environ.get("RR_E", "")
+if E_GEN:
+    from ._gen import generated_kernel
 E_SPLIT = "split" in _os.environ.get("RR_E", "")
 E_REC = "rec" in _os.environ.get("RR_E", "")
 FIXED_LAYOUT_ON = "fixed" in _os.environ.get("RR_E", "")
@@ -300,6 +303,9 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     in body coordinates (pivot: the joint's; Newton's second law for the whole robot with these
     accelerations), its part along world up, its magnitude along the ground, and each leg tip's
     height above the ground (2L + 5 values)."""
+    if E_GEN:
+        generated_kernel(w, at, out, step, drive)
+        return
     if FIXED_LAYOUT_ON:
         layout = FIXED_LAYOUT
     num_legs = len(layout)
@@ -461,7 +467,7 @@ def tangential_force(fx, fy, fz, normal):
     return np.sqrt(np.maximum(along_sq, 0.0))
 
 
-KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, attitude_kernel, tangential_force,
+KERNELS = ((generated_kernel,) if E_GEN else ()) + (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, attitude_kernel, tangential_force,
            derivative_kernel)  # fmt: skip
 """The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
 :data:`rrrobot_gym.numerics.KERNELS`)."""
