@@ -61,7 +61,7 @@ from .analysis import json_safe
 from .envs.task import (LEG_TARGET_MAX, LEG_TARGET_MIN, control_steps, leg_targets_to_action, upright_contact_points,
                          with_servo)
 from .control import TARGETS_SINUSOID, sinusoid_targets
-from .params import MAX_LEGS, real_number, whole_number
+from .params import MAX_LEGS, leg_count, real_number, whole_number
 
 SCHEMA = "rrrobot_gym.gait_search/1"
 OBJECTIVES = ("own", "heading")
@@ -71,7 +71,7 @@ def parameter_names(num_legs: int = 2) -> tuple:
     """The names of an L-leg sinusoid's 3L numbers, in the order of its parameter arrays:
     ``amplitude_1..L``, ``offset_1..L``, ``frequency``, then the phases of legs 2..L after leg 1's
     (leg 1's is 0): ``phase_gap`` for the paper's two legs, ``phase_2 .. phase_L`` otherwise."""
-    legs = range(1, _leg_count(num_legs) + 1)
+    legs = range(1, leg_count("num_legs", num_legs) + 1)
     phases = ("phase_gap",) if num_legs == 2 else tuple(f"phase_{k}" for k in legs if k > 1)
     return (*(f"amplitude_{k}" for k in legs), *(f"offset_{k}" for k in legs), "frequency", *phases)
 
@@ -81,12 +81,6 @@ def bounds(num_legs: int = 2) -> dict:
     box = {"amplitude": (0.0, 1.5), "offset": (LEG_TARGET_MIN, LEG_TARGET_MAX), "frequency": (1.0, 15.0),
            "phase": (-math.pi, math.pi)}  # fmt: skip
     return {name: box[name.split("_")[0]] for name in parameter_names(num_legs)}
-
-
-def _leg_count(num_legs) -> int:
-    if isinstance(num_legs, bool) or not isinstance(num_legs, (int, np.integer)) or not 1 <= num_legs <= MAX_LEGS:
-        raise ValueError(f"num_legs must be a whole number from 1 to {MAX_LEGS}, got {num_legs!r}")
-    return int(num_legs)
 
 
 def legs_of_parameters(size: int) -> int:

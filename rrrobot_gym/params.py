@@ -52,6 +52,15 @@ MAX_LEGS = 6
 """The most legs a robot of the family has."""
 
 
+def leg_count(label: str, value, fewest: int = 1, why: str = "") -> int:
+    """``int(value)`` for a whole number of legs from ``fewest`` to :data:`MAX_LEGS`, or one ValueError
+    naming ``label`` (and ``why``, in parentheses, where a caller allows fewer than the family)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not fewest <= value <= MAX_LEGS:
+        reason = f" ({why})" if why else ""
+        raise ValueError(f"{label} must be a whole number from {fewest} to {MAX_LEGS}{reason}, got {value!r}")
+    return int(value)
+
+
 def _vector(label: str, value) -> tuple:
     """``value`` as three finite floats, or an error naming ``label``."""
     try:
@@ -171,11 +180,7 @@ class RobotParams:
                 f"RobotParams.damping must be <= 0 (the paper's sign: torque k*w with k < 0 dissipates), "
                 f"got {self.damping}"
             )
-        if isinstance(self.num_legs, bool) or not isinstance(self.num_legs, (int, np.integer)) or not (
-            1 <= self.num_legs <= MAX_LEGS
-        ):
-            raise ValueError(f"RobotParams.num_legs must be a whole number from 1 to {MAX_LEGS}, got {self.num_legs!r}")
-        put("num_legs", int(self.num_legs))
+        put("num_legs", leg_count("RobotParams.num_legs", self.num_legs))
         if self.legs is None:
             put("legs", default_legs(self.num_legs, self.shell_axes))
         else:

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import gait_search
 from .analysis import json_safe
-from .params import MAX_LEGS, whole_number
+from .params import leg_count, whole_number
 
 SCHEMA = "rrrobot_gym.shape_study/1"
 RADIUS = 0.12
@@ -72,10 +72,7 @@ def _ratios(ratios) -> tuple:
 def _leg_counts(counts) -> tuple:
     out = []
     for n in counts:
-        if isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= MAX_LEGS:
-            raise ValueError(f"a leg count must be a whole number from 2 to {MAX_LEGS} (one leg needs timestep="
-                             f"'auto', which the study does not mix in), got {n!r}")  # fmt: skip
-        out.append(n)
+        out.append(leg_count("a leg count", n, 2, "one leg needs timestep='auto', which the study does not mix in"))
     if len(set(out)) < len(out):
         raise ValueError(f"leg counts repeat: {counts!r}")
     return tuple(out)
