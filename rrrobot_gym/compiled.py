@@ -155,6 +155,7 @@ Constants = dynamics.Constants
 LANES = int(os.environ.get("RR_LANES", "32"))
 E_SPLIT = "split" in os.environ.get("RR_E", "")
 attitude_kernel = dynamics.attitude_kernel
+E_NOTQ = "notq" in os.environ.get("RR_E", "")
 E_PAIR = "pair" in os.environ.get("RR_E", "")
 BLOCK = LANES  # (each compiled copy's own)
 
@@ -280,6 +281,8 @@ def _block_torques(w, t, k, gains, torque_limit, rate_limit, kind, params, share
     """The servo's torques on the stage state, every robot of the block, into the torque rows
     (inlined where ``kind`` is a constant, so each kind of target has a loop of its own); k None:
     each robot's own gains and limits."""
+    if E_NOTQ:
+        return
     B, legs = BLOCK, len(layout)
     _, S, _, _, _, _, DRIVE, _, _, P, R, _ = _rows(legs)
     if params.shape[0] == 1:  # the same targets for every robot: once a stage
