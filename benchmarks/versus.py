@@ -16,9 +16,17 @@ their ratio (this tree over the other):
 The tree measured as "this tree" is the working tree, uncommitted changes included. Each tree's
 first process compiles its numba stepper (or loads its cache) before the timed steps.
 
+Besides the ratio of the medians it reports the median of each round's ratio (the two trees' runs
+of one round are neighbours in time, so a drift of the machine's speed cancels in their ratio) and
+those ratios' range: a change smaller than the range is not shown by the run. ``--cpu K`` pins
+every timed process to CPU K (Linux), so that none shares or changes its core.
+
 ``--instructions S`` also counts the instructions an env step takes in each tree under
 valgrind's callgrind (runs of S steps and of 1 step, differenced): the same numbers whatever
-else the machine is doing, so a ratio that does not drift with the machine's load. ``--backend``
+else the machine is doing, so a ratio that does not drift with the machine's load. These runs
+build numba's code for a generic x86-64 CPU (``NUMBA_CPU_NAME=generic``, SSE2 vectors: the same
+work, narrower lanes than this CPU's build): numba keys its cache by the CPU it sees, and under
+valgrind it would see another and compile again, under valgrind, for an hour. ``--backend``
 passes the env keyword ``backend`` to both trees.
 """
 from __future__ import annotations
@@ -65,14 +73,15 @@ print(max(num_envs, 1) * steps / (time.perf_counter() - start))
 """
 
 
-def run_fresh(tree: Path, *args, prefix=(), **env) -> subprocess.CompletedProcess:
+def run_fresh(tree: Path, *args, prefix=(), cpu=None, **env) -> subprocess.CompletedProcess:
     """_MEASURE with ``args`` in a fresh process importing ``tree``'s rrrobot_gym, with one BLAS
-    thread (``prefix``: a command to run it under, e.g. valgrind; ``env``: more variables).
-    Raises RuntimeError with the process's error output if it fails, or if it imported another
-    tree's rrrobot_gym (an installed copy shadowing ``tree``)."""
+    thread (``prefix``: a command to run it under, e.g. valgrind; ``cpu``: the one CPU it may run
+    on; ``env``: more variables). Raises RuntimeError with the process's error output if it fails,
+    or if it imported another tree's rrrobot_gym (an installed copy shadowing ``tree``)."""
     variables = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1", **env}
+    pin = None if cpu is None else (lambda: os.sched_setaffinity(0, {cpu}))
     out = subprocess.run([*prefix, sys.executable, "-c", _MEASURE, *map(str, args)], cwd=tree, env=variables,
-                         capture_output=True, text=True)  # fmt: skip
+                         capture_output=True, text=True, preexec_fn=pin)  # fmt: skip
     if out.returncode != 0:
         raise RuntimeError(f"the env of {tree} failed (exit {out.returncode}):\n{out.stderr[-3000:]}")
     imported = Path(out.stdout.split("rrrobot_gym ", 1)[1].split()[0]).resolve()
@@ -81,10 +90,10 @@ def run_fresh(tree: Path, *args, prefix=(), **env) -> subprocess.CompletedProces
     return out
 
 
-def rate(tree: Path, num_envs: int, steps: int, backend=None) -> float:
+def rate(tree: Path, num_envs: int, steps: int, backend=None, cpu=None) -> float:
     """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env;
-    ``backend``: the env's, else its default)."""
-    return float(run_fresh(tree, num_envs, steps, *_backend(backend)).stdout.split()[-1])
+    ``backend``: the env's, else its default; ``cpu``: the CPU to pin it to)."""
+    return float(run_fresh(tree, num_envs, steps, *_backend(backend), cpu=cpu).stdout.split()[-1])
 
 
 def _backend(backend):
@@ -95,9 +104,12 @@ def instructions(tree: Path, num_envs: int, steps: int, backend=None) -> float:
     """Instructions per env step of ``tree``'s env (num_envs 0: the single env) under callgrind:
     runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
 
+    generic = {"NUMBA_CPU_NAME": "generic", "PYTHONHASHSEED": "0"}
+    run_fresh(tree, num_envs, 1, *_backend(backend), **generic)  # builds (or loads) the generic code natively
+
     def collected(n: int) -> int:
         out = run_fresh(tree, num_envs, n, *_backend(backend),
-                        prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"), PYTHONHASHSEED="0")  # fmt: skip
+                        prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"), **generic)  # fmt: skip
         match = re.search(r"Collected : (\d+)", out.stderr)
         if match is None:
             raise RuntimeError(f"no instruction count in valgrind's output:\n{out.stderr[-2000:]}")
@@ -116,6 +128,7 @@ def main(argv=None) -> None:
     parser.add_argument("--quick", action="store_true", help="one round of 50 steps (a smoke run; medians need more)")
     parser.add_argument("--instructions", type=int, metavar="S",
                         help="also count instructions per env step under valgrind, from runs of S and 1 steps")
+    parser.add_argument("--cpu", type=int, metavar="K", help="pin every timed process to CPU K (Linux)")
     parser.add_argument("--backend", choices=("auto", "numpy", "numba"),
                         help="the simulator backend of both trees' envs (default: each tree's own default)")
     args = parser.parse_args(argv)
@@ -133,6 +146,12 @@ def main(argv=None) -> None:
             parser.error(f"--{name} must be a positive integer")
     if any(n < 1 for n in args.num_envs):
         parser.error("--num-envs must be positive integers")
+    if args.cpu is not None:
+        allowed = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+        if allowed is None:
+            parser.error("--cpu needs a system that pins processes to CPUs (Linux)")
+        if args.cpu not in allowed:
+            parser.error(f"--cpu must be one of the CPUs this process may use, {sorted(allowed)}; got {args.cpu}")
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         old = Path(tmp) / "old"
@@ -144,14 +163,17 @@ def main(argv=None) -> None:
             for num_envs in [0, *args.num_envs]:
                 rates = {"old": [], "new": []}
                 for _ in range(args.rounds):
-                    rates["old"].append(rate(old, num_envs, args.steps, args.backend))
-                    rates["new"].append(rate(HERE, num_envs, args.steps, args.backend))
+                    rates["old"].append(rate(old, num_envs, args.steps, args.backend, args.cpu))
+                    rates["new"].append(rate(HERE, num_envs, args.steps, args.backend, args.cpu))
                 old_median, new_median = statistics.median(rates["old"]), statistics.median(rates["new"])
+                paired = [b / a for a, b in zip(rates["old"], rates["new"])]
                 results.append({"env": "single" if num_envs == 0 else "vector", "num_envs": max(num_envs, 1),
                                 "old_steps_per_s": old_median, "new_steps_per_s": new_median,
-                                "ratio": new_median / old_median, "rounds": rates})  # fmt: skip
+                                "ratio": new_median / old_median, "paired_ratio_median": statistics.median(paired),
+                                "paired_ratio_range": [min(paired), max(paired)], "rounds": rates})  # fmt: skip
                 print(f"{results[-1]['env']:>6} N={max(num_envs, 1):<5} {args.revision}: {old_median:9,.0f}  "
-                      f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}", flush=True)
+                      f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}  "
+                      f"(round by round {statistics.median(paired):.2f}, {min(paired):.2f}-{max(paired):.2f})", flush=True)
                 if args.instructions is not None:
                     counts = {name: instructions(tree, num_envs, args.instructions, args.backend)
                               for name, tree in (("old", old), ("new", HERE))}  # fmt: skip
@@ -162,7 +184,7 @@ def main(argv=None) -> None:
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
     write_json(args.json, {"machine": machine(), "revision": args.revision, "steps": args.steps,
-                           "backend": args.backend, "results": results})  # fmt: skip
+                           "backend": args.backend, "cpu": args.cpu, "results": results})  # fmt: skip
 
 
 if __name__ == "__main__":
