@@ -155,6 +155,8 @@ Constants = dynamics.Constants
 LANES = int(os.environ.get("RR_LANES", "32"))
 E_SPLIT = "split" in os.environ.get("RR_E", "")
 attitude_kernel = dynamics.attitude_kernel
+E_NOCOMB = "nocomb" in os.environ.get("RR_E", "")
+E_NOUPD = "noupd" in os.environ.get("RR_E", "")
 E_NOTQ = "notq" in os.environ.get("RR_E", "")
 E_PAIR = "pair" in os.environ.get("RR_E", "")
 BLOCK = LANES  # (each compiled copy's own)
@@ -344,6 +346,8 @@ def _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared,
 
 def _block_combine(w, layout, keep, scale):
     """Copy the last derivative to rows ``keep`` and set the stage state to y + scale * it."""
+    if E_NOCOMB:
+        return
     B, legs = BLOCK, len(layout)
     Y, S, _, _, _, D, _, _, _, _, _, _ = _rows(legs)
     for m in range((9 + 2 * legs) * B):  # one loop over every row's lanes: long enough to be vectorised, not unrolled
@@ -354,6 +358,8 @@ def _block_combine(w, layout, keep, scale):
 
 def _block_update(w, layout, sixth):
     """RK4's step from the four stages, then the quaternion back to unit length."""
+    if E_NOUPD:
+        return
     B, legs = BLOCK, len(layout)
     Y, S, K1, K2, K3, D, _, _, _, _, _, _ = _rows(legs)
     for m in range((9 + 2 * legs) * B):
