@@ -178,9 +178,9 @@ def main(argv=None) -> None:
                     counts = {name: instructions(tree, num_envs, args.instructions, args.backend)
                               for name, tree in (("old", old), ("new", HERE))}  # fmt: skip
                     results[-1]["instructions_per_env_step"] = counts
-                    print(f"{'':>6} {'':<7} {args.revision}: {counts['old'] / 1e6:8.2f} M  this tree: "
-                          f"{counts['new'] / 1e6:8.2f} M instructions an env step  ratio "
-                          f"{counts['old'] / counts['new']:.2f}", flush=True)
+                    print(f"{'':>6} {'':<7} {args.revision}: {counts['old']:11,.0f}  this tree: "
+                          f"{counts['new']:11,.0f} instructions an env step  ratio "
+                          f"{counts['old'] / counts['new']:.3f}", flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
     write_json(args.json, {"machine": machine(), "revision": args.revision, "steps": args.steps,
