@@ -147,9 +147,9 @@ def main(argv=None) -> None:
     if any(n < 1 for n in args.num_envs):
         parser.error("--num-envs must be positive integers")
     if args.cpu is not None:
-        allowed = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
-        if allowed is None:
+        if not hasattr(os, "sched_getaffinity"):
             parser.error("--cpu needs a system that pins processes to CPUs (Linux)")
+        allowed = os.sched_getaffinity(0)
         if args.cpu not in allowed:
             parser.error(f"--cpu must be one of the CPUs this process may use, {sorted(allowed)}; got {args.cpu}")
     results = []
