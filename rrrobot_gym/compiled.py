@@ -30,7 +30,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from . import control, dynamics, numerics
+from . import control, dynamics, numerics, specialise
 
 SUMMARY_ROWS = 6  # rows of a record's summary (rrrobot_gym.simulation.SUMMARY_KEYS), made by this stepper
 
@@ -525,9 +525,10 @@ SOURCES = (__file__, dynamics.__file__, control.__file__, numerics.__file__)
 """The files whose functions every stepper compiles (the env's step also its task's modules')."""
 
 
-def cache_dir(sources=None):
+def cache_dir(sources=None, generated: str = ""):
     """Where compiled code is cached: one directory per content of the compiled sources (:data:`SOURCES`
-    unless given), numba and Python (numba itself re-checks only a function's own file).
+    unless given, and the ``generated`` source), numba and Python (numba itself re-checks only a
+    function's own file).
     ``$XDG_CACHE_HOME``/rrrobot_gym, else ~/.cache/rrrobot_gym."""
     import hashlib
     import platform
@@ -538,6 +539,7 @@ def cache_dir(sources=None):
     for path in sources or SOURCES:
         with open(path, "rb") as f:
             digest.update(f.read())
+    digest.update(generated.encode())
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return os.path.join(root, "rrrobot_gym", "numba-" + digest.hexdigest()[:16])
 
@@ -608,18 +610,20 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
+def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, kernel: str | None = None):
     """The compiled :func:`_batch` for robots of ``legs`` legs (``per_robot``: a copy for robots of
     their own values, cached under a name of its own), releasing the GIL (:func:`integrate` shares a
     batch among threads); with
     ``task`` = (entry, kernels), the compiled ``entry`` instead (:func:`task_stepper`): loaded from
-    the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process."""
+    the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process.
+    ``kernel``: the source of one robot's specialised derivative kernel (:func:`specialised`) to
+    run instead of the general one."""
     import numba
 
     entry, task_kernels = task if task is not None else (_batch, ())
     # (the task step also compiles the task's modules: its cache is named by their sources too)
     sources = None if task is None else (*SOURCES, *sorted({fn.__code__.co_filename for fn in (entry, *task_kernels)}))
-    directory = cache_dir(sources)
+    directory = cache_dir(sources, kernel or "")
     try:
         os.makedirs(directory, exist_ok=True)
         cache = os.access(directory, os.W_OK)
@@ -645,6 +649,8 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
         scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
         scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
         kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar}, f"_{legs}", legs)
+        if kernel is not None:
+            _compile_specialised(kernel, kernels, directory if cache else None, inline)
         namespace["derivative_kernel"] = kernels["derivative_kernel"]
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
@@ -674,6 +680,27 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2):
         numba.config.CACHE_DIR = previous
 
 
+def specialised(robot, model: str) -> str | None:
+    """The source of ``robot``'s specialised derivative kernel on ``model`` if it is one of
+    :data:`rrrobot_gym.specialise.SPECIALISED`, else None (the general kernel)."""
+    return specialise.kernel_source(robot, model) if robot in specialise.SPECIALISED else None
+
+
+def _compile_specialised(source: str, kernels: dict, directory, wrap):
+    """Put the compiled specialised kernel of ``source`` into ``kernels`` (the compiled kernels'
+    namespace, whose ``sincos`` and ``_sqrt`` it calls) as ``derivative_kernel``. Its source goes to
+    a file in the cache ``directory`` (None: not cached), which numba's cache needs to exist."""
+    path = "<rrrobot_gym.specialise>"
+    if directory is not None:
+        path = os.path.join(directory, "specialised_kernel.py")
+        if not os.path.exists(path):
+            with open(path, "w") as f:
+                f.write(source)
+    exec(compile(source, path, "exec"), kernels)
+    kernels["derivative_kernel"].__qualname__ = "derivative_kernel_specialised"
+    kernels["derivative_kernel"] = wrap(kernels["derivative_kernel"])
+
+
 def _named_copy(fn, namespace, name):
     """A copy of ``fn`` with the globals ``namespace``, under the qualified name ``name`` (its cache's)."""
     copy = types.FunctionType(fn.__code__, namespace, fn.__name__)
@@ -681,12 +708,13 @@ def _named_copy(fn, namespace, name):
     return copy
 
 
-def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2):
+def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2, kernel: str | None = None):
     """The compiled ``entry`` (``rrrobot_gym.envs.task.fused_step``: the env's whole step), which
     calls the physics (:func:`_physics_shared`, or :func:`_physics_own` where ``per_robot``) as
     ``_physics`` and the task's ``kernels`` (functions of the modules above this one, compiled from
-    their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread."""
-    return _stepper(per_robot, (entry, tuple(kernels)), legs)
+    their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread;
+    ``kernel``: :func:`_stepper`'s."""
+    return _stepper(per_robot, (entry, tuple(kernels)), legs, kernel)
 
 
 @functools.lru_cache(maxsize=32)
@@ -728,7 +756,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
-    step = _stepper(scene is not None, None, legs)
+    step = _stepper(scene is not None, None, legs, None if scene is not None else specialised(config.robot, config.model))
     robot, limits = (np.empty(0), (config.torque_limit, config.leg_rate_limit)) if scene is None else robot_rows(scene, len(y))
 
     def run(first, stop):  # robots first .. stop - 1, into their own arrays (one thread each)

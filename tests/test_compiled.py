@@ -297,11 +297,13 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
         "from rrrobot_gym.control import table2_gait\n"
         "for workers in (1, 2):\n"
         "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
-        "stats = [compiled._stepper(False, None, 2).stats]\n"
+        "kernel = compiled.specialised(sim.SimConfig().robot, 'plane')\n"
+        "stats = [compiled._stepper(False, None, 2, kernel).stats]\n"
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
-        "      compiled.cache_dir(), compiled.__file__)\n"
+        "      compiled.cache_dir(None, kernel), compiled.__file__)\n"
     )
-    warm = compiled.cache_dir()
+    # (the paper robot's shared stepper runs its specialised kernel, cached in a directory of its own)
+    warm = compiled.cache_dir(None, compiled.specialised(SimConfig().robot, "plane"))
     # (another test process may be writing into it: numba writes each file as *.tmp.* and renames it)
     shutil.copytree(warm, tmp_path / "rrrobot_gym" / os.path.basename(warm), ignore=shutil.ignore_patterns("*.tmp.*"))
     # the caches of other sources: one unused for 40 days (removed), one used yesterday (kept)
@@ -320,7 +322,7 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
     assert where == str(tmp_path / "rrrobot_gym" / os.path.basename(warm))
     # numba names cache files by the function's name: a stepper for another leg count has its own
     names = os.listdir(where)
-    assert any(n.startswith("compiled._batch_2_legs-") for n in names)
+    assert any(n.startswith("compiled._batch_2_legs-") for n in names) and "specialised_kernel.py" in names
 
 
 def _use_both_steppers():
@@ -333,12 +335,13 @@ def test_making_a_stepper_says_it_compiles_only_when_the_cache_lacks_it(tmp_path
     # (making the dispatcher prints the notice; numba compiles on its first call, not made here)
     _use_both_steppers()
     capsys.readouterr()
+    kernel = compiled.specialised(SimConfig().robot, "plane")  # (the shared stepper's, for the paper robot)
     for per_robot in (False, True):
-        compiled._stepper.__wrapped__(per_robot)
+        compiled._stepper.__wrapped__(per_robot, None, 2, None if per_robot else kernel)
     assert capsys.readouterr().err == ""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     for per_robot in (False, True):
-        compiled._stepper.__wrapped__(per_robot)
+        compiled._stepper.__wrapped__(per_robot, None, 2, None if per_robot else kernel)
     notices = capsys.readouterr().err.splitlines()
     assert [line.split(":")[1] for line in notices] == [" compiling the numba stepper (2 legs)",
                                                         " compiling the numba stepper (2 legs) (per-robot)"]
