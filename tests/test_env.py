@@ -197,6 +197,21 @@ def test_rocking_in_place_moves_the_contact_point_but_not_the_upright_contact_po
     assert np.ptp(np.array(upright), axis=0).max() < 1e-9
 
 
+@pytest.mark.parametrize("shell_axes", [(0.12, 0.12, 0.09), (0.12, 0.12, 0.14)], ids=["oblate", "prolate"])
+def test_an_ellipsoid_rocking_in_place_keeps_its_upright_contact_point(shell_axes):
+    """The meridian's arc (a quadrature, not the sphere's r tilt) rolls the contact back upright:
+    it stays put while the contact rolls to and fro."""
+    env = RRRobotEnv(reset_noise_scale=0.0, shell_axes=shell_axes)
+    env.reset(options={"state": tilted_state(0.2, 0.0)})
+    contact, upright = [], []
+    for _ in range(40):
+        _, _, _, _, info = env.step(leg_targets_to_action([0.5 * math.pi, 0.5 * math.pi]))
+        contact.append(info["y_position"])
+        upright.append((info["x_upright"], info["y_upright"]))
+    assert np.ptp(contact) > 0.03
+    assert np.ptp(np.array(upright), axis=0).max() < 1e-9
+
+
 def test_tipping_over_towards_the_heading_earns_no_forward_reward():
     """Rolling onto the rim carries the contact ~r pi/2 = 0.19 m but is no locomotion."""
     env = RRRobotEnv(reset_noise_scale=0.0, target_direction=-0.5 * math.pi)

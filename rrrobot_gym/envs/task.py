@@ -33,7 +33,7 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import compiled, dynamics, simulation, validity
-from ..numerics import arctan2, select, sincos
+from ..numerics import anywhere, arctan2, select, sincos
 from ..validity import record_measures
 from ..params import PDGains, RobotParams, real_number
 from ..control import HeldTargets, RampTargets
@@ -1071,12 +1071,15 @@ def upright_pose(x, y, rows, p):
     rho = 1.0 / np.sqrt((ux * ux) / (a * a) + (uy * uy) / (b * b))  # the equator's radius that way
     # the contact's angle from the pole on the meridian (rho sin beta, -c cos beta): tan beta = h / (rho c n_z)
     beta = arctan2(h, rho * c * cos_tilt)
-    arc = 0.0
-    for j in range(8):
-        t = beta * _ARC_NODES[j]
-        st, ct = sincos(t)
-        arc = arc + _ARC_WEIGHTS[j] * np.sqrt(rho * rho * (ct * ct) + c * c * (st * st))
-    arc = arc * beta
+    if anywhere((a != c) | (b != c)):  # an ellipsoid's meridian: its arc by quadrature
+        arc = 0.0
+        for j in range(8):
+            t = beta * _ARC_NODES[j]
+            st, ct = sincos(t)
+            arc = arc + _ARC_WEIGHTS[j] * np.sqrt(rho * rho * (ct * ct) + c * c * (st * st))
+        arc = arc * beta
+    else:  # a sphere's: a circle's arc
+        arc = c * beta
     # arc / sin(tilt) -> the pole's radius of curvature as the shell comes upright (lean undefined)
     leaning = sin_tilt > 1e-9
     scale = select(leaning, arc / select(leaning, sin_tilt, 1.0), select(off_pole, rho * rho / c, a * a / c))
