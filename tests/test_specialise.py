@@ -64,3 +64,17 @@ def test_specialising_the_paper_robot_leaves_out_its_zeros():
     skew = specialise.operation_count(_skewed(robot), "plane")
     assert plane < 0.9 * skew
     assert pivot < 0.85 * plane
+
+
+def test_the_default_envs_take_the_specialised_kernel_and_other_robots_the_general_one():
+    import gymnasium
+
+    import rrrobot_gym  # noqa: F401
+    from rrrobot_gym import compiled
+
+    for model in ("plane", "pivot"):
+        sim = gymnasium.make("RRRobot-v0", model=model).unwrapped.config.sim
+        assert compiled.specialised(sim.robot, sim.model) == specialise.kernel_source(RobotParams(), model)
+    for keywords in ({"num_legs": 3}, {"shell_axes": (0.12, 0.12, 0.09)}):
+        sim = gymnasium.make("RRRobot-v0", **keywords).unwrapped.config.sim
+        assert compiled.specialised(sim.robot, sim.model) is None
