@@ -359,9 +359,9 @@ def _block_substep(w, first, t, h, k, gains, torque_limit, rate_limit, kind, par
                 w[(REC + 2 * legs + 5 + m) * B + i] = w[(9 + legs + m) * B + i]
         flat = rows.reshape(-1)
         n = rows.shape[2]
-        for m in range(size * B):  # rows REC .. REC + size - 1 are the record's, in its order
-            j = m // B
-            flat[(row * size + j) * n + first + m - j * B] = w[REC * B + m]
+        for j in range(size):  # rows REC .. REC + size - 1 are the record's, in its order
+            for i in range(B):
+                flat[(row * size + j) * n + first + i] = w[(REC + j) * B + i]
     _block_combine(w, legs, K1, half)
     _block_stage(w, t + half, k, gains, torque_limit, rate_limit, kind, params, shared, layout, False)
     _block_combine(w, legs, K2, half)
