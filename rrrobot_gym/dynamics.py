@@ -55,7 +55,9 @@ Derivation (Kane's equations with the speeds u)
                         - m_k ((e_k . Omega)(Omega . rho_k) - (e_k . rho_k) |Omega|^2) + m_k e_k . (Omega x ddot)
     with M_w = sum_i m_i (|rho_i|^2 1 - rho_i rho_i^T), c_k = m_k rho_k x e_k, D_k = m_k l_k^2. The
     leg block is diagonal, so a Schur complement leaves one symmetric 3x3 solve per robot, done
-    by cofactors.
+    by cofactors. The kernel takes both rows' gravity and Omega x ddot terms as one vector
+    g n - Omega x ddot, and M_w from the second moment about d, Q = sum_i m_i rho_i rho_i^T =
+    J - S d^T - d G^T (J: the second moment about the centre), as M_w = tr(Q) 1 - Q.
 
 The kernels read and write one flat sequence ``w`` at offsets and a stride: state component j at
 ``w[at + j * step]``. The numpy backend passes a list of Python floats (one robot) or of (N,)
@@ -72,7 +74,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .numerics import sincos
+from .numerics import select, sincos
 from .params import MAX_LEGS, RobotParams, check_model
 
 
@@ -132,12 +134,12 @@ class Constants(NamedTuple):
     mass_tip: float  # kg, the robot's tip mass (a leg's: times its layout's ratio)
     total_mass: float  # kg, M
     weight: float  # N, M g
-    ixx: float  # kg m^2, the inertia about the centre of the masses fixed in the body (bottom, pins)
-    ixy: float
-    ixz: float
-    iyy: float
-    iyz: float
-    izz: float
+    jxx: float  # kg m^2, the second moment sum m x x^T about the centre of the masses fixed in the body (bottom, pins)
+    jxy: float
+    jxz: float
+    jyy: float
+    jyz: float
+    jzz: float
     sx: float  # kg m, their first moment about the centre
     sy: float
     sz: float
@@ -162,22 +164,22 @@ def constants(params: RobotParams, model: str, values: dict | None = None) -> Co
     get = (lambda name: getattr(params, name)) if values is None else (lambda name: values.get(name, getattr(params, name)))
     a, b, c = params.shell_axes
     mass_bottom, mass_pin, mass_tip, leg_length = get("mass_bottom"), get("mass_pin"), get("mass_tip"), get("leg_length")
-    # the bottom's and the pins' inertia about the centre and first moment: fixed in the body
-    ixx = iyy = mass_bottom * (c * c)
-    izz = ixy = ixz = iyz = sx = sy = 0.0 * mass_bottom
+    # the bottom's and the pins' second and first moments about the centre: fixed in the body
+    jzz = mass_bottom * (c * c)
+    jxx = jyy = jxy = jxz = jyz = sx = sy = 0.0 * mass_bottom
     sz = -mass_bottom * c
     total = mass_bottom
     for leg, (pin, tip) in zip(params.legs, params.leg_masses):
         pin_mass = mass_pin * (pin / params.mass_pin) if params.mass_pin else 0.0 * mass_pin + pin
         hx, hy, hz = leg.hinge
-        ixx, iyy, izz = ixx + pin_mass * (hy * hy + hz * hz), iyy + pin_mass * (hx * hx + hz * hz), izz + pin_mass * (hx * hx + hy * hy)
-        ixy, ixz, iyz = ixy - pin_mass * (hx * hy), ixz - pin_mass * (hx * hz), iyz - pin_mass * (hy * hz)
+        jxx, jyy, jzz = jxx + pin_mass * (hx * hx), jyy + pin_mass * (hy * hy), jzz + pin_mass * (hz * hz)
+        jxy, jxz, jyz = jxy + pin_mass * (hx * hy), jxz + pin_mass * (hx * hz), jyz + pin_mass * (hy * hz)
         sx, sy, sz = sx + pin_mass * hx, sy + pin_mass * hy, sz + pin_mass * hz
         total = total + (pin_mass + mass_tip * (tip / params.mass_tip))
     return Constants(
         a2=a * a, b2=b * b, c2=c * c, pole=c, rolling=1.0 if check_model(model) == "plane" else 0.0,
         gravity=params.gravity, damping=get("damping"), leg_length=leg_length, mass_tip=mass_tip, total_mass=total,
-        weight=total * params.gravity, ixx=ixx, ixy=ixy, ixz=ixz, iyy=iyy, iyz=iyz, izz=izz, sx=sx, sy=sy, sz=sz,
+        weight=total * params.gravity, jxx=jxx, jxy=jxy, jxz=jxz, jyy=jyy, jyz=jyz, jzz=jzz, sx=sx, sy=sy, sz=sz,
     )  # fmt: skip
 
 
@@ -226,19 +228,24 @@ def _sqrt(x):
 
 def _shell(n, omega, k):
     """(s, sdot, height): the contact point in body coordinates, its rate over the shell
-    (ndot = n x Omega), and the centre's height above the ground, sqrt(n^T A n)."""
+    (ndot = n x Omega), and the centre's height above the ground, sqrt(n^T A n); on a sphere of
+    radius c (A = c^2 1, n a unit vector) these are -c n, -c ndot and c, without a root or a
+    division (:func:`select`: one robot's kernel, specialised, keeps only the sphere's)."""
     nx, ny, nz = n
     ox, oy, oz = omega
-    a2, b2, c2 = k[0], k[1], k[2]
+    a2, b2, c2, c = k[0], k[1], k[2], k[3]
+    ndx, ndy, ndz = _cross(nx, ny, nz, ox, oy, oz)
     anx, any_, anz = a2 * nx, b2 * ny, c2 * nz
     q2 = nx * anx + ny * any_ + nz * anz
     height = _sqrt(q2)
     inv = 1.0 / height
-    ndx, ndy, ndz = _cross(nx, ny, nz, ox, oy, oz)
     # d/dt (-A n / sqrt(n^T A n)) = (A n (A n . ndot) / (n^T A n) - A ndot) / sqrt(n^T A n)
-    t = (anx * ndx + any_ * ndy + anz * ndz) / q2
-    sdot = ((anx * t - a2 * ndx) * inv, (any_ * t - b2 * ndy) * inv, (anz * t - c2 * ndz) * inv)
-    return (-anx * inv, -any_ * inv, -anz * inv), sdot, height
+    t = (anx * ndx + any_ * ndy + anz * ndz) * (inv * inv)
+    sphere = (a2 == c2) & (b2 == c2)
+    s = (select(sphere, -c * nx, -anx * inv), select(sphere, -c * ny, -any_ * inv), select(sphere, -c * nz, -anz * inv))
+    sdot = (select(sphere, -c * ndx, (anx * t - a2 * ndx) * inv), select(sphere, -c * ndy, (any_ * t - b2 * ndy) * inv),
+            select(sphere, -c * ndz, (anz * t - c2 * ndz) * inv))  # fmt: skip
+    return s, sdot, select(sphere, c, height)
 
 
 def _leg(leg, phi, k):
@@ -253,27 +260,27 @@ def _leg(leg, phi, k):
     return mass, mass * (length * length), (rx, ry, rz), (hx + rx, hy + ry, hz + rz), e
 
 
-def _body(k, rolling_point, legs_first_moment, legs_inertia):
-    """(M_w, G): the inertia about the point the body turns about (upper triangle) and the first
-    moment about it, from the centre's inertia and first moment of the fixed masses (k) plus the
-    tips' (``legs_inertia``, ``legs_first_moment``)."""
+def _body(k, rolling_point, legs_first_moment, legs_second_moment):
+    """(M_w, G): the inertia about the point d the body turns about (upper triangle) and the first
+    moment about it, from the second moment sum m x x^T and the first moment S about the centre of
+    the fixed masses (k) plus the tips' (``legs_second_moment``, ``legs_first_moment``)."""
     dx, dy, dz = rolling_point
     sx, sy, sz = k[17] + legs_first_moment[0], k[18] + legs_first_moment[1], k[19] + legs_first_moment[2]
-    lxx, lxy, lxz, lyy, lyz, lzz = legs_inertia
+    lxx, lxy, lxz, lyy, lyz, lzz = legs_second_moment
     total = k[9]
-    # M_w = I_O - (2 (S.d) 1 - S d^T - d S^T) + M (|d|^2 1 - d d^T), and G = S - M d
-    s_d = sx * dx + sy * dy + sz * dz
-    mdx, mdy, mdz = total * dx, total * dy, total * dz
-    diag = total * (dx * dx + dy * dy + dz * dz) - 2.0 * s_d
+    # G = S - M d; the second moment about d, Q = J - S d^T - d S^T + M d d^T = J - S d^T - d G^T;
+    # and M_w = tr(Q) 1 - Q
+    gx, gy, gz = sx - total * dx, sy - total * dy, sz - total * dz
+    qxx, qyy, qzz = k[11] + lxx - dx * (sx + gx), k[14] + lyy - dy * (sy + gy), k[16] + lzz - dz * (sz + gz)
     m_w = (
-        k[11] + lxx + diag + 2.0 * sx * dx - mdx * dx,
-        k[12] + lxy + sx * dy + dx * sy - mdx * dy,
-        k[13] + lxz + sx * dz + dx * sz - mdx * dz,
-        k[14] + lyy + diag + 2.0 * sy * dy - mdy * dy,
-        k[15] + lyz + sy * dz + dy * sz - mdy * dz,
-        k[16] + lzz + diag + 2.0 * sz * dz - mdz * dz,
+        qyy + qzz,
+        sx * dy + dx * gy - (k[12] + lxy),
+        sx * dz + dx * gz - (k[13] + lxz),
+        qxx + qzz,
+        sy * dz + dy * gz - (k[15] + lyz),
+        qxx + qyy,
     )
-    return m_w, (sx - mdx, sy - mdy, sz - mdz)
+    return m_w, (gx, gy, gz)
 
 
 def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, kinematic: bool, record):
@@ -297,6 +304,7 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     ddx, ddy, ddz = rolling * sdx, rolling * sdy, rolling * sdz
     wdx, wdy, wdz = _cross(ox, oy, oz, ddx, ddy, ddz)  # Omega x ddot
     o_sq = ox * ox + oy * oy + oz * oz
+    fall_x, fall_y, fall_z = gravity * nx - wdx, gravity * ny - wdy, gravity * nz - wdz  # g n - Omega x ddot
     # Pass over the legs: the tips' inertia and first moment, each leg's coupling c_k and force
     # (into the scratch rows), their Schur terms, and the tips' velocity-dependent terms.
     lsx = lsy = lsz = lxx = lxy = lxz = lyy = lyz = lzz = 0.0
@@ -305,9 +313,8 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     for m in range(num_legs):
         mass, inertia, (rx, ry, rz), (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
         rate = w[at + (9 + num_legs + m) * step]
-        p_sq = px * px + py * py + pz * pz
-        lxx, lyy, lzz = lxx + mass * (p_sq - px * px), lyy + mass * (p_sq - py * py), lzz + mass * (p_sq - pz * pz)
-        lxy, lxz, lyz = lxy - mass * (px * py), lxz - mass * (px * pz), lyz - mass * (py * pz)
+        lxx, lyy, lzz = lxx + mass * (px * px), lyy + mass * (py * py), lzz + mass * (pz * pz)
+        lxy, lxz, lyz = lxy + mass * (px * py), lxz + mass * (px * pz), lyz + mass * (py * pz)
         lsx, lsy, lsz = lsx + mass * px, lsy + mass * py, lsz + mass * pz
         hx, hy, hz = px - dx, py - dy, pz - dz  # rho
         c1, c2, c3 = _cross(hx, hy, hz, ex, ey, ez)
@@ -319,9 +326,10 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
         ux, uy, uz = _cross(hx, hy, hz, blx, bly, blz)
         tx, ty, tz = tx + mass * ux, ty + mass * uy, tz + mass * uz
         bx, by, bz = bx + mass * blx, by + mass * bly, bz + mass * blz
-        e_o = ex * ox + ey * oy + ez * oz
-        force = -mass * (gravity * (nx * ex + ny * ey + nz * ez) + e_o * (ox * hx + oy * hy + oz * hz)
-                         - (ex * hx + ey * hy + ez * hz) * o_sq - (ex * wdx + ey * wdy + ez * wdz))  # fmt: skip
+        # e . (g n - Omega x ddot + Omega x (Omega x rho)), Omega x (Omega x rho) = Omega (Omega.rho) - rho |Omega|^2
+        o_h = ox * hx + oy * hy + oz * hz
+        force = -mass * (ex * (fall_x + (ox * o_h - hx * o_sq)) + ey * (fall_y + (oy * o_h - hy * o_sq))
+                         + ez * (fall_z + (oz * o_h - hz * o_sq)))  # fmt: skip
         w[scratch + 4 * m * step] = c1
         w[scratch + (4 * m + 1) * step] = c2
         w[scratch + (4 * m + 2) * step] = c3
@@ -338,14 +346,13 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
             ryy, ryz, rzz = ryy + c2 * h2, ryz + c2 * h3, rzz + c3 * h3
             fx, fy, fz = fx + h1 * force, fy + h2 * force, fz + h3 * force
     m_w, (gx, gy, gz) = _body(k, (dx, dy, dz), (lsx, lsy, lsz), (lxx, lxy, lxz, lyy, lyz, lzz))
-    # Omega rows: k Omega - g G x n - Omega x (M_w Omega) + G x (Omega x ddot) - sum m rho x b_leg
+    # Omega rows: k Omega - G x (g n - Omega x ddot) - Omega x (M_w Omega) - sum m rho x b_leg
     lx, ly, lz = _sym_apply(m_w, ox, oy, oz)
-    a1, a2, a3 = _cross(gx, gy, gz, nx, ny, nz)
+    a1, a2, a3 = _cross(gx, gy, gz, fall_x, fall_y, fall_z)
     j1, j2, j3 = _cross(ox, oy, oz, lx, ly, lz)
-    v1, v2, v3 = _cross(gx, gy, gz, wdx, wdy, wdz)
-    f0 = damping * ox - gravity * a1 - j1 + v1 - tx - fx
-    f1 = damping * oy - gravity * a2 - j2 + v2 - ty - fy
-    f2 = damping * oz - gravity * a3 - j3 + v3 - tz - fz
+    f0 = damping * ox - a1 - j1 - tx - fx
+    f1 = damping * oy - a2 - j2 - ty - fy
+    f2 = damping * oz - a3 - j3 - tz - fz
     if kinematic:
         od0, od1, od2 = _sym_solve(m_w, f0, f1, f2)
     else:
@@ -363,7 +370,7 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
             accel = w[drive + m * step]
             torque = inertia * accel + c_od - force
         else:
-            accel = (force - c_od) / inertia
+            accel = (force - c_od) * (1.0 / inertia)  # (the first pass's 1 / D)
             torque = w[drive + m * step]
         w[out + (9 + num_legs + m) * step] = accel
         w[out + (6 + m) * step] = w[at + (9 + num_legs + m) * step]
@@ -493,18 +500,17 @@ def _configuration(c, k, layout):
     omega = (c[6 + num_legs], c[7 + num_legs], c[8 + num_legs])
     s, _, height = _shell(n, omega, k)
     d = (k.rolling * s[0], k.rolling * s[1], k.rolling * s[2])
-    first, inertia = [0.0, 0.0, 0.0], [0.0] * 6
+    first, second = [0.0, 0.0, 0.0], [0.0] * 6
     couplings, inertias = [], []
     for m in range(num_legs):
         mass, leg_inertia, _, (px, py, pz), e = _leg(layout[m], c[6 + m], k)
-        p_sq = px * px + py * py + pz * pz
-        for i, v in enumerate((p_sq - px * px, -px * py, -px * pz, p_sq - py * py, -py * pz, p_sq - pz * pz)):
-            inertia[i] = inertia[i] + mass * v
+        for i, v in enumerate((px * px, px * py, px * pz, py * py, py * pz, pz * pz)):
+            second[i] = second[i] + mass * v
         first = [first[0] + mass * px, first[1] + mass * py, first[2] + mass * pz]
         cx, cy, cz = _cross(px - d[0], py - d[1], pz - d[2], *e)
         couplings.append((mass * cx, mass * cy, mass * cz))
         inertias.append(leg_inertia)
-    mass_w, _ = _body(k, d, first, inertia)
+    mass_w, _ = _body(k, d, first, second)
     centre_moment = (k.sx + first[0], k.sy + first[1], k.sz + first[2])
     return mass_w, couplings, inertias, centre_moment, height
 

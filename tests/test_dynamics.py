@@ -161,6 +161,28 @@ def test_mass_matrix_matches_kinetic_energy_of_the_point_masses(model, rng):
     assert from_matrix == pytest.approx(kinetic, rel=1e-6)
 
 
+@pytest.mark.parametrize("stretch", [1e-12, -1e-12, 1e-7])
+def test_a_spheres_contact_in_closed_form_is_the_ellipsoids_in_the_limit(stretch, rng):
+    """A sphere's contact point -c n, its rate -c ndot and the centre's height c are what the
+    ellipsoid's formulas give for a shell stretched from it by ``stretch`` (to that order): the
+    closed form the kernel takes for a sphere is the general one's limit, not a formula of its own."""
+    c = 0.12
+    sphere = dynamics.constants(RobotParams(), "plane")
+    stretched = sphere._replace(c2=(c * (1.0 + stretch)) ** 2)  # (the sphere's pole c kept)
+    for _ in range(50):
+        n = rng.normal(size=3)
+        n /= np.linalg.norm(n)
+        omega = tuple(rng.normal(size=3) * 5.0)
+        exact = dynamics._shell(tuple(n), omega, sphere)
+        near = dynamics._shell(tuple(n), omega, stretched)
+        np.testing.assert_allclose(exact[0], -c * n, rtol=0, atol=1e-17)
+        assert exact[2] == c
+        scale = 2.0 * abs(stretch) + 1e-15
+        np.testing.assert_allclose(near[0], exact[0], rtol=0, atol=scale * c)
+        np.testing.assert_allclose(near[1], exact[1], rtol=0, atol=scale * c * 10.0 * np.linalg.norm(omega))
+        assert near[2] == pytest.approx(c, rel=scale)
+
+
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 def test_batch_gives_the_same_trajectories_as_single_runs(model, rng):
     config = SimConfig(model=model)
