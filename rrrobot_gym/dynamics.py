@@ -260,6 +260,17 @@ def _leg(leg, phi, k):
     return mass, mass * (length * length), (rx, ry, rz), (hx + rx, hy + ry, hz + rz), e
 
 
+def _moments(first, second, mass, p):
+    """``first`` and ``second`` (a first moment about the centre, and a second one's upper triangle
+    xx, xy, xz, yy, yz, zz) with a mass at p added: m p and m p p^T."""
+    px, py, pz = p
+    sx, sy, sz = first
+    xx, xy, xz, yy, yz, zz = second
+    return ((sx + mass * px, sy + mass * py, sz + mass * pz),
+            (xx + mass * (px * px), xy + mass * (px * py), xz + mass * (px * pz), yy + mass * (py * py), yz + mass * (py * pz),
+             zz + mass * (pz * pz)))  # fmt: skip
+
+
 def _body(k, rolling_point, legs_first_moment, legs_second_moment):
     """(M_w, G): the inertia about the point d the body turns about (upper triangle) and the first
     moment about it, from the second moment sum m x x^T and the first moment S about the centre of
@@ -307,15 +318,13 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     fall_x, fall_y, fall_z = gravity * nx - wdx, gravity * ny - wdy, gravity * nz - wdz  # g n - Omega x ddot
     # Pass over the legs: the tips' inertia and first moment, each leg's coupling c_k and force
     # (into the scratch rows), their Schur terms, and the tips' velocity-dependent terms.
-    lsx = lsy = lsz = lxx = lxy = lxz = lyy = lyz = lzz = 0.0
+    first, second = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # the tips' moments about the centre
     tx = ty = tz = bx = by = bz = 0.0  # sum m rho x b_leg, and sum m b_leg
     rxx = rxy = rxz = ryy = ryz = rzz = fx = fy = fz = 0.0  # sum c c^T / D, and sum c f / D
     for m in range(num_legs):
         mass, inertia, (rx, ry, rz), (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
         rate = w[at + (9 + num_legs + m) * step]
-        lxx, lyy, lzz = lxx + mass * (px * px), lyy + mass * (py * py), lzz + mass * (pz * pz)
-        lxy, lxz, lyz = lxy + mass * (px * py), lxz + mass * (px * pz), lyz + mass * (py * pz)
-        lsx, lsy, lsz = lsx + mass * px, lsy + mass * py, lsz + mass * pz
+        first, second = _moments(first, second, mass, (px, py, pz))
         hx, hy, hz = px - dx, py - dy, pz - dz  # rho
         c1, c2, c3 = _cross(hx, hy, hz, ex, ey, ez)
         c1, c2, c3 = mass * c1, mass * c2, mass * c3
@@ -345,7 +354,7 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
             rxx, rxy, rxz = rxx + c1 * h1, rxy + c1 * h2, rxz + c1 * h3
             ryy, ryz, rzz = ryy + c2 * h2, ryz + c2 * h3, rzz + c3 * h3
             fx, fy, fz = fx + h1 * force, fy + h2 * force, fz + h3 * force
-    m_w, (gx, gy, gz) = _body(k, (dx, dy, dz), (lsx, lsy, lsz), (lxx, lxy, lxz, lyy, lyz, lzz))
+    m_w, (gx, gy, gz) = _body(k, (dx, dy, dz), first, second)
     # Omega rows: k Omega - G x (g n - Omega x ddot) - Omega x (M_w Omega) - sum m rho x b_leg
     lx, ly, lz = _sym_apply(m_w, ox, oy, oz)
     a1, a2, a3 = _cross(gx, gy, gz, fall_x, fall_y, fall_z)
@@ -419,7 +428,7 @@ def tangential_force(fx, fy, fz, normal):
     return np.sqrt(np.maximum(along_sq, 0.0))
 
 
-KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _body, tangential_force,
+KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _moments, _body, tangential_force,
            derivative_kernel)  # fmt: skip
 """The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
 :data:`rrrobot_gym.numerics.KERNELS`)."""
@@ -500,13 +509,11 @@ def _configuration(c, k, layout):
     omega = (c[6 + num_legs], c[7 + num_legs], c[8 + num_legs])
     s, _, height = _shell(n, omega, k)
     d = (k.rolling * s[0], k.rolling * s[1], k.rolling * s[2])
-    first, second = [0.0, 0.0, 0.0], [0.0] * 6
+    first, second = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     couplings, inertias = [], []
     for m in range(num_legs):
         mass, leg_inertia, _, (px, py, pz), e = _leg(layout[m], c[6 + m], k)
-        for i, v in enumerate((px * px, px * py, px * pz, py * py, py * pz, pz * pz)):
-            second[i] = second[i] + mass * v
-        first = [first[0] + mass * px, first[1] + mass * py, first[2] + mass * pz]
+        first, second = _moments(first, second, mass, (px, py, pz))
         cx, cy, cz = _cross(px - d[0], py - d[1], pz - d[2], *e)
         couplings.append((mass * cx, mass * cy, mass * cz))
         inertias.append(leg_inertia)
