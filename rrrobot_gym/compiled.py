@@ -502,10 +502,15 @@ def _physics_own(y, h, n_steps, scene, torque_limit, rate_limit, linear, params,
            np.array([0.0, dt]), layout, rows, summary, robot)  # fmt: skip
 
 
-_BLOCK_FUNCTIONS = (_block_combine, _block_update, _block_stage, _block_substep, _block)
+_BLOCK_FUNCTIONS = (_block,)
 """The functions compiled twice, for BLOCK = LANES (:func:`_lanes`) and BLOCK = 1 (:func:`_single`)."""
-_BLOCK_INLINED = (_rows, _limit, _robot, _own, _block_torques, _block_derivatives)
-"""Inlined into their callers' loops, so that each loop has a constant kind and flag and a straight-line body."""
+_BLOCK_INLINED = (_rows, _limit, _robot, _own, _block_torques, _block_derivatives, _block_stage, _block_substep)
+"""Inlined into :func:`_block` (by LLVM), so that each loop has a constant kind and flag and a straight-line body."""
+_BLOCK_LOOPS = (_block_combine, _block_update)
+"""Inlined into :func:`_block` by numba itself, before LLVM sees them, so that their rows are constants
+where LLVM first meets their loops. Compiled on their own and inlined by LLVM, their loops had been
+optimised with the rows unknown, which left them scalar (unrolled, not vectorised): 0.35 us of a
+robot's 0.05 s at N = 4096, a sixth of the physics (docs/notes/family_throughput.md, "The RK4 loops")."""
 _STEPPER = (_leg_target, _servo, _lesser, _greater, _summarise, _partition, _padded_robot, _padded, _unpadded,
             _robot_params)  # fmt: skip
 """This module's other functions the compiled :func:`_batch` calls."""
@@ -514,7 +519,7 @@ _STEPPER = (_leg_target, _servo, _lesser, _greater, _summarise, _partition, _pad
 def _plain_block(block: int):
     """:func:`_block` for blocks of ``block`` robots, uncompiled (what :func:`_stepper` compiles)."""
     namespace = dict(globals(), BLOCK=block)
-    _copies(_BLOCK_INLINED + _BLOCK_FUNCTIONS, lambda fn: fn, namespace)
+    _copies(_BLOCK_INLINED + _BLOCK_LOOPS + _BLOCK_FUNCTIONS, lambda fn: fn, namespace)
     return namespace["_block"]
 
 
@@ -660,6 +665,7 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, 
         for block, entry_name in ((LANES, "_lanes"), (1, "_single")):  # the block stepper, for each BLOCK
             copy = dict(namespace, BLOCK=block)
             _copies(_BLOCK_INLINED, inline, copy, f"{suffix}_{block}", legs)
+            _copies(_BLOCK_LOOPS, functools.partial(njit, inline="always"), copy, f"{suffix}_{block}", legs)
             if not per_robot:
                 copy["_own"] = _copies((_given,), inline, copy, f"_{block}")["_given"]
             _copies(_BLOCK_FUNCTIONS, njit, copy, f"{suffix}_{block}", legs)
