@@ -509,10 +509,11 @@ for no speed."""
 _BLOCK_INLINED = (_rows, _limit, _robot, _own, _block_torques, _block_derivatives, _block_substep)
 """Inlined into their callers (by LLVM), so that each loop has a constant kind and flag and a straight-line body."""
 _BLOCK_LOOPS = (_block_combine, _block_update)
-"""Inlined into :func:`_block` by numba itself, before LLVM sees them, so that their rows are constants
-where LLVM first meets their loops. Compiled on their own and inlined by LLVM, their loops had been
-optimised with the rows unknown, which left them scalar (unrolled, not vectorised): 0.35 us of a
-robot's 0.05 s at N = 4096, a sixth of the physics (docs/notes/family_throughput.md, "The RK4 loops")."""
+"""Inlined into :func:`_block_substep` by numba itself, before LLVM sees them, so that their rows are
+constants where LLVM first meets their loops. Compiled on their own and inlined by LLVM, their loops
+had been optimised with the rows unknown, which left them scalar (unrolled, not vectorised): 0.35 us
+of a robot's 0.05 s at N = 4096, a sixth of the physics (docs/notes/family_throughput.md, "The
+session after")."""
 _STEPPER = (_leg_target, _servo, _lesser, _greater, _summarise, _partition, _padded_robot, _padded, _unpadded,
             _robot_params)  # fmt: skip
 """This module's other functions the compiled :func:`_batch` calls."""
