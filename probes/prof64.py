@@ -1,0 +1,16 @@
+import cProfile, pstats, sys, numpy as np, gymnasium, rrrobot_gym, time
+N = int(sys.argv[1])
+env = gymnasium.make_vec("RRRobot-v0", num_envs=N, vectorization_mode="vector_entry_point")
+rng = np.random.default_rng(0)
+phase = rng.uniform(0, 2 * np.pi, (N, 2))
+actions = [(0.05 * np.sin(0.4 * k + phase)).astype(np.float32) for k in range(400)]
+env.reset(seed=0)
+for a in actions[:20]: env.step(a)
+env.reset(seed=0)
+t = time.perf_counter()
+for a in actions: env.step(a)
+print("us/step", (time.perf_counter() - t) / 400 * 1e6)
+env.reset(seed=0)
+pr = cProfile.Profile(); pr.enable()
+for a in actions: env.step(a)
+pr.disable(); pstats.Stats(pr).sort_stats("tottime").print_stats(14)
