@@ -142,7 +142,7 @@ def _unrolled(fn, legs: int, namespace):
 
 # The stepper. Plain Python here (it runs uncompiled too, slowly); :func:`_stepper` compiles copies
 # whose globals are the compiled kernels, servo and targets.
-derivative_kernel = dynamics.derivative_kernel
+derivative_kernel, to_momentum, from_momentum = dynamics.derivative_kernel, dynamics.to_momentum, dynamics.from_momentum
 motor_torque, ramp_target, sinusoid_target = control.motor_torque, control.ramp_target, control.sinusoid_target
 _HELD, _RAMP = control.TARGETS_HELD, control.TARGETS_RAMP
 Constants = dynamics.Constants
@@ -154,6 +154,7 @@ Constants = dynamics.Constants
 # are compiled: BLOCK = LANES (the lanes) and BLOCK = 1 (one robot, the single env's).
 LANES = 32
 BLOCK = LANES  # (each compiled copy's own)
+MOMENTUM = False  # (each compiled stepper's own: True on the pivot, simulation.takes_momentum)
 
 
 def _rows(legs):
@@ -303,7 +304,7 @@ def _block_derivatives(w, k, gains, layout, record):
     for i in range(B):
         lk, _, _, _ = _own(w, R * B + i, B, k, gains, None, None)
         derivative_kernel(w, S * B + i, D * B + i, B, lk, layout, DRIVE * B + i, X * B + i, False,
-                          REC * B + i if record else -1)  # fmt: skip
+                          REC * B + i if record else -1, MOMENTUM)  # fmt: skip
 
 
 def _block_stage(w, t, k, gains, torque_limit, rate_limit, kind, params, shared, layout, record):
@@ -388,10 +389,16 @@ def _block(y, first, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, pa
         if k is None:  # (robot is empty otherwise)
             for j in range(ROBOT_ROWS):
                 w[(R + j) * B + i] = robot[(first + i) * ROBOT_ROWS + j]
+    if MOMENTUM:  # (the pivot's: the body rows integrate the angular momentum, simulation.takes_momentum)
+        for i in range(B):
+            to_momentum(w, Y * B + i, B, _own(w, R * B + i, B, k, gains, None, None)[0], layout)
     w[S * B : (S + n) * B] = w[Y * B : (Y + n) * B]
     for step in range(n_steps):
         _block_substep(w, first, t, h, k, gains, torque_limit, rate_limit, kind, params, shared, layout, rows, step)
         t += h
+    if MOMENTUM:
+        for i in range(B):
+            from_momentum(w, Y * B + i, B, _own(w, R * B + i, B, k, gains, None, None)[0], layout)
     for i in range(B):
         for j in range(n):
             y[first + i, j] = w[(Y + j) * B + i]
@@ -618,14 +625,16 @@ COMPILE_SECONDS = 60
 
 
 @functools.lru_cache(maxsize=None)
-def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, kernel: str | None = None):
+def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, kernel: str | None = None,
+             momentum: bool = False):
     """The compiled :func:`_batch` for robots of ``legs`` legs (``per_robot``: a copy for robots of
     their own values, cached under a name of its own), releasing the GIL (:func:`integrate` shares a
     batch among threads); with
     ``task`` = (entry, kernels), the compiled ``entry`` instead (:func:`task_stepper`): loaded from
     the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process.
     ``kernel``: the source of one robot's specialised derivative kernel (:func:`specialised`) to
-    run instead of the general one."""
+    run instead of the general one. ``momentum``: a stepper for the pivot, whose states' body rows
+    it integrates as the angular momentum (:func:`rrrobot_gym.simulation.takes_momentum`)."""
     import numba
 
     entry, task_kernels = task if task is not None else (_batch, ())
@@ -641,7 +650,7 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, 
         _prune_stale_caches(directory)
         _content_keyed_locator()
     # numba's cache files are named by the function's qualified name and keyed by its signature,
-    name = entry.__name__ + ("_per_robot" if per_robot else "") + f"_{legs}_legs"
+    name = entry.__name__ + ("_per_robot" if per_robot else "") + f"_{legs}_legs" + ("_momentum" if momentum else "")
     if not (cache and glob.glob(os.path.join(glob.escape(directory), "**", f"*.{name}-*.nbi"), recursive=True)):
         print(f"rrrobot_gym: compiling the numba stepper ({legs} legs){' (per-robot)' if per_robot else ''}{' (env step)' if task else ''}: up to about {COMPILE_SECONDS} s "
               f"on first use, cached after{'' if cache else ' (not here: ' + directory + ' is not writable)'}",
@@ -652,18 +661,18 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, 
         # numpy's error model: a blow-up gives inf/NaN (reported by advance by name), not an exception.
         njit = functools.partial(numba.njit, error_model="numpy", cache=cache)
         inline = functools.partial(njit, forceinline=True)  # inlined into the lanes' loops, which lets them vectorise
-        namespace = dict(globals())
+        namespace = dict(globals(), MOMENTUM=momentum)
         # numerics' functions on floats (its select and anywhere in their scalar forms), inlined
         scalar = {name: inline(fn) for name, fn in numerics.SCALAR.items()}
         scalar.update(_copies(numerics.KERNELS, inline, {**vars(numerics), **scalar}))
         kernels = _copies(dynamics.KERNELS, inline, {**vars(dynamics), **scalar}, f"_{legs}", legs)
         if kernel is not None:
             _compile_specialised(kernel, kernels, directory if cache else None, inline)
-        namespace["derivative_kernel"] = kernels["derivative_kernel"]
+        namespace.update((name, kernels[name]) for name in ("derivative_kernel", "to_momentum", "from_momentum"))
         servo = _copies(control.KERNELS, njit, dict(vars(control)))
         namespace.update((fn.__name__, servo[fn.__name__]) for fn in control.KERNELS)
         # (copies with other globals, or unrolled for another leg count: names of their own in the cache)
-        suffix = ("_per_robot" if per_robot else "") + f"_{legs}"
+        suffix = ("_per_robot" if per_robot else "") + f"_{legs}" + ("_momentum" if momentum else "")
         _copies(_STEPPER, njit, namespace, suffix)
         for block, entry_name in ((LANES, "_lanes"), (1, "_single")):  # the block stepper, for each BLOCK
             copy = dict(namespace, BLOCK=block)
@@ -717,13 +726,13 @@ def _named_copy(fn, namespace, name):
     return copy
 
 
-def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2, kernel: str | None = None):
+def task_stepper(per_robot: bool, entry, kernels: tuple, legs: int = 2, kernel: str | None = None, momentum: bool = False):
     """The compiled ``entry`` (``rrrobot_gym.envs.task.fused_step``: the env's whole step), which
     calls the physics (:func:`_physics_shared`, or :func:`_physics_own` where ``per_robot``) as
     ``_physics`` and the task's ``kernels`` (functions of the modules above this one, compiled from
     their own source, :data:`rrrobot_gym.numerics.SCALAR`'s forms on floats), one thread;
-    ``kernel``: :func:`_stepper`'s."""
-    return _stepper(per_robot, (entry, tuple(kernels)), legs, kernel)
+    ``kernel``, ``momentum``: :func:`_stepper`'s."""
+    return _stepper(per_robot, (entry, tuple(kernels)), legs, kernel, momentum)
 
 
 @functools.lru_cache(maxsize=32)
@@ -765,7 +774,8 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
-    step = _stepper(scene is not None, None, legs, None if scene is not None else specialised(config.robot, config.model))
+    step = _stepper(scene is not None, None, legs, None if scene is not None else specialised(config.robot, config.model),
+                    config.model == "pivot")  # (simulation.takes_momentum, which imports this module)
     robot, limits = (np.empty(0), (config.torque_limit, config.leg_rate_limit)) if scene is None else robot_rows(scene, len(y))
 
     def run(first, stop):  # robots first .. stop - 1, into their own arrays (one thread each)

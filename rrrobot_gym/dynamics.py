@@ -294,7 +294,52 @@ def _body(k, rolling_point, legs_first_moment, legs_second_moment):
     return m_w, (gx, gy, gz)
 
 
-def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, kinematic: bool, record):
+def _momentum_parts(w, at, step, k, layout):
+    """(M_w, h) of the state at ``w[at + j * step]`` on the pivot (the body turning about the centre):
+    the inertia M_w (upper triangle) and the legs' part h = sum_k c_k phidot_k of the body's angular
+    momentum about the centre, p = M_w Omega + h (body coordinates). The kernel's own operations, so
+    a specialised kernel shares them (:mod:`rrrobot_gym.specialise`)."""
+    num_legs = len(layout)
+    first, second = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    hx = hy = hz = 0.0
+    for m in range(num_legs):
+        mass, _, _, (px, py, pz), (ex, ey, ez) = _leg(layout[m], w[at + (6 + m) * step], k)
+        first, second = _moments(first, second, mass, (px, py, pz))
+        c1, c2, c3 = _cross(px, py, pz, ex, ey, ez)
+        c1, c2, c3 = mass * c1, mass * c2, mass * c3
+        rate = w[at + (9 + num_legs + m) * step]
+        hx, hy, hz = hx + c1 * rate, hy + c2 * rate, hz + c3 * rate
+    m_w, _ = _body(k, (0.0, 0.0, 0.0), first, second)
+    return m_w, (hx, hy, hz)
+
+
+def _rate_of_momentum(w, at, step, k, layout):
+    """Omega of a pivot state whose body rows hold its angular momentum p: M_w^-1 (p - h)."""
+    num_legs = len(layout)
+    m_w, (hx, hy, hz) = _momentum_parts(w, at, step, k, layout)
+    lx, ly, lz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
+    return _sym_solve(m_w, lx - hx, ly - hy, lz - hz)
+
+
+def to_momentum(w, at, step, k, layout):
+    """The pivot state at ``w[at + j * step]``'s body rows, Omega, replaced by the body's angular
+    momentum about the centre p = M_w Omega + sum_k c_k phidot_k: the variable the pivot's
+    steppers integrate (:func:`derivative_kernel`'s ``momentum``)."""
+    num_legs = len(layout)
+    body = at + (6 + num_legs) * step
+    m_w, (hx, hy, hz) = _momentum_parts(w, at, step, k, layout)
+    lx, ly, lz = _sym_apply(m_w, w[body], w[body + step], w[body + 2 * step])
+    w[body], w[body + step], w[body + 2 * step] = lx + hx, ly + hy, lz + hz
+
+
+def from_momentum(w, at, step, k, layout):
+    """:func:`to_momentum` undone: the body rows' p replaced by Omega."""
+    body = at + (6 + len(layout)) * step
+    ox, oy, oz = _rate_of_momentum(w, at, step, k, layout)
+    w[body], w[body + step], w[body + 2 * step] = ox, oy, oz
+
+
+def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, kinematic: bool, record, momentum=False):
     """The time derivative of the state at ``w[at + j * step]`` into ``w[out + j * step]`` (see the
     module docstring). ``w[drive + m * step]`` is leg m's torque (N m, from the shell on the leg),
     or with ``kinematic`` its prescribed acceleration (rad/s^2). ``w[scratch ...]`` holds 4 values a
@@ -302,10 +347,20 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
     each leg's torque (``kinematic``: the one its motion takes), the ground's force on the shell
     in body coordinates (pivot: the joint's; Newton's second law for the whole robot with these
     accelerations), its part along world up, its magnitude along the ground, and each leg tip's
-    height above the ground (2L + 5 values)."""
+    height above the ground (2L + 5 values).
+
+    With ``momentum`` (the pivot only), the body rows hold the body's angular momentum about the
+    centre p instead of Omega (:func:`to_momentum`), and its derivative is p' (body coordinates):
+    p' = p x Omega + k Omega - g G x n, the angular momentum theorem about the fixed centre, on
+    which the leg torques do not act. The pivot's steppers integrate p: the servo's recoil on the
+    body, fast and kinked where the motor saturates, then enters the body only through the leg
+    rates, which RK4 follows at its order (docs/notes/servo_accuracy.md)."""
     num_legs = len(layout)
     qw, qx, qy, qz = w[at + 2 * step], w[at + 3 * step], w[at + 4 * step], w[at + 5 * step]
-    ox, oy, oz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
+    if momentum:
+        ox, oy, oz = _rate_of_momentum(w, at, step, k, layout)
+    else:
+        ox, oy, oz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
     gravity, damping, rolling = k[5], k[6], k[4]
     xx, yy, zz, xy, xz, yz, wx, wy, wz = _rotation_products(qw, qx, qy, qz)
     nx, ny, nz = xz - wy, yz + wx, 1.0 - (xx + yy)
@@ -389,9 +444,16 @@ def derivative_kernel(w, at, out, step, k: Constants, layout, drive, scratch, ki
             w[record + (5 + num_legs + m) * step] = height + (px * nx + py * ny + pz * nz)
             ma = mass * accel
             ax, ay, az = ax + ma * ex, ay + ma * ey, az + ma * ez
-    w[out + (6 + num_legs) * step] = od0
-    w[out + (7 + num_legs) * step] = od1
-    w[out + (8 + num_legs) * step] = od2
+    if momentum:  # p' = p x Omega + k Omega - G x g n (here g n - Omega x ddot = g n: ddot = 0)
+        lx, ly, lz = w[at + (6 + num_legs) * step], w[at + (7 + num_legs) * step], w[at + (8 + num_legs) * step]
+        v1, v2, v3 = _cross(lx, ly, lz, ox, oy, oz)
+        w[out + (6 + num_legs) * step] = damping * ox - a1 + v1
+        w[out + (7 + num_legs) * step] = damping * oy - a2 + v2
+        w[out + (8 + num_legs) * step] = damping * oz - a3 + v3
+    else:
+        w[out + (6 + num_legs) * step] = od0
+        w[out + (7 + num_legs) * step] = od1
+        w[out + (8 + num_legs) * step] = od2
     # the contact point on the ground: R sdot (rows 0 and 1 of R)
     w[out] = (1.0 - yy - zz) * sdx + (xy - wz) * sdy + (xz + wy) * sdz
     w[out + step] = (xy + wz) * sdx + (1.0 - xx - zz) * sdy + (yz - wx) * sdz
@@ -429,7 +491,7 @@ def tangential_force(fx, fy, fz, normal):
 
 
 KERNELS = (_rotation_products, _sym_cofactors, _sym_apply, _sym_solve, _cross, _sqrt, _shell, _leg, _moments, _body, tangential_force,
-           derivative_kernel)  # fmt: skip
+           _momentum_parts, _rate_of_momentum, derivative_kernel, to_momentum, from_momentum)  # fmt: skip
 """The functions :mod:`rrrobot_gym.compiled` compiles (each calls only the ones before it, and
 :data:`rrrobot_gym.numerics.KERNELS`)."""
 
@@ -441,9 +503,11 @@ def kernel_work(num_legs: int):
     return 2 * n + 7 * num_legs + 5, 0, n, 2 * n, 2 * n + num_legs, 2 * n + 5 * num_legs
 
 
-def derivative_function(params: RobotParams, model: str, kinematic: bool = False, record: bool = False, k=None):
+def derivative_function(params: RobotParams, model: str, kinematic: bool = False, record: bool = False, k=None,
+                        momentum: bool = False):
     """f(c, leg_drive): :func:`state_derivative` of ``params`` on ``model`` with its constants made
-    once (the numpy stepper's and the tools' fast path); ``k``: constants of its own (each robot's)."""
+    once (the numpy stepper's and the tools' fast path); ``k``: constants of its own (each robot's);
+    ``momentum`` (the pivot's steppers): the body rows hold p, :func:`derivative_kernel`'s."""
     k, layout = constants(params, model) if k is None else k, leg_layout(params)
     size, at, out, drive, scratch, rec = kernel_work(len(layout))
     legs = len(layout)
@@ -451,7 +515,7 @@ def derivative_function(params: RobotParams, model: str, kinematic: bool = False
     def f(c, leg_drive):
         w = [*c, *([0.0] * (size - out))]
         w[drive : drive + legs] = leg_drive
-        derivative_kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, rec if record else -1)
+        derivative_kernel(w, at, out, 1, k, layout, drive, scratch, kinematic, rec if record else -1, momentum)
         return (w[out:drive], w[rec:]) if record else w[out:drive]
 
     return f

@@ -125,8 +125,9 @@ def _sincos(x):
 @functools.lru_cache(maxsize=8)
 def kernel_source(robot: RobotParams, model: str) -> str:
     """Python source of ``derivative_kernel(w, at, out, step, k, layout, drive, scratch, kinematic,
-    record)`` for ``robot`` on ``model``: the general kernel's arguments and results (the leg
-    torques given, not ``kinematic``), its operations on this robot's numbers folded as the
+    record, momentum)`` for ``robot`` on ``model``: the general kernel's arguments and results (the leg
+    torques given, not ``kinematic``; on the pivot with ``momentum``, whatever it is given: the
+    pivot's steppers always integrate the momentum), its operations on this robot's numbers folded as the
     module docstring says. ``k``, ``layout`` and ``scratch`` are not read: the robot's numbers are
     in the code. Its globals must give ``sincos`` and ``_sqrt`` (as the general kernel's do)."""
     legs, model = robot.num_legs, check_model(model)
@@ -142,10 +143,10 @@ def kernel_source(robot: RobotParams, model: str) -> str:
     for fn in dynamics.KERNELS:
         kernels[fn.__name__] = types.FunctionType(fn.__code__, kernels, fn.__name__, fn.__defaults__)
     kernels["derivative_kernel"](w, at, out, 1, dynamics.constants(robot, model), dynamics.leg_layout(robot), drive,
-                                 scratch, False, record)  # fmt: skip
+                                 scratch, False, record, model == "pivot")  # fmt: skip
     derivative, rows = w[out : out + n], w[record : record + 2 * legs + 5]
     needed = _needed(trace, derivative)
-    lines = ["def derivative_kernel(w, at, out, step, k, layout, drive, scratch, kinematic, record):",
+    lines = ["def derivative_kernel(w, at, out, step, k, layout, drive, scratch, kinematic, record, momentum=False):",
              f'    """The derivative of {robot.num_legs}-leg robot {_digest(robot)} on the {model} (rrrobot_gym.specialise)."""']  # fmt: skip
     names: dict = {}
     _write(trace, sorted(needed), names, lines, "    ")

@@ -29,6 +29,42 @@ def test_energy_is_conserved_without_torque_or_damping(model, rng):
         assert np.ptp(energy) / abs(energy[0]) < 1e-9
 
 
+@pytest.mark.parametrize("params", [RobotParams(), RobotParams(shell_axes=(0.13, 0.11, 0.10), num_legs=3)],
+                         ids=["paper", "triaxial-3"])
+def test_the_pivots_momentum_rate_is_the_angular_momentum_theorem(params, rng):
+    """The pivot's steppers integrate the body's angular momentum about the centre, p = M_w Omega +
+    sum c_k phidot_k, with p' = p x Omega + k Omega - g G x n (the kernel's ``momentum``). Against
+    the rate of p along the Kane equations' flow, by central differences: the leg torques drive the
+    legs but leave p' alone, and the other rows are the rate form's."""
+    legs = params.num_legs
+    k, layout = dynamics.constants(params, "pivot"), dynamics.leg_layout(params)
+    rate_form = dynamics.derivative_function(params, "pivot")
+    momentum_form = dynamics.derivative_function(params, "pivot", momentum=True)
+    body = slice(6 + legs, 9 + legs)
+
+    def momentum(c):
+        c = list(c)
+        dynamics.to_momentum(c, 0, 1, k, layout)
+        return np.array(c)
+
+    for _ in range(20):
+        quat = rng.normal(size=4)
+        c = np.concatenate([rng.normal(size=2), quat / np.linalg.norm(quat), rng.uniform(-3.0, 3.0, legs),
+                            rng.normal(size=3) * 2.0, rng.normal(size=legs) * 6.0])  # fmt: skip
+        torque = tuple(rng.normal(size=legs) * 0.5)
+        d = np.array(rate_form(c.tolist(), torque))
+        eps = 1e-6
+        expected = (momentum(c + eps * d)[body] - momentum(c - eps * d)[body]) / (2.0 * eps)
+        p = momentum(c)
+        got = np.array(momentum_form(p.tolist(), torque))
+        np.testing.assert_allclose(got[body], expected, rtol=1e-7, atol=1e-7 * np.abs(expected).max())
+        others = np.r_[0 : 6 + legs, 9 + legs : 9 + 2 * legs]
+        np.testing.assert_allclose(got[others], d[others], rtol=1e-12, atol=1e-12)
+        back = list(p)
+        dynamics.from_momentum(back, 0, 1, k, layout)
+        np.testing.assert_allclose(back, c, rtol=1e-14, atol=1e-14)
+
+
 FAMILY = {
     "oblate-2": RobotParams(damping=0.0, shell_axes=(0.12, 0.12, 0.09)),
     "prolate-2": RobotParams(damping=0.0, shell_axes=(0.11, 0.11, 0.14)),

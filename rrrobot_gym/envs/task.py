@@ -1253,7 +1253,7 @@ class CompiledTask:
             self._mass = simulation.total_mass(sim, values)
         kernel = None if physics is not None else compiled.specialised(sim.robot, sim.model)
         self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS, sim.robot.num_legs,
-                                           kernel)  # fmt: skip
+                                           kernel, simulation.takes_momentum(sim))  # fmt: skip
         grip = self.config.friction_coefficient if friction is None else friction
         # (NaN: unlimited grip, the same for every robot)
         self._friction = np.array(np.broadcast_to(np.nan if grip is None else grip, (num_envs,)), dtype=float)
