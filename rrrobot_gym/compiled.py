@@ -698,10 +698,11 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, 
         numba.config.CACHE_DIR = previous
 
 
-def specialised(robot, model: str) -> str | None:
-    """The source of ``robot``'s specialised derivative kernel on ``model`` if it is one of
-    :data:`rrrobot_gym.specialise.SPECIALISED`, else None (the general kernel)."""
-    return specialise.kernel_source(robot, model) if robot in specialise.SPECIALISED else None
+def specialised(robot, model: str, momentum: bool | None = None) -> str | None:
+    """The source of ``robot``'s specialised derivative kernel on ``model`` (``momentum``: whether the
+    body rows hold the angular momentum; by default the steppers' choice, on the pivot) if it is one
+    of :data:`rrrobot_gym.specialise.SPECIALISED`, else None (the general kernel)."""
+    return specialise.kernel_source(robot, model, momentum) if robot in specialise.SPECIALISED else None
 
 
 def _compile_specialised(source: str, kernels: dict, directory, wrap):
@@ -774,8 +775,11 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
-    step = _stepper(scene is not None, None, legs, None if scene is not None else specialised(config.robot, config.model),
-                    config.model == "pivot")  # (simulation.takes_momentum, which imports this module)
+    from .simulation import takes_momentum  # (simulation imports this module)
+
+    momentum = takes_momentum(config)
+    kernel = None if scene is not None else specialised(config.robot, config.model, momentum)
+    step = _stepper(scene is not None, None, legs, kernel, momentum)
     robot, limits = (np.empty(0), (config.torque_limit, config.leg_rate_limit)) if scene is None else robot_rows(scene, len(y))
 
     def run(first, stop):  # robots first .. stop - 1, into their own arrays (one thread each)

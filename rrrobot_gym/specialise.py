@@ -123,14 +123,15 @@ def _sincos(x):
 
 
 @functools.lru_cache(maxsize=8)
-def kernel_source(robot: RobotParams, model: str) -> str:
+def kernel_source(robot: RobotParams, model: str, momentum: bool | None = None) -> str:
     """Python source of ``derivative_kernel(w, at, out, step, k, layout, drive, scratch, kinematic,
     record, momentum)`` for ``robot`` on ``model``: the general kernel's arguments and results (the leg
-    torques given, not ``kinematic``; on the pivot with ``momentum``, whatever it is given: the
-    pivot's steppers always integrate the momentum), its operations on this robot's numbers folded as the
+    torques given, not ``kinematic``; ``momentum`` as this function is given it, whatever the
+    kernel is: by default the steppers', on the pivot), its operations on this robot's numbers folded as the
     module docstring says. ``k``, ``layout`` and ``scratch`` are not read: the robot's numbers are
     in the code. Its globals must give ``sincos`` and ``_sqrt`` (as the general kernel's do)."""
     legs, model = robot.num_legs, check_model(model)
+    momentum = model == "pivot" if momentum is None else bool(momentum)
     size, at, out, drive, scratch, record = dynamics.kernel_work(legs)
     n = 9 + 2 * legs
     trace = _Trace()
@@ -143,11 +144,11 @@ def kernel_source(robot: RobotParams, model: str) -> str:
     for fn in dynamics.KERNELS:
         kernels[fn.__name__] = types.FunctionType(fn.__code__, kernels, fn.__name__, fn.__defaults__)
     kernels["derivative_kernel"](w, at, out, 1, dynamics.constants(robot, model), dynamics.leg_layout(robot), drive,
-                                 scratch, False, record, model == "pivot")  # fmt: skip
+                                 scratch, False, record, momentum)  # fmt: skip
     derivative, rows = w[out : out + n], w[record : record + 2 * legs + 5]
     needed = _needed(trace, derivative)
     lines = ["def derivative_kernel(w, at, out, step, k, layout, drive, scratch, kinematic, record, momentum=False):",
-             f'    """The derivative of {robot.num_legs}-leg robot {_digest(robot)} on the {model} (rrrobot_gym.specialise)."""']  # fmt: skip
+             f'    """The derivative of {robot.num_legs}-leg robot {_digest(robot)} on the {model}{", momentum" if momentum else ""} (rrrobot_gym.specialise)."""']  # fmt: skip
     names: dict = {}
     _write(trace, sorted(needed), names, lines, "    ")
     lines += [f"    w[out + {j} * step] = {_name(v, names)}" for j, v in enumerate(derivative)]

@@ -298,7 +298,7 @@ def test_a_second_process_loads_the_compiled_steppers_from_the_cache(tmp_path):
         "for workers in (1, 2):\n"
         "    sim.advance(sim.SimConfig(backend='numba'), sim.initial_state(3), 0.0, 0.05, table2_gait(1), workers=workers)\n"
         "kernel = compiled.specialised(sim.SimConfig().robot, 'plane')\n"
-        "stats = [compiled._stepper(False, None, 2, kernel).stats]\n"
+        "stats = [compiled._stepper(False, None, 2, kernel, False).stats]\n"
         "print(sum(sum(s.cache_hits.values()) for s in stats), sum(sum(s.cache_misses.values()) for s in stats),\n"
         "      compiled.cache_dir(None, kernel), compiled.__file__)\n"
     )

@@ -8,6 +8,7 @@ import functools
 import numpy as np
 import pytest
 
+from rrrobot_gym import simulation
 from rrrobot_gym.analysis import PAPER_TABLE1, small_oscillation_periods, table1, travel_summary
 from rrrobot_gym.control import table2_gait
 from rrrobot_gym.simulation import SimConfig, advance, initial_state, simulate
@@ -139,11 +140,14 @@ written for the paper's two-legged sphere alone, before the family's replaced th
 
 @pytest.mark.parametrize("model", ["plane", "pivot"])
 @pytest.mark.parametrize("gait_number", [1, 2, 3])
-def test_the_familys_equations_keep_the_papers_robot_to_1e_12_m(model, gait_number):
+def test_the_familys_equations_keep_the_papers_robot_to_1e_12_m(model, gait_number, monkeypatch):
     """The family's equations (any legs, ellipsoid shells) take other operations than the two-leg
-    sphere's did; on the paper's robot its Table II paths must not move by more than 1e-12 m."""
+    sphere's did; on the paper's robot its Table II paths must not move by more than 1e-12 m, RK4
+    on the body's rate as then (the pivot's steppers now integrate its angular momentum, which
+    moves its paths by up to 20 um: the test below holds them to the reference)."""
     with np.load(TWO_LEG_PATHS) as data:
         before = data[f"{model}_gait{gait_number}"]
+    monkeypatch.setattr(simulation, "takes_momentum", lambda config: False)
     path = run(model, gait_number)
     now = np.column_stack([path.x, path.y])[:: round(0.05 / 0.01)]
     assert now.shape == before.shape and np.ptp(before[:, 1]) > 1e-3

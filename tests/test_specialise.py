@@ -26,19 +26,24 @@ MEMBERS = {
 }
 
 
-def _specialised(robot, model):
+def _specialised(robot, model, momentum):
     namespace = dict(vars(dynamics))
-    exec(specialise.kernel_source(robot, model), namespace)
+    exec(specialise.kernel_source(robot, model, momentum), namespace)
     return namespace["derivative_kernel"]
 
 
+@pytest.mark.parametrize("momentum", [False, True], ids=["rate", "momentum"])
 @pytest.mark.parametrize("member", MEMBERS)
-def test_specialised_kernel_gives_the_general_kernels_values(member):
+def test_specialised_kernel_gives_the_general_kernels_values(member, momentum):
+    """(``momentum``: the body rows hold the angular momentum, as the pivot's steppers give them;
+    the plane's never do.)"""
     robot, model = MEMBERS[member]
+    if momentum and model != "pivot":
+        pytest.skip("only the pivot's steppers integrate the momentum")
     legs = robot.num_legs
     k, layout = dynamics.constants(robot, model), dynamics.leg_layout(robot)
     size, at, out, drive, scratch, record = dynamics.kernel_work(legs)
-    kernel = _specialised(robot, model)
+    kernel = _specialised(robot, model, momentum)
     rng = np.random.default_rng(7)
     for _ in range(300):
         quat = rng.normal(size=4)
@@ -48,9 +53,8 @@ def test_specialised_kernel_gives_the_general_kernels_values(member):
         general[at : at + 9 + 2 * legs] = state
         general[drive : drive + legs] = rng.normal(size=legs) * 0.3
         special = list(general)
-        # (on the pivot the body rows hold the angular momentum, as the steppers give them: simulation.takes_momentum)
-        dynamics.derivative_kernel(general, at, out, 1, k, layout, drive, scratch, False, record, model == "pivot")
-        kernel(special, at, out, 1, k, layout, drive, scratch, False, record, model == "pivot")
+        dynamics.derivative_kernel(general, at, out, 1, k, layout, drive, scratch, False, record, momentum)
+        kernel(special, at, out, 1, k, layout, drive, scratch, False, record, momentum)
         expected = np.array(general[out : out + 9 + 2 * legs] + general[record : record + 2 * legs + 5])
         got = np.array(special[out : out + 9 + 2 * legs] + special[record : record + 2 * legs + 5])
         assert np.all(np.isfinite(got))

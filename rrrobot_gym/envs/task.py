@@ -1251,9 +1251,10 @@ class CompiledTask:
             robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
             self._robot = (*limits, robot)
             self._mass = simulation.total_mass(sim, values)
-        kernel = None if physics is not None else compiled.specialised(sim.robot, sim.model)
+        momentum = simulation.takes_momentum(sim)
+        kernel = None if physics is not None else compiled.specialised(sim.robot, sim.model, momentum)
         self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS, sim.robot.num_legs,
-                                           kernel, simulation.takes_momentum(sim))  # fmt: skip
+                                           kernel, momentum)  # fmt: skip
         grip = self.config.friction_coefficient if friction is None else friction
         # (NaN: unlimited grip, the same for every robot)
         self._friction = np.array(np.broadcast_to(np.nan if grip is None else grip, (num_envs,)), dtype=float)
