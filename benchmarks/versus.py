@@ -11,6 +11,7 @@ their ratio (this tree over the other):
     python -m benchmarks.versus main --num-envs 64 4096 --json out.json  # and the vector env
     python -m benchmarks.versus HEAD~1 --instructions 201              # also instructions per env step
     python -m benchmarks.versus main --backend numpy                   # both trees on the numpy backend
+    python -m benchmarks.versus main --model pivot                     # both trees' envs on the pivot model
     python -m benchmarks.versus HEAD --quick                           # a smoke run (one short round)
 
 The tree measured as "this tree" is the working tree, uncommitted changes included. Each tree's
@@ -26,12 +27,13 @@ valgrind's callgrind (runs of S steps and of 1 step, differenced): the same numb
 else the machine is doing, so a ratio that does not drift with the machine's load. These runs
 build numba's code for a generic x86-64 CPU (``NUMBA_CPU_NAME=generic``, SSE2 vectors: the same
 work, narrower lanes than this CPU's build): numba keys its cache by the CPU it sees, and under
-valgrind it would see another and compile again, under valgrind, for an hour. ``--backend``
-passes the env keyword ``backend`` to both trees.
+valgrind it would see another and compile again, under valgrind, for an hour. ``--backend`` and
+``--model`` pass the env keywords ``backend`` and ``model`` to both trees.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import shutil
@@ -46,13 +48,13 @@ from ._common import machine, write_json
 HERE = Path(__file__).resolve().parents[1]
 
 _MEASURE = r"""
-import sys, time
+import json, sys, time
 import numpy as np
 import gymnasium
 import rrrobot_gym  # noqa: F401
 print("rrrobot_gym", rrrobot_gym.__file__)
 num_envs, steps = int(sys.argv[1]), int(sys.argv[2])
-kwargs = {"backend": sys.argv[3]} if len(sys.argv) > 3 else {}
+kwargs = json.loads(sys.argv[3]) if len(sys.argv) > 3 else {}
 rng = np.random.default_rng(0)
 if num_envs == 0:
     env = gymnasium.make("RRRobot-v0", **kwargs)
@@ -90,25 +92,27 @@ def run_fresh(tree: Path, *args, prefix=(), cpu=None, **env) -> subprocess.Compl
     return out
 
 
-def rate(tree: Path, num_envs: int, steps: int, backend=None, cpu=None) -> float:
+def rate(tree: Path, num_envs: int, steps: int, backend=None, cpu=None, model=None) -> float:
     """Env steps/s of ``tree``'s env in a fresh process (num_envs 0: the single gymnasium.make env;
-    ``backend``: the env's, else its default; ``cpu``: the CPU to pin it to)."""
-    return float(run_fresh(tree, num_envs, steps, *_backend(backend), cpu=cpu).stdout.split()[-1])
+    ``backend``, ``model``: the env's, else its defaults; ``cpu``: the CPU to pin it to)."""
+    return float(run_fresh(tree, num_envs, steps, *_keywords(backend, model), cpu=cpu).stdout.split()[-1])
 
 
-def _backend(backend):
-    return () if backend is None else (backend,)
+def _keywords(backend, model=None):
+    """_MEASURE's env keywords argument: none, or a JSON object of those given."""
+    given = {name: value for name, value in (("backend", backend), ("model", model)) if value is not None}
+    return (json.dumps(given),) if given else ()
 
 
-def instructions(tree: Path, num_envs: int, steps: int, backend=None) -> float:
+def instructions(tree: Path, num_envs: int, steps: int, backend=None, model=None) -> float:
     """Instructions per env step of ``tree``'s env (num_envs 0: the single env) under callgrind:
     runs of ``steps`` and of 1 timed step, differenced, so imports and start-up cancel."""
 
     generic = {"NUMBA_CPU_NAME": "generic", "PYTHONHASHSEED": "0"}
-    run_fresh(tree, num_envs, 1, *_backend(backend), **generic)  # builds (or loads) the generic code natively
+    run_fresh(tree, num_envs, 1, *_keywords(backend, model), **generic)  # builds (or loads) the generic code natively
 
     def collected(n: int) -> int:
-        out = run_fresh(tree, num_envs, n, *_backend(backend),
+        out = run_fresh(tree, num_envs, n, *_keywords(backend, model),
                         prefix=("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"), **generic)  # fmt: skip
         match = re.search(r"Collected : (\d+)", out.stderr)
         if match is None:
@@ -131,6 +135,7 @@ def main(argv=None) -> None:
     parser.add_argument("--cpu", type=int, metavar="K", help="pin every timed process to CPU K (Linux)")
     parser.add_argument("--backend", choices=("auto", "numpy", "numba"),
                         help="the simulator backend of both trees' envs (default: each tree's own default)")
+    parser.add_argument("--model", choices=("plane", "pivot"), help="the dynamic model of both trees' envs (default: the env's, plane)")
     args = parser.parse_args(argv)
     if args.steps is None:
         args.steps = 50 if args.quick else 400
@@ -163,8 +168,8 @@ def main(argv=None) -> None:
             for num_envs in [0, *args.num_envs]:
                 rates = {"old": [], "new": []}
                 for _ in range(args.rounds):
-                    rates["old"].append(rate(old, num_envs, args.steps, args.backend, args.cpu))
-                    rates["new"].append(rate(HERE, num_envs, args.steps, args.backend, args.cpu))
+                    rates["old"].append(rate(old, num_envs, args.steps, args.backend, args.cpu, args.model))
+                    rates["new"].append(rate(HERE, num_envs, args.steps, args.backend, args.cpu, args.model))
                 old_median, new_median = statistics.median(rates["old"]), statistics.median(rates["new"])
                 paired = [b / a for a, b in zip(rates["old"], rates["new"])]
                 results.append({"env": "single" if num_envs == 0 else "vector", "num_envs": max(num_envs, 1),
@@ -175,7 +180,7 @@ def main(argv=None) -> None:
                       f"this tree: {new_median:9,.0f} env steps/s  ratio {new_median / old_median:.2f}  "
                       f"(round by round {statistics.median(paired):.2f}, {min(paired):.2f}-{max(paired):.2f})", flush=True)
                 if args.instructions is not None:
-                    counts = {name: instructions(tree, num_envs, args.instructions, args.backend)
+                    counts = {name: instructions(tree, num_envs, args.instructions, args.backend, args.model)
                               for name, tree in (("old", old), ("new", HERE))}  # fmt: skip
                     results[-1]["instructions_per_env_step"] = counts
                     print(f"{'':>6} {'':<7} {args.revision}: {counts['old']:11,.0f}  this tree: "
@@ -184,7 +189,7 @@ def main(argv=None) -> None:
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=HERE, capture_output=True)
     write_json(args.json, {"machine": machine(), "revision": args.revision, "steps": args.steps,
-                           "backend": args.backend, "cpu": args.cpu, "results": results})  # fmt: skip
+                           "backend": args.backend, "model": args.model, "cpu": args.cpu, "results": results})  # fmt: skip
 
 
 if __name__ == "__main__":
