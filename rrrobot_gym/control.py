@@ -154,14 +154,14 @@ def limit_torque(torque, leg_rates, torque_limit, rate_limit=None):
 
 
 CORNER_WIDTH = 0.1
-"""The motor law's corners (where the servo's torque meets a bound, and where the torque-speed line
-meets the stall torque) are rounded over this fraction of the stall torque T: each min and max of
-the clip is :func:`_rounded_min`: inside the motor's envelope, at most T / 60 from the clip at a
-corner (T / 30 near zero speed, where the torque's corner meets the speed's) and equal to it once
-T / 10 away. A real motor's torque does not turn a sharp corner either (its current takes
-time to follow the driver), and a law with corners put kinks in the right-hand side, where RK4
-loses its order: on the pivot the shipped policy's 5 s windows erred up to 9 mm at the default
-step with them, 0.6 mm without (docs/notes/servo_accuracy.md)."""
+"""The corners where the servo's torque meets the motor's bounds are rounded over this fraction of
+the stall torque T: the clip's min and max are :func:`_rounded_min`, inside the motor's envelope,
+at most T / 60 from the clip (at a corner) and equal to it once T / 10 away. A real motor's torque
+does not turn a sharp corner either (its current takes time to follow the driver), and a law with
+corners puts kinks in the right-hand side, where RK4 loses its order: on the pivot the shipped
+policy's 5 s windows erred 9 mm at the default step with them, 0.6 mm without. (The bounds' own
+corner at zero speed, where the torque-speed line meets the stall torque, stays: rounding it too
+bought nothing, docs/notes/servo_accuracy.md.)"""
 
 
 def _rounded_min(a, b, width, inverse):
@@ -180,12 +180,15 @@ def _rounded_min(a, b, width, inverse):
 def motor_torque(tau, rate, torque_limit, rate_limit=None):
     """One leg's part of :func:`limit_torque`: the servo's ``tau`` as the motor can give it at
     leg rate ``rate`` (floats, or arrays of a batch). Also compiled by :mod:`rrrobot_gym.compiled`."""
-    width = CORNER_WIDTH * torque_limit
-    inverse = 1.0 / width
     high = low = torque_limit
     if rate_limit is not None:
         drop = rate * (torque_limit / rate_limit)  # (the quotient is the same for every evaluation)
-        high, low = _rounded_min(high, torque_limit - drop, width, inverse), _rounded_min(low, torque_limit + drop, width, inverse)
+        if isinstance(rate, float):
+            high, low = min(high, torque_limit - drop), min(low, torque_limit + drop)
+        else:
+            high, low = np.minimum(high, torque_limit - drop), np.minimum(low, torque_limit + drop)
+    width = CORNER_WIDTH * torque_limit
+    inverse = 1.0 / width
     return _rounded_min(-_rounded_min(-tau, low, width, inverse), high, width, inverse)
 
 
