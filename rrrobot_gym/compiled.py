@@ -154,7 +154,7 @@ Constants = dynamics.Constants
 # are compiled: BLOCK = LANES (the lanes) and BLOCK = 1 (one robot, the single env's).
 LANES = 32
 BLOCK = LANES  # (each compiled copy's own)
-MOMENTUM = False  # (each compiled stepper's own: True on the pivot, simulation.takes_momentum)
+MOMENTUM = False  # (each compiled stepper's own: True on the pivot, dynamics.integrates_momentum)
 
 
 def _rows(legs):
@@ -389,7 +389,7 @@ def _block(y, first, t, h, n_steps, k, gains, torque_limit, rate_limit, kind, pa
         if k is None:  # (robot is empty otherwise)
             for j in range(ROBOT_ROWS):
                 w[(R + j) * B + i] = robot[(first + i) * ROBOT_ROWS + j]
-    if MOMENTUM:  # (the pivot's: the body rows integrate the angular momentum, simulation.takes_momentum)
+    if MOMENTUM:  # (the pivot's: the body rows integrate the angular momentum, dynamics.integrates_momentum)
         for i in range(B):
             to_momentum(w, Y * B + i, B, _own(w, R * B + i, B, k, gains, None, None)[0], layout)
     w[S * B : (S + n) * B] = w[Y * B : (Y + n) * B]
@@ -634,7 +634,7 @@ def _stepper(per_robot: bool = False, task: tuple | None = None, legs: int = 2, 
     the disk cache (:func:`cache_dir`) or compiled, with a line on stderr, once a process.
     ``kernel``: the source of one robot's specialised derivative kernel (:func:`specialised`) to
     run instead of the general one. ``momentum``: a stepper for the pivot, whose states' body rows
-    it integrates as the angular momentum (:func:`rrrobot_gym.simulation.takes_momentum`)."""
+    it integrates as the angular momentum (:func:`rrrobot_gym.dynamics.integrates_momentum`)."""
     import numba
 
     entry, task_kernels = task if task is not None else (_batch, ())
@@ -775,9 +775,7 @@ def integrate(config, targets, state, t0: float, h: float, n_steps: int, record:
         raise ValueError(f"the leg targets are for {params.shape[0]} robots, the state has {y.shape[0]}")
     rows = np.empty((n_steps if record else 0, record_rows(legs), y.shape[0]))
     summary = np.empty((SUMMARY_ROWS if record else 0, y.shape[0]))
-    from .simulation import takes_momentum  # (simulation imports this module)
-
-    momentum = takes_momentum(config)
+    momentum = dynamics.integrates_momentum(config.model)
     kernel = None if scene is not None else specialised(config.robot, config.model, momentum)
     step = _stepper(scene is not None, None, legs, kernel, momentum)
     robot, limits = (np.empty(0), (config.torque_limit, config.leg_rate_limit)) if scene is None else robot_rows(scene, len(y))

@@ -321,6 +321,16 @@ def _rate_of_momentum(w, at, step, k, layout):
     return _sym_solve(m_w, lx - hx, ly - hy, lz - hz)
 
 
+def integrates_momentum(model: str) -> bool:
+    """Whether the steppers (both backends) integrate the body's angular momentum about the centre
+    rather than its rate on ``model``: on the pivot, where the body turns about a fixed point, the
+    momentum's rate is free of the leg torques, so the servo's fast and kinked recoil reaches the
+    body only through the leg rates (docs/notes/servo_accuracy.md: the shipped policy's 5 s windows
+    26.7 mm from the reference at 1/300 s with the rate, 0.6 mm with the momentum and the motor's
+    rounded corners). On a plane the contact moves, and the rate stays."""
+    return model == "pivot"
+
+
 def to_momentum(w, at, step, k, layout):
     """The pivot state at ``w[at + j * step]``'s body rows, Omega, replaced by the body's angular
     momentum about the centre p = M_w Omega + sum_k c_k phidot_k: the variable the pivot's

@@ -837,7 +837,7 @@ def _compiled_targets(config: SimConfig, targets):
 def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_steps: int, record: bool, scene=None):
     """Run the configured integrator on the state components y (Python floats, or (N,) arrays):
     (y after n_steps steps of h, the recorder or None); ``scene`` as :func:`_stage_fns` takes it."""
-    momentum = takes_momentum(config)
+    momentum = dynamics.integrates_momentum(config.model)
     f, first = _stage_fns(config, targets, blend, scene, momentum)
     legs = config.robot.num_legs
     recorder = _Recorder(first, n_steps, None if isinstance(y[0], float) else len(y[0]), legs) if record else None
@@ -850,15 +850,6 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
     dynamics.from_momentum(y, 0, 1, k, layout)
     return y, recorder
 
-
-def takes_momentum(config: SimConfig) -> bool:
-    """Whether the steppers integrate the body's angular momentum about the centre rather than its
-    rate (:func:`rrrobot_gym.dynamics.to_momentum`): on the pivot, where the body turns about a
-    fixed point, the momentum's rate is free of the leg torques, so the servo's fast and kinked
-    recoil reaches the body only through the leg rates (docs/notes/servo_accuracy.md: the shipped
-    policy's 5 s windows 26.7 mm from the reference at 1/300 s with the rate, 0.6 mm with the
-    momentum and the motor's rounded corners). On a plane the contact moves, and the rate stays."""
-    return config.model == "pivot"
 
 
 ROW_BY_ROW_MAX = 20

@@ -131,7 +131,7 @@ def kernel_source(robot: RobotParams, model: str, momentum: bool | None = None) 
     module docstring says. ``k``, ``layout`` and ``scratch`` are not read: the robot's numbers are
     in the code. Its globals must give ``sincos`` and ``_sqrt`` (as the general kernel's do)."""
     legs, model = robot.num_legs, check_model(model)
-    momentum = model == "pivot" if momentum is None else bool(momentum)
+    momentum = dynamics.integrates_momentum(model) if momentum is None else bool(momentum)
     size, at, out, drive, scratch, record = dynamics.kernel_work(legs)
     n = 9 + 2 * legs
     trace = _Trace()

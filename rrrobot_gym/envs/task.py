@@ -1251,7 +1251,7 @@ class CompiledTask:
             robot, limits = compiled.robot_rows(simulation._robot_scene(sim, values), num_envs)
             self._robot = (*limits, robot)
             self._mass = simulation.total_mass(sim, values)
-        momentum = simulation.takes_momentum(sim)
+        momentum = dynamics.integrates_momentum(sim.model)
         kernel = None if physics is not None else compiled.specialised(sim.robot, sim.model, momentum)
         self._step = compiled.task_stepper(physics is not None, fused_step, validity.KERNELS + KERNELS, sim.robot.num_legs,
                                            kernel, momentum)  # fmt: skip
