@@ -841,13 +841,13 @@ def _integrate(config: SimConfig, targets, blend, y, t0: float, h: float, n_step
     f, first = _stage_fns(config, targets, blend, scene, momentum)
     legs = config.robot.num_legs
     recorder = _Recorder(first, n_steps, None if isinstance(y[0], float) else len(y[0]), legs) if record else None
-    if not momentum:
-        return INTEGRATORS[config.integrator].step(f, recorder or f, t0, y, h, n_steps), recorder
-    k, layout = (dynamics.constants(config.robot, config.model) if scene is None else scene[0]), dynamics.leg_layout(config.robot)
-    y = list(y)
-    dynamics.to_momentum(y, 0, 1, k, layout)
+    if momentum:  # (the body rows hold the momentum inside the call only)
+        k, layout = (dynamics.constants(config.robot, config.model) if scene is None else scene[0]), dynamics.leg_layout(config.robot)
+        y = list(y)
+        dynamics.to_momentum(y, 0, 1, k, layout)
     y = INTEGRATORS[config.integrator].step(f, recorder or f, t0, y, h, n_steps)
-    dynamics.from_momentum(y, 0, 1, k, layout)
+    if momentum:
+        dynamics.from_momentum(y, 0, 1, k, layout)
     return y, recorder
 
 
